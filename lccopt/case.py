@@ -1,0 +1,605 @@
+"""Case files: YAML -> validated, typed :class:`Case` in SI units.
+
+Every problem found in a case file is reported as one line
+``FILE:LINE: KEY.PATH: what is wrong`` through :class:`CaseError`; the CLI
+prints it and exits with status 2.
+
+The schema is declared once (``SCHEMA``) and drives both validation and the
+documentation of the keys (``lccopt check --keys``).
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+ELEMENT_UNIT = 0.1  # [m] sleeper spans and strip length are counted in 0.1 m elements (paper, Table 4)
+
+
+class CaseError(ValueError):
+    """A case file problem, already formatted as ``file:line: key: message``."""
+
+
+# --------------------------------------------------------------------------- YAML with line numbers
+
+_FLOAT_RE = re.compile(
+    r"""^[-+]?(?:[0-9][0-9_]*)?(?:\.[0-9_]*)?(?:[eE][-+]?[0-9]+)?$""", re.X
+)
+
+
+class _Loader(yaml.SafeLoader):
+    """SafeLoader that reads ``1120e6`` as a float (PyYAML's YAML 1.1 rules make it a string)."""
+
+
+_Loader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(r"^[-+]?(?:[0-9][0-9_]*)(?:\.[0-9_]*)?[eE][-+]?[0-9]+$"),
+    list("-+0123456789"),
+)
+
+
+def _build(node: yaml.Node, loader: _Loader, path: tuple, lines: dict, file: str) -> Any:
+    """Turn a composed YAML node into plain Python objects, remembering each key's line."""
+    lines[path] = f"{file}:{node.start_mark.line + 1}"
+    if isinstance(node, yaml.MappingNode):
+        out: dict = {}
+        for key_node, value_node in node.value:
+            key = loader.construct_object(key_node)
+            if not isinstance(key, str):
+                raise CaseError(f"{file}:{key_node.start_mark.line + 1}: {_dotted(path) or '<top>'}: "
+                                f"keys must be strings, got {key!r}")
+            if key in out:
+                raise CaseError(f"{file}:{key_node.start_mark.line + 1}: {_dotted(path + (key,))}: "
+                                f"duplicate key")
+            out[key] = _build(value_node, loader, path + (key,), lines, file)
+            lines[path + (key,)] = f"{file}:{key_node.start_mark.line + 1}"
+        return out
+    if isinstance(node, yaml.SequenceNode):
+        return [_build(v, loader, path + (i,), lines, file) for i, v in enumerate(node.value)]
+    return loader.construct_object(node, deep=True)
+
+
+def _dotted(path: tuple) -> str:
+    out = ""
+    for p in path:
+        out += f"[{p}]" if isinstance(p, int) else (f".{p}" if out else p)
+    return out
+
+
+def read_yaml(text: str, file: str) -> tuple[dict, dict]:
+    """Parse YAML text; return (data, {key path: line})."""
+    loader = _Loader(text)
+    try:
+        node = loader.get_single_node()
+    except yaml.MarkedYAMLError as exc:
+        mark = exc.problem_mark or exc.context_mark
+        line = mark.line + 1 if mark else 1
+        raise CaseError(f"{file}:{line}: <yaml>: {exc.problem or exc}") from None
+    finally:
+        loader.dispose()
+    if node is None:
+        raise CaseError(f"{file}:1: <top>: the file is empty")
+    lines: dict = {}  # key path -> "file:line"
+    data = _build(node, _Loader(""), (), lines, file)
+    if not isinstance(data, dict):
+        raise CaseError(f"{file}:1: <top>: a case file is a mapping of sections")
+    return data, lines
+
+
+# --------------------------------------------------------------------------- schema
+
+@dataclass(frozen=True)
+class Num:
+    """A number with optional bounds (``gt``: strictly greater)."""
+    doc: str
+    unit: str = "-"
+    integer: bool = False
+    ge: float | None = None
+    gt: float | None = None
+    le: float | None = None
+    default: Any = None
+    required: bool = True
+
+
+@dataclass(frozen=True)
+class Str:
+    doc: str
+    choices: tuple | None = None
+    default: Any = None
+    required: bool = True
+
+
+@dataclass(frozen=True)
+class NumList:
+    """A list of numbers (``length`` fixed when given)."""
+    doc: str
+    unit: str = "-"
+    length: int | None = None
+    min_length: int = 1
+    gt: float | None = None
+    ge: float | None = None
+    default: Any = None
+    required: bool = True
+
+
+@dataclass(frozen=True)
+class Section:
+    fields: dict
+    doc: str = ""
+    required: bool = True
+
+
+@dataclass(frozen=True)
+class StrList:
+    doc: str
+    choices: tuple
+    default: Any = None
+    required: bool = True
+
+
+OBJECTIVES = ("F_rms", "F_max", "E_rms", "E_max")
+OBJECTIVE_UNITS = {"F_rms": "N", "F_max": "N", "E_rms": "J", "E_max": "J"}
+
+
+def _kv(doc_k: str, doc_c: str, unit_k: str, unit_c: str) -> Section:
+    return Section({"stiffness": Num(doc_k, unit_k, gt=0), "damping": Num(doc_c, unit_c, ge=0)})
+
+
+def _design_group(doc: str, integer: bool, counted: bool) -> Section:
+    fields = {
+        "kind": Str("continuous or integer", ("integer",) if integer else ("continuous",)),
+        "bounds": NumList("[lower, upper]", length=2),
+        "reference": (NumList("reference value of each variable") if counted
+                      else Num("reference value", integer=integer)),
+    }
+    if counted:
+        fields["count"] = Num("number of variables in the group", integer=True, ge=1)
+    return Section(fields, doc)
+
+
+SCHEMA = Section({
+    "name": Str("case name, also the run directory name (letters, digits, - and _)"),
+    "description": Str("free text", required=False, default=""),
+    "vehicle": Section({
+        "speed": Num("running speed", "m/s", gt=0),
+        "carbody_mass": Num("carbody mass carried by one wheel", "kg", gt=0),
+        "bogie_mass": Num("bogie mass carried by one wheel", "kg", gt=0),
+        "wheelset_mass": Num("wheelset mass carried by one wheel", "kg", gt=0),
+        "primary_stiffness": Num("primary suspension stiffness per wheel", "N/m", gt=0),
+        "primary_damping": Num("primary suspension damping per wheel", "N s/m", ge=0),
+        "secondary_stiffness": Num("secondary suspension stiffness per wheel", "N/m", gt=0),
+        "secondary_damping": Num("secondary suspension damping per wheel", "N s/m", ge=0),
+        "hertz_constant": Num("Hertz contact constant G", "m/N^(2/3)", gt=0),
+        "hertz_load": Num("wheel load P used to linearise the Hertz spring", "N", gt=0),
+        "gravity": Num("gravitational acceleration", "m/s^2", gt=0, default=9.81, required=False),
+    }, "quarter car on one rail"),
+    "track": Section({
+        "rail": Section({
+            "youngs_modulus": Num("rail Young's modulus", "Pa", gt=0),
+            "second_moment": Num("rail second moment of area", "m^4", gt=0),
+            "area": Num("rail cross-section area", "m^2", gt=0),
+            "density": Num("rail density", "kg/m^3", gt=0),
+        }),
+        "layout": Section({
+            "entry_length": Num("ballast track before the level crossing", "m", gt=0),
+            "exit_length": Num("ballast track after the level crossing", "m", gt=0),
+            "sleeper_spacing": Num("standard sleeper spacing", "m", gt=0),
+            "exit_first_span": Num("slab edge to first sleeper on the exit side", "m", gt=0),
+        }),
+        "railpad": _kv("railpad stiffness per rail seat", "railpad damping per rail seat", "N/m", "N s/m"),
+        "sleeper": Section({"mass": Num("sleeper mass per rail", "kg", gt=0)}),
+        "support": _kv("ballast/subgrade stiffness per rail seat", "ballast/subgrade damping per rail seat",
+                       "N/m", "N s/m"),
+        "strengthened_sleeper": Section({
+            "mass": Num("strengthened sleeper mass per rail", "kg", gt=0),
+            "support_stiffness": Num("ballast/subgrade stiffness under it per rail seat", "N/m", gt=0),
+            "support_damping": Num("ballast/subgrade damping under it per rail seat", "N s/m", ge=0),
+        }),
+        "ers": Section({
+            "slab_lengths": NumList("lengths of the slabs, in running order (not joined)", "m", gt=0),
+            "compound": Section({
+                "stiffness": Num("elastic compound + standard strip stiffness per metre of rail", "N/m^2", gt=0),
+                "damping_ratio": Num("compound damping ratio", ge=0, le=1),
+            }),
+            "type_ii_compound": Section({
+                "stiffness": Num("compound stiffness with the Type II strip per metre of rail", "N/m^2", gt=0),
+                "damping_ratio": Num("compound damping ratio with the Type II strip", ge=0, le=1),
+            }),
+            "share_per_rail": Num("share of the whole-track slab and foundation given to one rail",
+                                  gt=0, le=1),
+            "slab": Section({
+                "youngs_modulus": Num("slab Young's modulus", "Pa", gt=0),
+                "density": Num("slab density", "kg/m^3", gt=0),
+                "width_bottom": Num("slab width at the bottom (whole slab)", "m", gt=0),
+                "width_top": Num("slab width at the top (whole slab)", "m", gt=0),
+                "height": Num("slab height", "m", gt=0),
+            }),
+            "foundation": _kv("foundation stiffness per metre of slab (whole slab)",
+                              "foundation damping per metre of slab (whole slab)", "N/m^2", "N s/m^2"),
+        }),
+    }),
+    "design": Section({
+        "railpad_stiffness": _design_group("stiffness of the pads next to the interface, "
+                                           "x_r1 farthest .. x_rN nearest", integer=False, counted=True),
+        "strengthened_sleepers": _design_group("number of strengthened sleepers next to the interface",
+                                               integer=True, counted=False),
+        "sleeper_spans": _design_group("spans next to the interface in 0.1 m elements, x_s1 farthest .. "
+                                       "x_sM from the slab edge to the first sleeper", integer=True, counted=True),
+        "type_ii_strip": _design_group("length of Type II strip from the entry slab edge, in 0.1 m elements",
+                                       integer=True, counted=False),
+    }),
+    "evaluation": Section({
+        "sleepers": Num("sleepers of the evaluation zone (next to the interface)", integer=True, ge=1),
+        "force_zone_after_interface": Num("the force zone ends this far into the ERS", "m", ge=0),
+    }),
+    "simulation": Section({
+        "time_step": Num("Newmark time step", "s", gt=0),
+        "element_length": Num("rail element length (must divide 0.1 m)", "m", gt=0, le=0.1),
+        "run_in": Num("distance run before the evaluation zone", "m", ge=0),
+        "run_out": Num("distance run after the force zone (sleepers settle)", "m", ge=0),
+        "irregularity": Str("CSV file (position m, dip m) of the vertical rail profile, relative "
+                            "to the case file; none for a smooth rail", required=False, default=None),
+    }),
+    "optimisation": Section({
+        "objectives": StrList("objectives to minimise; two or more are scalarised by the ASF", OBJECTIVES),
+        "budget": Num("evaluations in all, failures included", integer=True, ge=2),
+        "initial_points": Num("initial design size, reference design included", integer=True, ge=2),
+        "seed": Num("random seed", integer=True, ge=0, default=0, required=False),
+        "timeout": Num("per-evaluation timeout", "s", gt=0, default=600.0, required=False),
+        "asf": Section({
+            "rho": Num("augmentation coefficient of the Chebyshev ASF", ge=0, default=0.05, required=False),
+            "improvement": Num("reference point = reference design improved by this fraction",
+                               ge=0, le=1, default=0.2, required=False),
+            "worst": NumList("worst obtainable value of each objective (kappa_i = 1/(worst_i - ref_i))",
+                             gt=0, required=False),
+        }, required=False),
+    }, required=False),
+})
+
+
+def _check(value: Any, spec: Any, path: tuple, lines: dict, file: str) -> Any:
+    """Validate one value against its spec; return the typed value."""
+    def fail(msg: str, at: tuple = path) -> CaseError:
+        where, line = at, lines.get(at)
+        while line is None and where:
+            where = where[:-1]
+            line = lines.get(where)
+        return CaseError(f"{line or file + ':1'}: {_dotted(at) or '<top>'}: {msg}")
+
+    if isinstance(spec, Section):
+        if not isinstance(value, dict):
+            raise fail(f"expected a section (mapping), got {type(value).__name__}")
+        unknown = [k for k in value if k not in spec.fields]
+        if unknown:
+            k = unknown[0]
+            raise CaseError(f"{lines.get(path + (k,), file + ':1')}: {_dotted(path + (k,))}: unknown key "
+                            f"(expected one of: {', '.join(spec.fields)})")
+        out = {}
+        for key, sub in spec.fields.items():
+            if value.get(key) is None:  # absent, or written as null
+                if getattr(sub, "required", True):
+                    raise fail(f"missing key '{key}'")
+                optional_only = isinstance(sub, Section) and not any(
+                    getattr(f, "required", True) for f in sub.fields.values())
+                out[key] = (_check({}, sub, path + (key,), lines, file) if optional_only
+                            else getattr(sub, "default", None))
+                continue
+            out[key] = _check(value[key], sub, path + (key,), lines, file)
+        return out
+    if isinstance(spec, Num):
+        return _number(value, spec, fail)
+    if isinstance(spec, Str):
+        if value is None and not spec.required:
+            return None
+        if not isinstance(value, str):
+            raise fail(f"expected text, got {value!r}")
+        if spec.choices and value not in spec.choices:
+            raise fail(f"must be one of {', '.join(spec.choices)}, got '{value}'")
+        return value
+    if isinstance(spec, NumList):
+        if not isinstance(value, list):
+            raise fail(f"expected a list of numbers, got {value!r}")
+        if spec.length is not None and len(value) != spec.length:
+            raise fail(f"expected {spec.length} values, got {len(value)}")
+        if len(value) < spec.min_length:
+            raise fail(f"expected at least {spec.min_length} value(s)")
+        item = Num(spec.doc, spec.unit, gt=spec.gt, ge=spec.ge)
+        return [_number(v, item, lambda m, i=i: fail(m, path + (i,))) for i, v in enumerate(value)]
+    if isinstance(spec, StrList):
+        if isinstance(value, str):
+            value = [value]
+        if not isinstance(value, list) or not value:
+            raise fail("expected a list of names")
+        for v in value:
+            if v not in spec.choices:
+                raise fail(f"unknown name {v!r} (expected some of {', '.join(spec.choices)})")
+        if len(set(value)) != len(value):
+            raise fail("a name is listed twice")
+        return list(value)
+    raise TypeError(spec)
+
+
+def _number(value: Any, spec: Num, fail) -> float | int:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        if isinstance(value, str) and _FLOAT_RE.match(value.strip()) and value.strip():
+            value = float(value)  # e.g. "1_120e6"
+        else:
+            raise fail(f"expected a number, got {value!r}")
+    if not np.isfinite(value):
+        raise fail(f"must be finite, got {value!r}")
+    if spec.integer:
+        if float(value) != int(value):
+            raise fail(f"must be a whole number, got {value!r}")
+        value = int(value)
+    else:
+        value = float(value)
+    unit = f" {spec.unit}" if spec.unit != "-" else ""
+    if spec.gt is not None and not value > spec.gt:
+        raise fail(f"must be > {spec.gt:g}{unit}, got {value:g}")
+    if spec.ge is not None and not value >= spec.ge:
+        raise fail(f"must be >= {spec.ge:g}{unit}, got {value:g}")
+    if spec.le is not None and not value <= spec.le:
+        raise fail(f"must be <= {spec.le:g}{unit}, got {value:g}")
+    return value
+
+
+# --------------------------------------------------------------------------- typed case
+
+@dataclass(frozen=True)
+class Variable:
+    """One scalar design variable."""
+    name: str        # e.g. x_r1
+    group: str       # design section key
+    integer: bool
+    lower: float
+    upper: float
+    reference: float
+    unit: str
+
+
+@dataclass(frozen=True)
+class Case:
+    """A validated case. ``data`` holds the typed sections (SI units) as nested dicts.
+
+    ``text`` is the case file as written; ``resolved`` is the whole case after ``extends``
+    and defaults, as YAML: what a run directory keeps so that it stands on its own.
+    """
+    path: Path
+    text: str
+    data: dict = field(repr=False)
+    variables: tuple[Variable, ...] = ()
+    irregularity: np.ndarray | None = field(default=None, repr=False)
+
+    @property
+    def resolved(self) -> str:
+        return yaml.safe_dump(self.data, sort_keys=False)
+
+    @property
+    def name(self) -> str:
+        return self.data["name"]
+
+    @property
+    def vehicle(self) -> dict:
+        return self.data["vehicle"]
+
+    @property
+    def track(self) -> dict:
+        return self.data["track"]
+
+    @property
+    def evaluation(self) -> dict:
+        return self.data["evaluation"]
+
+    @property
+    def simulation(self) -> dict:
+        return self.data["simulation"]
+
+    @property
+    def optimisation(self) -> dict | None:
+        return self.data["optimisation"]
+
+    @property
+    def names(self) -> list[str]:
+        return [v.name for v in self.variables]
+
+    @property
+    def reference(self) -> np.ndarray:
+        return np.array([v.reference for v in self.variables], dtype=float)
+
+    @property
+    def lower(self) -> np.ndarray:
+        return np.array([v.lower for v in self.variables], dtype=float)
+
+    @property
+    def upper(self) -> np.ndarray:
+        return np.array([v.upper for v in self.variables], dtype=float)
+
+    @property
+    def integer(self) -> np.ndarray:
+        return np.array([v.integer for v in self.variables], dtype=bool)
+
+    def with_simulation(self, **settings) -> "Case":
+        """A copy with some simulation settings replaced (convergence studies, tests)."""
+        data = {**self.data, "simulation": {**self.data["simulation"], **settings}}
+        return Case(self.path, self.text, data, self.variables, self.irregularity)
+
+    def check_design(self, x) -> np.ndarray:
+        """Return x as floats if it is a valid design vector, else raise ValueError."""
+        x = np.asarray(x, dtype=float).ravel()
+        if x.size != len(self.variables):
+            raise ValueError(f"a design vector has {len(self.variables)} values "
+                             f"({', '.join(self.names)}), got {x.size}")
+        for v, xi in zip(self.variables, x):
+            if not np.isfinite(xi) or xi < v.lower or xi > v.upper:
+                raise ValueError(f"{v.name} = {xi:g} is outside [{v.lower:g}, {v.upper:g}]")
+            if v.integer and xi != round(xi):
+                raise ValueError(f"{v.name} = {xi:g} must be a whole number")
+        _check_layout_fits(self.data, x, self.variables)
+        return x
+
+
+_GROUPS = (  # design key, variable name stem, unit
+    ("railpad_stiffness", "x_r", "N/m"),
+    ("strengthened_sleepers", "x_n", "-"),
+    ("sleeper_spans", "x_s", "elements"),
+    ("type_ii_strip", "x_l", "elements"),
+)
+
+
+def _variables(design: dict, lines: dict, file: str) -> tuple[Variable, ...]:
+    out = []
+    for key, stem, unit in _GROUPS:
+        g = design[key]
+        path = ("design", key)
+        lo, hi = g["bounds"]
+        integer = g["kind"] == "integer"
+        at = lambda k: f"{lines.get(path + (k,), lines.get(path))}: {_dotted(path + (k,))}"
+        if lo > hi:
+            raise CaseError(f"{at('bounds')}: lower bound {lo:g} is above upper bound {hi:g}")
+        if integer and (lo != round(lo) or hi != round(hi)):
+            raise CaseError(f"{at('bounds')}: an integer variable needs whole-number bounds, got [{lo:g}, {hi:g}]")
+        refs = g["reference"] if "count" in g else [g["reference"]]
+        if "count" in g and len(refs) != g["count"]:
+            raise CaseError(f"{at('reference')}: expected {g['count']} values (count), got {len(refs)}")
+        for i, r in enumerate(refs):
+            name = f"{stem}{i + 1}" if "count" in g else stem
+            if integer and r != round(r):
+                raise CaseError(f"{at('reference')}: {name} = {r:g} must be a whole number")
+            if not lo <= r <= hi:
+                raise CaseError(f"{at('reference')}: reference {name} = {r:g} is outside the bounds "
+                                f"[{lo:g}, {hi:g}]")
+            out.append(Variable(name, key, integer, float(lo), float(hi), float(r), unit))
+    return tuple(out)
+
+
+def _check_layout_fits(data: dict, x: np.ndarray, variables) -> None:
+    """Spans, strengthened sleepers and the strip must fit the track (raises ValueError)."""
+    layout = data["track"]["layout"]
+    sim = data["simulation"]
+    groups = {}
+    for v, xi in zip(variables, x):
+        groups.setdefault(v.group, []).append(xi)
+    spans = np.array(groups["sleeper_spans"]) * ELEMENT_UNIT
+    ers_length = sum(data["track"]["ers"]["slab_lengths"])
+    if groups["type_ii_strip"][0] * ELEMENT_UNIT > ers_length + 1e-9:
+        raise ValueError(f"the Type II strip ({groups['type_ii_strip'][0] * ELEMENT_UNIT:g} m) is longer "
+                         f"than the ERS ({ers_length:g} m)")
+    n_sleepers = int((layout["entry_length"] - spans.sum()) // layout["sleeper_spacing"]) + len(spans)
+    if n_sleepers < max(groups["strengthened_sleepers"][0], data["evaluation"]["sleepers"]):
+        raise ValueError(f"the entry side holds {n_sleepers} sleepers, fewer than the strengthened "
+                         f"sleepers or the evaluation zone ask for")
+    need = data["evaluation"]["sleepers"] * layout["sleeper_spacing"] + spans.sum() + sim["run_in"]
+    if need > layout["entry_length"] - 5.0:
+        raise ValueError(f"the evaluation zone and run-in ({need:g} m) do not fit the "
+                         f"{layout['entry_length']:g} m entry track with 5 m to spare")
+
+
+def _is_multiple(length: float, unit: float) -> bool:
+    q = length / unit
+    return abs(q - round(q)) < 1e-9 * max(1.0, q)
+
+
+def _merge(base: dict, over: dict) -> dict:
+    """Deep-merge two raw case mappings: sections merge key by key, anything else is replaced."""
+    out = dict(base)
+    for k, v in over.items():
+        out[k] = _merge(base[k], v) if isinstance(v, dict) and isinstance(base.get(k), dict) else v
+    return out
+
+
+def _read_with_base(path: Path, text: str, seen: set) -> tuple[dict, dict]:
+    """Read a case file; ``extends: other.yaml`` (relative to it) starts from another case."""
+    raw, lines = read_yaml(text, str(path))
+    base_name = raw.pop("extends", None)
+    if base_name is None:
+        return raw, lines
+    where = lines[("extends",)]
+    if not isinstance(base_name, str):
+        raise CaseError(f"{where}: extends: expected a file name, got {base_name!r}")
+    base_path = (path.parent / base_name).resolve()
+    if base_path in seen:
+        raise CaseError(f"{where}: extends: {base_name} extends itself (a cycle)")
+    try:
+        base_text = base_path.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise CaseError(f"{where}: extends: cannot read {base_path}: {exc.strerror or exc}") from None
+    base_raw, base_lines = _read_with_base(base_path, base_text, seen | {base_path})
+    return _merge(base_raw, raw), {**base_lines, **lines}
+
+
+def load_case(path: str | Path) -> Case:
+    """Read and validate a case file; raise :class:`CaseError` on any problem."""
+    path = Path(path)
+    file = str(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise CaseError(f"{file}:0: <file>: cannot read: {exc.strerror or exc}") from None
+    raw, lines = _read_with_base(path, text, set())
+    data = _check(raw, SCHEMA, (), lines, file)
+
+    def err(at: tuple, msg: str) -> CaseError:
+        where, line = at, lines.get(at)
+        while line is None and where:
+            where = where[:-1]
+            line = lines.get(where)
+        return CaseError(f"{line or file + ':1'}: {_dotted(at)}: {msg}")
+
+    if not re.fullmatch(r"[A-Za-z0-9_.-]+", data["name"]):
+        raise err(("name",), "use letters, digits, '.', '-' and '_' only (it names the run directory)")
+    le = data["simulation"]["element_length"]
+    if not _is_multiple(ELEMENT_UNIT, le):
+        raise err(("simulation", "element_length"), f"must divide 0.1 m exactly, got {le:g}")
+    layout = data["track"]["layout"]
+    for key in ("entry_length", "exit_length", "sleeper_spacing", "exit_first_span"):
+        if not _is_multiple(layout[key], ELEMENT_UNIT):
+            raise err(("track", "layout", key), f"must be a multiple of 0.1 m, got {layout[key]:g}")
+    for i, s in enumerate(data["track"]["ers"]["slab_lengths"]):
+        if not _is_multiple(s, ELEMENT_UNIT):
+            raise err(("track", "ers", "slab_lengths", i), f"must be a multiple of 0.1 m, got {s:g}")
+    variables = _variables(data["design"], lines, file)
+    try:
+        _check_layout_fits(data, np.array([v.upper if v.group in ("sleeper_spans", "type_ii_strip",
+                                                                   "strengthened_sleepers")
+                                           else v.reference for v in variables]), variables)
+    except ValueError as exc:
+        raise err(("design",), f"at the upper bounds: {exc}") from None
+
+    opt = data["optimisation"]
+    if opt is not None:
+        if opt["initial_points"] > opt["budget"]:
+            raise err(("optimisation", "initial_points"),
+                      f"{opt['initial_points']} initial points exceed the budget of {opt['budget']}")
+        worst = opt["asf"]["worst"]
+        if len(opt["objectives"]) > 1:
+            if worst is None:
+                raise err(("optimisation", "asf"), "missing key 'worst' (needed for two or more objectives)")
+            if len(worst) != len(opt["objectives"]):
+                raise err(("optimisation", "asf", "worst"),
+                          f"expected {len(opt['objectives'])} values (one per objective), got {len(worst)}")
+
+    irregularity = None
+    if data["simulation"]["irregularity"]:
+        irr_path = (path.parent / data["simulation"]["irregularity"])
+        try:
+            irregularity = np.loadtxt(irr_path, delimiter=",", ndmin=2, dtype=float)
+        except (OSError, ValueError) as exc:
+            raise err(("simulation", "irregularity"), f"cannot read {irr_path}: {exc}") from None
+        if irregularity.shape[1] != 2 or irregularity.shape[0] < 2 or np.any(np.diff(irregularity[:, 0]) <= 0):
+            raise err(("simulation", "irregularity"),
+                      "expected two columns (position m, dip m) with increasing positions")
+    return Case(path=path, text=text, data=data, variables=variables, irregularity=irregularity)
+
+
+def parse_design(text: str, case: Case) -> np.ndarray:
+    """Parse ``--design 214e6,155e6,...`` into a checked design vector (raises ValueError)."""
+    try:
+        x = [float(t) for t in text.replace(" ", "").split(",") if t]
+    except ValueError:
+        raise ValueError(f"--design: expected comma-separated numbers, got {text!r}") from None
+    return case.check_design(x)

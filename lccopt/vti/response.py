@@ -1,0 +1,50 @@
+"""Response of one simulation: time histories and the paper's four objectives (Sec. 2.2.2)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+OBJECTIVE_UNITS = {"F_rms": "N", "F_max": "N", "E_rms": "J", "E_max": "J"}
+
+
+@dataclass
+class Evaluation:
+    """What one vehicle-track simulation of one design returns.
+
+    objectives: F_rms, F_max [N] of the contact force while the wheel is in the force zone;
+                E_rms, E_max [J] over the energies dissipated under the zone's sleepers.
+    histories:  named arrays in SI units (see ``HISTORY_DOC``).
+    info:       scalars describing the run (static load, contact stiffness, contact loss, ...).
+    """
+    objectives: dict[str, float]
+    histories: dict[str, np.ndarray] = field(repr=False)
+    info: dict = field(default_factory=dict)
+
+
+HISTORY_DOC = {
+    "time": "time [s], one value per step",
+    "wheel_position": "wheel position along the track [m]",
+    "contact_force": "wheel-rail contact force [N], compression positive",
+    "wheel_displacement": "wheelset displacement [m], downward positive, from the unloaded state",
+    "rail_displacement": "rail displacement under the wheel [m], downward positive",
+    "carbody_displacement": "carbody displacement [m], downward positive",
+    "in_force_zone": "1 where the wheel is inside the force zone, else 0",
+    "sleeper_position": "positions of the evaluation-zone sleepers [m], nearest the interface first",
+    "sleeper_energy": "energy dissipated in the support under each zone sleeper [J], same order",
+    "sleeper_strengthened": "1 for a strengthened zone sleeper, else 0, same order",
+    "sleeper_displacement": "displacement of each zone sleeper [m] against time (steps x sleepers)",
+}
+
+
+def objectives_from(force_in_zone: np.ndarray, sleeper_energy: np.ndarray) -> dict[str, float]:
+    """Eq. (4) and the rms / max-min metrics of Sec. 2.2.2."""
+    f = np.asarray(force_in_zone, dtype=float)
+    e = np.asarray(sleeper_energy, dtype=float)
+    return {
+        "F_rms": float(np.sqrt(np.mean(f ** 2))),
+        "F_max": float(f.max() - f.min()),
+        "E_rms": float(np.sqrt(np.mean(e ** 2))),
+        "E_max": float(e.max() - e.min()),
+    }
