@@ -1,0 +1,128 @@
+"""The ``lccopt`` command line: thin wrappers that parse options and call one module each.
+
+Exit codes: 0 done, 1 internal error, 2 bad usage or case file, 130 interrupted.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+from typing import Optional
+
+import typer
+
+from .case import CaseError
+
+EXIT_OK, EXIT_INTERNAL, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
+
+app = typer.Typer(add_completion=False, no_args_is_help=True, pretty_exceptions_enable=False,
+                  help="Optimise railway level crossings and their transition zones.")
+
+
+class UsageError(Exception):
+    """Bad input that is not a case-file problem (options, run directories); exit 2."""
+
+
+def _fail(message: str, code: int) -> None:
+    typer.echo(f"lccopt: error: {message}", err=True)
+    raise typer.Exit(code)
+
+
+@app.command()
+def check(case: Path = typer.Argument(..., help="case file (YAML)")) -> None:
+    """Validate a case file without simulating."""
+    from .case import load_case
+
+    c = load_case(case)
+    names = ", ".join(f"{v.name}{'∈Z' if v.integer else ''} [{v.lower:g}, {v.upper:g}]" for v in c.variables)
+    typer.echo(f"{case}: ok: case '{c.name}', {len(c.variables)} design variables: {names}")
+
+
+@app.command()
+def simulate(
+    case: Path = typer.Argument(..., help="case file (YAML)"),
+    design: Optional[str] = typer.Option(None, help="design vector x, comma-separated in SI units "
+                                         "(default: the case's reference design)"),
+    out: Optional[Path] = typer.Option(None, help="output directory (default: runs/<case name>-simulate)"),
+    plots: bool = typer.Option(True, help="draw PNG plots"),
+) -> None:
+    """Simulate one design: print F_rms, F_max, E_rms, E_max; write HDF5 and plots."""
+    from .simulate_cmd import run_simulate
+
+    run_simulate(case, design, out, plots)
+
+
+@app.command()
+def optimise(
+    case: Path = typer.Argument(..., help="case file (YAML) with an optimisation section"),
+    workers: Optional[int] = typer.Option(None, help="local worker processes (default: number of cores)"),
+    scheduler: Optional[str] = typer.Option(None, help="Dask scheduler address, e.g. tcp://host:8786"),
+    runs: Path = typer.Option(Path("runs"), help="directory that holds run directories"),
+    force: bool = typer.Option(False, help="replace an existing run directory of the same name"),
+) -> None:
+    """Run the surrogate optimisation of a case into runs/<case name>/."""
+    from .engine.runner import optimise as run_optimise
+
+    run_optimise(case, workers=workers, scheduler=scheduler, runs=runs, force=force)
+
+
+@app.command()
+def resume(
+    run: Path = typer.Argument(..., help="run directory, e.g. runs/moo"),
+    workers: Optional[int] = typer.Option(None, help="local worker processes (default: number of cores)"),
+    scheduler: Optional[str] = typer.Option(None, help="Dask scheduler address, e.g. tcp://host:8786"),
+    case: Optional[Path] = typer.Option(None, help="the case file to check against (default: the one "
+                                        "the run was started from)"),
+    allow_changed_case: bool = typer.Option(False, help="resume even if the case file changed"),
+) -> None:
+    """Carry on an interrupted run where it stopped."""
+    from .engine.runner import resume as run_resume
+
+    run_resume(run, workers=workers, scheduler=scheduler, case=case, allow_changed_case=allow_changed_case)
+
+
+@app.command()
+def report(
+    run: Path = typer.Argument(..., help="run directory, e.g. runs/moo"),
+    format: str = typer.Option("both", "--format", help="summary format: md, html or both"),
+) -> None:
+    """Write figures and a summary of a run into RUN/report/."""
+    from .report import write_report
+
+    write_report(run, format)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Console entry point: map errors to exit codes and one-line messages."""
+    try:
+        app(args=argv, standalone_mode=False)
+    except CaseError as exc:
+        typer.echo(f"lccopt: error: {exc}", err=True)
+        return EXIT_USAGE
+    except UsageError as exc:
+        typer.echo(f"lccopt: error: {exc}", err=True)
+        return EXIT_USAGE
+    except typer.Exit as exc:
+        return exc.exit_code
+    except KeyboardInterrupt:
+        typer.echo("lccopt: interrupted", err=True)
+        return EXIT_INTERRUPTED
+    except Exception as exc:  # click usage errors carry their own exit code
+        import click
+
+        if isinstance(exc, click.exceptions.Abort):
+            typer.echo("lccopt: interrupted", err=True)
+            return EXIT_INTERRUPTED
+        if isinstance(exc, click.ClickException):
+            exc.show()
+            return EXIT_USAGE
+        import traceback
+
+        traceback.print_exc()
+        typer.echo(f"lccopt: internal error: {exc}", err=True)
+        return EXIT_INTERNAL
+    return EXIT_OK
+
+
+if __name__ == "__main__":
+    sys.exit(main())
