@@ -1,0 +1,89 @@
+"""Finite elements and sparse assembly: Euler-Bernoulli beams, elastic foundations, springs.
+
+Every element routine is vectorised over many elements at once. Dofs that are fixed carry
+the index -1 and their rows and columns are dropped during assembly.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+
+
+def beam_stiffness(ei: np.ndarray, length: float) -> np.ndarray:
+    """Euler-Bernoulli element stiffness, dofs (w1, th1, w2, th2); shape (n, 4, 4)."""
+    L = length
+    k = np.array([[12, 6 * L, -12, 6 * L],
+                  [6 * L, 4 * L * L, -6 * L, 2 * L * L],
+                  [-12, -6 * L, 12, -6 * L],
+                  [6 * L, 2 * L * L, -6 * L, 4 * L * L]]) / L ** 3
+    return np.asarray(ei, dtype=float)[:, None, None] * k
+
+
+def hermite_gram(length: float) -> np.ndarray:
+    """∫ N Nᵀ dx over one element for the Hermite cubics: the consistent mass of unit
+    mass per metre, and the consistent matrix k∫NNᵀ of a Winkler foundation of unit k."""
+    L = length
+    return L / 420.0 * np.array([[156, 22 * L, 54, -13 * L],
+                                 [22 * L, 4 * L * L, 13 * L, -3 * L * L],
+                                 [54, 13 * L, 156, -22 * L],
+                                 [-13 * L, -3 * L * L, -22 * L, 4 * L * L]])
+
+
+def hermite(xi: float, length: float) -> tuple[float, float, float, float]:
+    """Hermite shape functions at local coordinate xi in [0, L] (Eq. A.8, standard form)."""
+    s = xi / length
+    s2, s3 = s * s, s * s * s
+    return (1.0 - 3.0 * s2 + 2.0 * s3, length * (s - 2.0 * s2 + s3), 3.0 * s2 - 2.0 * s3, length * (s3 - s2))
+
+
+class Assembler:
+    """Collects element contributions as COO triplets; builds CSR matrices."""
+
+    def __init__(self, n: int):
+        self.n = n
+        self._rows: list[np.ndarray] = []
+        self._cols: list[np.ndarray] = []
+        self._vals: list[np.ndarray] = []
+
+    def add(self, dofs: np.ndarray, mats: np.ndarray) -> None:
+        """Add element matrices ``mats`` (n_el, k, k) at dof indices ``dofs`` (n_el, k)."""
+        dofs = np.asarray(dofs)
+        if dofs.size == 0:
+            return
+        k = dofs.shape[1]
+        rows = np.repeat(dofs, k, axis=1).ravel()
+        cols = np.tile(dofs, (1, k)).ravel()
+        vals = np.broadcast_to(mats, (dofs.shape[0], k, k)).reshape(-1)
+        keep = (rows >= 0) & (cols >= 0)
+        self._rows.append(rows[keep])
+        self._cols.append(cols[keep])
+        self._vals.append(vals[keep])
+
+    def add_relative(self, dofs_a: np.ndarray, dofs_b: np.ndarray, mats: np.ndarray) -> None:
+        """A layer between two sets of dofs acting on (u_a - u_b): [[m, -m], [-m, m]]."""
+        m = np.broadcast_to(mats, (len(dofs_a),) + mats.shape[-2:])
+        top = np.concatenate([m, -m], axis=2)
+        full = np.concatenate([top, -top], axis=1)
+        self.add(np.hstack([dofs_a, dofs_b]), full)
+
+    def add_diagonal(self, dofs: np.ndarray, values: np.ndarray) -> None:
+        dofs = np.asarray(dofs).reshape(-1, 1)
+        self.add(dofs, np.asarray(values, dtype=float).reshape(-1, 1, 1))
+
+    def build(self) -> sp.csr_matrix:
+        if not self._rows:
+            return sp.csr_matrix((self.n, self.n))
+        rows = np.concatenate(self._rows)
+        cols = np.concatenate(self._cols)
+        vals = np.concatenate(self._vals)
+        return sp.coo_matrix((vals, (rows, cols)), shape=(self.n, self.n)).tocsr()
+
+
+def to_upper_banded(a: sp.spmatrix) -> tuple[np.ndarray, int]:
+    """Upper band storage for LAPACK ?pbtrf: ab[kd + i - j, j] = A[i, j] for i <= j."""
+    coo = sp.triu(a).tocoo()
+    kd = int((coo.col - coo.row).max()) if coo.nnz else 0
+    ab = np.zeros((kd + 1, a.shape[0]))
+    ab[kd + coo.row - coo.col, coo.col] = coo.data
+    return ab, kd

@@ -1,0 +1,218 @@
+"""Track model of one rail: layout from the case and a design vector, then M, C, K.
+
+Layout (x along the track, the vehicle runs towards +x):
+
+    0 ── ballast (entry_length) ──► x_a ══ ERS slabs ══ x_b ── ballast (exit_length) ── end
+
+* Rail: Euler-Bernoulli beam elements, pinned at both ends (w = 0, rotation free).
+* Ballast track: railpad (spring + damper) -> sleeper (mass) -> support (spring + damper).
+  Entry sleepers are counted from the interface: sleeper 1 sits x_sM elements from the slab
+  edge, sleeper 2 a further x_s(M-1) elements, ..., then the standard spacing. Pads of
+  sleepers 1..N get x_rN..x_r1 (x_rN nearest); their damping scales with stiffness. The
+  x_n sleepers nearest the interface are strengthened.
+* ERS: rail on a continuous compound (consistent matrix k∫NNᵀ on the relative deflection
+  rail - slab), on slab beams (free-free, not joined), on a continuous foundation. Over
+  x_l elements from the entry edge the compound is the Type II one. Compound damping:
+  c = 2 ζ sqrt(k m_rail) per metre, the viscous damping that gives the rail-on-compound
+  mode the damping ratio ζ of Table 3.
+* Dofs are numbered along the track (rail, sleeper and slab dofs at one position next to
+  each other), so every matrix is banded with a half-bandwidth of a few dofs.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+
+from ..case import ELEMENT_UNIT, Case
+from .assembly import Assembler, beam_stiffness, hermite_gram
+
+# dof kinds, in their order at one position
+RAIL_W, RAIL_TH, SLEEPER, SLAB_W, SLAB_TH = range(5)
+
+
+@dataclass
+class TrackModel:
+    """Assembled track of one rail. Indices refer to the free (unconstrained) dofs."""
+    element_length: float
+    node_x: np.ndarray              # rail node positions [m]
+    rail_w: np.ndarray              # dof of rail deflection at each node (-1 where pinned)
+    rail_th: np.ndarray             # dof of rail rotation at each node
+    M: sp.csr_matrix
+    C: sp.csr_matrix
+    K: sp.csr_matrix
+    interface: tuple[float, float]  # slab edges x_a (entry), x_b (exit) [m]
+    slab_edges: np.ndarray          # slab ends [m]
+    entry_sleeper_x: np.ndarray     # entry sleepers, nearest the interface first [m]
+    entry_sleeper_dof: np.ndarray
+    entry_support_damping: np.ndarray   # c_b of each entry sleeper [N s/m]
+    entry_strengthened: np.ndarray      # bool per entry sleeper
+    entry_pad_stiffness: np.ndarray     # railpad stiffness per entry sleeper [N/m]
+    exit_sleeper_x: np.ndarray
+    type_ii_end: float              # the Type II strip covers [x_a, type_ii_end]
+    info: dict = field(default_factory=dict)
+
+    @property
+    def n_dofs(self) -> int:
+        return self.K.shape[0]
+
+    @property
+    def length(self) -> float:
+        return float(self.node_x[-1])
+
+
+def design_groups(case: Case, x: np.ndarray) -> dict[str, np.ndarray]:
+    """Split a design vector into its groups (railpad_stiffness, strengthened_sleepers, ...)."""
+    groups: dict[str, list] = {}
+    for v, xi in zip(case.variables, x):
+        groups.setdefault(v.group, []).append(xi)
+    return {k: np.asarray(v, dtype=float) for k, v in groups.items()}
+
+
+def entry_sleeper_positions(x_a: float, spans_elements: np.ndarray, spacing: float) -> np.ndarray:
+    """Entry-side sleeper positions, nearest the interface first (spans x_s1..x_sM, x_sM nearest)."""
+    near = x_a - np.cumsum(spans_elements[::-1] * ELEMENT_UNIT)
+    far = near[-1] - spacing * np.arange(1, int(near[-1] / spacing + 1e-9) + 1)
+    pos = np.concatenate([near, far])
+    return pos[pos > 1e-9]
+
+
+def build_track(case: Case, x: np.ndarray) -> TrackModel:
+    """Build the track of ``case`` for design vector ``x`` (assumed checked)."""
+    t = case.track
+    le = case.simulation["element_length"]
+    lay, ers = t["layout"], t["ers"]
+    g = design_groups(case, x)
+
+    x_a = lay["entry_length"]
+    ers_length = float(sum(ers["slab_lengths"]))
+    x_b = x_a + ers_length
+    total = x_b + lay["exit_length"]
+    n_el = int(round(total / le))
+    node_x = np.arange(n_el + 1) * le
+    node_of = lambda pos: np.rint(np.asarray(pos) / le).astype(int)  # positions are on nodes
+
+    # --- sleepers
+    entry_x = entry_sleeper_positions(x_a, g["sleeper_spans"], lay["sleeper_spacing"])
+    exit_x = x_b + lay["exit_first_span"] + lay["sleeper_spacing"] * np.arange(
+        int((total - x_b - lay["exit_first_span"]) / lay["sleeper_spacing"] + 1e-9) + 1)
+    exit_x = exit_x[exit_x < total - 1e-9]
+    n_entry = len(entry_x)
+    strengthened = np.arange(n_entry) < int(g["strengthened_sleepers"][0])
+    pads = g["railpad_stiffness"][::-1]  # x_rN nearest the interface
+    pad_k = np.full(n_entry, t["railpad"]["stiffness"])
+    pad_k[:len(pads)] = pads[:n_entry]
+    # Sec. 3.2: pad damping scales linearly with stiffness
+    pad_c = t["railpad"]["damping"] * pad_k / t["railpad"]["stiffness"]
+    ss = t["strengthened_sleeper"]
+    sl_mass = np.where(strengthened, ss["mass"], t["sleeper"]["mass"])
+    sl_k = np.where(strengthened, ss["support_stiffness"], t["support"]["stiffness"])
+    sl_c = np.where(strengthened, ss["support_damping"], t["support"]["damping"])
+    n_exit = len(exit_x)
+    sleeper_x = np.concatenate([entry_x, exit_x])
+    sleeper_node = node_of(sleeper_x)
+    all_pad_k = np.concatenate([pad_k, np.full(n_exit, t["railpad"]["stiffness"])])
+    all_pad_c = np.concatenate([pad_c, np.full(n_exit, t["railpad"]["damping"])])
+    all_mass = np.concatenate([sl_mass, np.full(n_exit, t["sleeper"]["mass"])])
+    all_k = np.concatenate([sl_k, np.full(n_exit, t["support"]["stiffness"])])
+    all_c = np.concatenate([sl_c, np.full(n_exit, t["support"]["damping"])])
+
+    # --- slabs: node ranges (each slab has its own nodes; neighbouring slabs are not joined)
+    slab_edges = x_a + np.concatenate([[0.0], np.cumsum(ers["slab_lengths"])])
+    slab_first = node_of(slab_edges[:-1])
+    slab_last = node_of(slab_edges[1:])
+
+    # --- dof numbering along the track: sort (node, kind, slab) keys
+    keys_node = [np.arange(n_el + 1), np.arange(n_el + 1), sleeper_node]
+    keys_kind = [np.full(n_el + 1, RAIL_W), np.full(n_el + 1, RAIL_TH), np.full(len(sleeper_node), SLEEPER)]
+    keys_sub = [np.zeros(n_el + 1, int), np.zeros(n_el + 1, int), np.zeros(len(sleeper_node), int)]
+    for s, (f, l) in enumerate(zip(slab_first, slab_last)):
+        nodes = np.arange(f, l + 1)
+        for kind in (SLAB_W, SLAB_TH):
+            keys_node.append(nodes)
+            keys_kind.append(np.full(len(nodes), kind))
+            keys_sub.append(np.full(len(nodes), s))
+    kn, kk, ks = (np.concatenate(a) for a in (keys_node, keys_kind, keys_sub))
+    # the kinds are listed so that (node, slab, kind) keeps each slab's w, th together
+    order = np.lexsort((kk, ks, kn))
+    full_index = np.empty(len(order), int)
+    full_index[order] = np.arange(len(order))
+    fixed = np.zeros(len(order), bool)
+    fixed[full_index[[0, n_el]]] = True          # rail w at both ends: pinned
+    free_index = np.cumsum(~fixed) - 1
+    free_index[fixed] = -1
+    dof = free_index[full_index]                  # dof of each key entry, -1 if fixed
+    n = int((~fixed).sum())
+
+    rail_w = dof[:n_el + 1]
+    rail_th = dof[n_el + 1:2 * (n_el + 1)]
+    sleeper_dof = dof[2 * (n_el + 1):2 * (n_el + 1) + len(sleeper_node)]
+    slab_dofs = []
+    off = 2 * (n_el + 1) + len(sleeper_node)
+    for f, l in zip(slab_first, slab_last):
+        m = l - f + 1
+        slab_dofs.append((dof[off:off + m], dof[off + m:off + 2 * m]))
+        off += 2 * m
+
+    rail = t["rail"]
+    ei_rail = rail["youngs_modulus"] * rail["second_moment"]
+    m_rail = rail["density"] * rail["area"]
+    gram = hermite_gram(le)
+    Mas, Cas, Kas = Assembler(n), Assembler(n), Assembler(n)
+
+    # rail beam
+    el_dofs = np.stack([rail_w[:-1], rail_th[:-1], rail_w[1:], rail_th[1:]], axis=1)
+    Kas.add(el_dofs, beam_stiffness(np.full(n_el, ei_rail), le))
+    Mas.add(el_dofs, m_rail * gram[None])
+
+    # ballast track: pad between rail and sleeper, support between sleeper and ground
+    rw_at = rail_w[sleeper_node][:, None]
+    Kas.add_relative(rw_at, sleeper_dof[:, None], all_pad_k[:, None, None])
+    Cas.add_relative(rw_at, sleeper_dof[:, None], all_pad_c[:, None, None])
+    Mas.add_diagonal(sleeper_dof, all_mass)
+    Kas.add_diagonal(sleeper_dof, all_k)
+    Cas.add_diagonal(sleeper_dof, all_c)
+
+    # ERS: compound (rail - slab), slab beams, foundation
+    share = ers["share_per_rail"]
+    sl = ers["slab"]
+    b1, b2, h = sl["width_bottom"], sl["width_top"], sl["height"]
+    area = 0.5 * (b1 + b2) * h * share
+    second_moment = h ** 3 * (b1 * b1 + 4 * b1 * b2 + b2 * b2) / (36.0 * (b1 + b2)) * share  # trapezoid
+    ei_slab, m_slab = sl["youngs_modulus"] * second_moment, sl["density"] * area
+    kf = ers["foundation"]["stiffness"] * share
+    cf = ers["foundation"]["damping"] * share
+    type_ii_end = x_a + g["type_ii_strip"][0] * ELEMENT_UNIT
+    comp, comp2 = ers["compound"], ers["type_ii_compound"]
+    c_std = 2 * comp["damping_ratio"] * np.sqrt(comp["stiffness"] * m_rail)
+    c_ii = 2 * comp2["damping_ratio"] * np.sqrt(comp2["stiffness"] * m_rail)
+    for (sw, sth), f, l in zip(slab_dofs, slab_first, slab_last):
+        ne = l - f
+        s_el = np.stack([sw[:-1], sth[:-1], sw[1:], sth[1:]], axis=1)
+        Kas.add(s_el, beam_stiffness(np.full(ne, ei_slab), le))
+        Mas.add(s_el, m_slab * gram[None])
+        Kas.add(s_el, kf * gram[None])
+        Cas.add(s_el, cf * gram[None])
+        r_el = el_dofs[f:l]
+        mid = node_x[f:l] + 0.5 * le
+        is_ii = mid < type_ii_end
+        Kas.add_relative(r_el, s_el, np.where(is_ii, comp2["stiffness"], comp["stiffness"])[:, None, None] * gram)
+        Cas.add_relative(r_el, s_el, np.where(is_ii, c_ii, c_std)[:, None, None] * gram)
+
+    info = {
+        "n_dofs": n,
+        "n_entry_sleepers": n_entry,
+        "n_exit_sleepers": n_exit,
+        "slab_mass_per_m": m_slab,
+        "slab_bending_stiffness": ei_slab,
+        "compound_damping": c_std,
+        "type_ii_compound_damping": c_ii,
+    }
+    return TrackModel(
+        element_length=le, node_x=node_x, rail_w=rail_w, rail_th=rail_th,
+        M=Mas.build(), C=Cas.build(), K=Kas.build(), interface=(x_a, x_b), slab_edges=slab_edges,
+        entry_sleeper_x=entry_x, entry_sleeper_dof=sleeper_dof[:n_entry],
+        entry_support_damping=sl_c, entry_strengthened=strengthened, entry_pad_stiffness=pad_k,
+        exit_sleeper_x=exit_x, type_ii_end=float(type_ii_end), info=info)
