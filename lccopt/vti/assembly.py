@@ -10,24 +10,30 @@ import numpy as np
 import scipy.sparse as sp
 
 
-def beam_stiffness(ei: np.ndarray, length: float) -> np.ndarray:
-    """Euler-Bernoulli element stiffness, dofs (w1, th1, w2, th2); shape (n, 4, 4)."""
-    L = length
-    k = np.array([[12, 6 * L, -12, 6 * L],
+def beam_stiffness(ei, length) -> np.ndarray:
+    """Euler-Bernoulli element stiffness, dofs (w1, th1, w2, th2); shape (n, 4, 4).
+
+    ``ei`` and ``length`` are per element (arrays) or shared (scalars)."""
+    ei, L = np.broadcast_arrays(np.asarray(ei, float), np.asarray(length, float))
+    ei, L = ei.ravel(), L.ravel()
+    one = np.ones_like(L)
+    k = np.array([[12 * one, 6 * L, -12 * one, 6 * L],
                   [6 * L, 4 * L * L, -6 * L, 2 * L * L],
-                  [-12, -6 * L, 12, -6 * L],
-                  [6 * L, 2 * L * L, -6 * L, 4 * L * L]]) / L ** 3
-    return np.asarray(ei, dtype=float)[:, None, None] * k
+                  [-12 * one, -6 * L, 12 * one, -6 * L],
+                  [6 * L, 2 * L * L, -6 * L, 4 * L * L]])      # (4, 4, n)
+    return np.moveaxis(k, -1, 0) * (ei / L ** 3)[:, None, None]
 
 
-def hermite_gram(length: float) -> np.ndarray:
-    """∫ N Nᵀ dx over one element for the Hermite cubics: the consistent mass of unit
-    mass per metre, and the consistent matrix k∫NNᵀ of a Winkler foundation of unit k."""
-    L = length
-    return L / 420.0 * np.array([[156, 22 * L, 54, -13 * L],
-                                 [22 * L, 4 * L * L, 13 * L, -3 * L * L],
-                                 [54, 13 * L, 156, -22 * L],
-                                 [-13 * L, -3 * L * L, -22 * L, 4 * L * L]])
+def hermite_gram(length) -> np.ndarray:
+    """∫ N Nᵀ dx over elements of the given lengths, shape (n, 4, 4): the consistent mass
+    of unit mass per metre, and the consistent matrix k∫NNᵀ of a Winkler foundation of unit k."""
+    L = np.atleast_1d(np.asarray(length, float))
+    one = np.ones_like(L)
+    g = np.array([[156 * one, 22 * L, 54 * one, -13 * L],
+                  [22 * L, 4 * L * L, 13 * L, -3 * L * L],
+                  [54 * one, 13 * L, 156 * one, -22 * L],
+                  [-13 * L, -3 * L * L, -22 * L, 4 * L * L]])
+    return np.moveaxis(g, -1, 0) * (L / 420.0)[:, None, None]
 
 
 def hermite(xi: float, length: float) -> tuple[float, float, float, float]:

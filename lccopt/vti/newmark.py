@@ -42,9 +42,9 @@ class TrackLike(Protocol):
     M: sp.spmatrix
     C: sp.spmatrix
     K: sp.spmatrix
-    rail_w: np.ndarray
-    rail_th: np.ndarray
-    element_length: float
+    node_x: np.ndarray      # rail node positions, increasing [m]
+    rail_w: np.ndarray      # dof of rail deflection per node (-1: fixed)
+    rail_th: np.ndarray     # dof of rail rotation per node
 
 
 @dataclass
@@ -59,11 +59,10 @@ class Contact:
 
 def contact_vector(track: TrackLike, x: float) -> tuple[np.ndarray, np.ndarray]:
     """Dof indices and Hermite values of N at position x (fixed dofs have index -1)."""
-    le = track.element_length
-    e = min(max(int(x / le), 0), len(track.rail_w) - 2)
-    xi = x - e * le
+    nx = track.node_x
+    e = min(max(int(np.searchsorted(nx, x, side="right")) - 1, 0), len(nx) - 2)
     idx = np.array([track.rail_w[e], track.rail_th[e], track.rail_w[e + 1], track.rail_th[e + 1]])
-    vals = np.array(hermite(xi, le))
+    vals = np.array(hermite(x - nx[e], nx[e + 1] - nx[e]))
     vals[idx < 0] = 0.0
     idx[idx < 0] = 0
     return idx, vals
@@ -142,8 +141,9 @@ def integrate(track: TrackLike, dt: float, speed: float, x_start: float, n_steps
     # A_t⁻¹ columns of the rail dofs the wheel will touch: w = A_t⁻¹ N is then a 4-row
     # combination instead of a second banded solve per step (the solve dominates a step).
     x_end = x_start + speed * dt * n_steps
-    e0 = min(max(int(x_start / track.element_length), 0), len(track.rail_w) - 2)
-    e1 = min(max(int(x_end / track.element_length) + 1, 0), len(track.rail_w) - 2)
+    nx = track.node_x
+    e0 = min(max(int(np.searchsorted(nx, x_start, side="right")) - 1, 0), len(nx) - 2)
+    e1 = min(max(int(np.searchsorted(nx, x_end, side="right")), 0), len(nx) - 2)
     touched = np.unique(np.concatenate([track.rail_w[e0:e1 + 2], track.rail_th[e0:e1 + 2]]))
     touched = touched[touched >= 0]
     unit = np.zeros((n, len(touched)), order="F")

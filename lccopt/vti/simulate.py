@@ -23,15 +23,6 @@ from .track import build_track
 from .vehicle import Vehicle
 
 
-def run_window(case: Case, track) -> tuple[float, float, float, float]:
-    """(x_start, zone_start, zone_end, x_end) of the wheel [m]."""
-    n_zone = case.evaluation["sleepers"]
-    zone_start = float(track.entry_sleeper_x[n_zone - 1])
-    zone_end = track.interface[0] + case.evaluation["force_zone_after_interface"]
-    sim = case.simulation
-    return zone_start - sim["run_in"], zone_start, zone_end, zone_end + sim["run_out"]
-
-
 def evaluate(case: Case, x) -> Evaluation:
     """Simulate design ``x`` of ``case``; raise ValueError for an invalid design."""
     t0 = time.perf_counter()
@@ -40,7 +31,7 @@ def evaluate(case: Case, x) -> Evaluation:
     vehicle = Vehicle.from_case(case)
     sim = case.simulation
     dt = sim["time_step"]
-    x_start, zone_start, zone_end, x_end = run_window(case, track)
+    x_start, zone_start, zone_end, x_end = track.window
     n_steps = int(np.ceil((x_end - x_start) / (vehicle.speed * dt)))
     n_zone = case.evaluation["sleepers"]
     zone_dofs = track.entry_sleeper_dof[:n_zone]

@@ -36,7 +36,8 @@ RAIL_W, RAIL_TH, SLEEPER, SLAB_W, SLAB_TH = range(5)
 @dataclass
 class TrackModel:
     """Assembled track of one rail. Indices refer to the free (unconstrained) dofs."""
-    element_length: float
+    element_length: float           # rail element length where the wheel runs [m]
+    window: tuple                   # (x_start, zone_start, zone_end, x_end) of the wheel [m]
     node_x: np.ndarray              # rail node positions [m]
     rail_w: np.ndarray              # dof of rail deflection at each node (-1 where pinned)
     rail_th: np.ndarray             # dof of rail rotation at each node
@@ -79,8 +80,31 @@ def entry_sleeper_positions(x_a: float, spans_elements: np.ndarray, spacing: flo
     return pos[pos > 1e-9]
 
 
+def wheel_window(case: Case, entry_x: np.ndarray) -> tuple[float, float, float, float]:
+    """(x_start, zone_start, zone_end, x_end) of the wheel [m].
+
+    The evaluation zone begins at the farthest zone sleeper and the force zone ends
+    ``force_zone_after_interface`` into the ERS; the wheel starts ``run_in`` before the zone
+    and stops ``run_out`` after it."""
+    zone_start = float(entry_x[case.evaluation["sleepers"] - 1])
+    zone_end = case.track["layout"]["entry_length"] + case.evaluation["force_zone_after_interface"]
+    sim = case.simulation
+    return zone_start - sim["run_in"], zone_start, zone_end, zone_end + sim["run_out"]
+
+
+def rail_nodes(total: float, window: tuple[float, float], fine: float, coarse: float) -> np.ndarray:
+    """Node positions: ``fine`` elements over the wheel's window (plus 2 m each side),
+    ``coarse`` elsewhere. Window edges snap outwards to the coarse grid."""
+    w0 = max(0.0, np.floor((window[0] - 2.0) / coarse + 1e-9) * coarse)
+    w1 = min(total, np.ceil((window[1] + 2.0) / coarse - 1e-9) * coarse)
+    parts = [np.arange(int(round(w0 / coarse))) * coarse,
+             w0 + np.arange(int(round((w1 - w0) / fine))) * fine,
+             w1 + np.arange(int(round((total - w1) / coarse)) + 1) * coarse]
+    return np.concatenate(parts)
+
+
 def build_track(case: Case, x: np.ndarray) -> TrackModel:
-    """Build the track of ``case`` for design vector ``x`` (assumed checked)."""
+    """Build the track of ``case`` for design x (assumed checked)."""
     t = case.track
     le = case.simulation["element_length"]
     lay, ers = t["layout"], t["ers"]
@@ -90,12 +114,18 @@ def build_track(case: Case, x: np.ndarray) -> TrackModel:
     ers_length = float(sum(ers["slab_lengths"]))
     x_b = x_a + ers_length
     total = x_b + lay["exit_length"]
-    n_el = int(round(total / le))
-    node_x = np.arange(n_el + 1) * le
-    node_of = lambda pos: np.rint(np.asarray(pos) / le).astype(int)  # positions are on nodes
+    entry_x = entry_sleeper_positions(x_a, g["sleeper_spans"], lay["sleeper_spacing"])
+    window = wheel_window(case, entry_x)
+    node_x = rail_nodes(total, (window[0], window[3]), le, case.simulation["far_element_length"])
+    n_el = len(node_x) - 1
+    el_len = np.diff(node_x)
+
+    def node_of(pos):  # sleepers and slab edges sit on nodes (multiples of 0.1 m)
+        i = np.searchsorted(node_x, np.asarray(pos) - 1e-9)
+        assert np.allclose(node_x[i], pos, atol=1e-9), "a support is off the mesh"
+        return i
 
     # --- sleepers
-    entry_x = entry_sleeper_positions(x_a, g["sleeper_spans"], lay["sleeper_spacing"])
     exit_x = x_b + lay["exit_first_span"] + lay["sleeper_spacing"] * np.arange(
         int((total - x_b - lay["exit_first_span"]) / lay["sleeper_spacing"] + 1e-9) + 1)
     exit_x = exit_x[exit_x < total - 1e-9]
@@ -159,13 +189,13 @@ def build_track(case: Case, x: np.ndarray) -> TrackModel:
     rail = t["rail"]
     ei_rail = rail["youngs_modulus"] * rail["second_moment"]
     m_rail = rail["density"] * rail["area"]
-    gram = hermite_gram(le)
+    gram = hermite_gram(el_len)  # (n_el, 4, 4)
     Mas, Cas, Kas = Assembler(n), Assembler(n), Assembler(n)
 
     # rail beam
     el_dofs = np.stack([rail_w[:-1], rail_th[:-1], rail_w[1:], rail_th[1:]], axis=1)
-    Kas.add(el_dofs, beam_stiffness(np.full(n_el, ei_rail), le))
-    Mas.add(el_dofs, m_rail * gram[None])
+    Kas.add(el_dofs, beam_stiffness(ei_rail, el_len))
+    Mas.add(el_dofs, m_rail * gram)
 
     # ballast track: pad between rail and sleeper, support between sleeper and ground
     rw_at = rail_w[sleeper_node][:, None]
@@ -189,17 +219,16 @@ def build_track(case: Case, x: np.ndarray) -> TrackModel:
     c_std = 2 * comp["damping_ratio"] * np.sqrt(comp["stiffness"] * m_rail)
     c_ii = 2 * comp2["damping_ratio"] * np.sqrt(comp2["stiffness"] * m_rail)
     for (sw, sth), f, l in zip(slab_dofs, slab_first, slab_last):
-        ne = l - f
         s_el = np.stack([sw[:-1], sth[:-1], sw[1:], sth[1:]], axis=1)
-        Kas.add(s_el, beam_stiffness(np.full(ne, ei_slab), le))
-        Mas.add(s_el, m_slab * gram[None])
-        Kas.add(s_el, kf * gram[None])
-        Cas.add(s_el, cf * gram[None])
+        g_el = gram[f:l]
+        Kas.add(s_el, beam_stiffness(ei_slab, el_len[f:l]))
+        Mas.add(s_el, m_slab * g_el)
+        Kas.add(s_el, kf * g_el)
+        Cas.add(s_el, cf * g_el)
         r_el = el_dofs[f:l]
-        mid = node_x[f:l] + 0.5 * le
-        is_ii = mid < type_ii_end
-        Kas.add_relative(r_el, s_el, np.where(is_ii, comp2["stiffness"], comp["stiffness"])[:, None, None] * gram)
-        Cas.add_relative(r_el, s_el, np.where(is_ii, c_ii, c_std)[:, None, None] * gram)
+        is_ii = (node_x[f:l] + 0.5 * el_len[f:l]) < type_ii_end
+        Kas.add_relative(r_el, s_el, np.where(is_ii, comp2["stiffness"], comp["stiffness"])[:, None, None] * g_el)
+        Cas.add_relative(r_el, s_el, np.where(is_ii, c_ii, c_std)[:, None, None] * g_el)
 
     info = {
         "n_dofs": n,
@@ -211,7 +240,7 @@ def build_track(case: Case, x: np.ndarray) -> TrackModel:
         "type_ii_compound_damping": c_ii,
     }
     return TrackModel(
-        element_length=le, node_x=node_x, rail_w=rail_w, rail_th=rail_th,
+        element_length=le, window=window, node_x=node_x, rail_w=rail_w, rail_th=rail_th,
         M=Mas.build(), C=Cas.build(), K=Kas.build(), interface=(x_a, x_b), slab_edges=slab_edges,
         entry_sleeper_x=entry_x, entry_sleeper_dof=sleeper_dof[:n_entry],
         entry_support_damping=sl_c, entry_strengthened=strengthened, entry_pad_stiffness=pad_k,
