@@ -1,0 +1,127 @@
+"""Cubic radial basis function interpolant with a linear tail (paper Eqs. 8-10).
+
+    s(x) = sum_k lambda_k ||x - x_k||^3 + b^T x + a
+
+with lambda, b, a from the saddle system [[Phi, P], [P^T, 0]] [lambda; beta] = [f; 0].
+The strategy fits it in the unit box. Guards:
+
+* a tiny ridge on Phi (relative to its size) keeps near-duplicate points from making the
+  system singular; r^3 is conditionally positive definite of order 2, so a positive ridge
+  only smooths, it never makes the system indefinite;
+* tail columns of coordinates that are constant over the data (fixed variables, an
+  integer variable stuck at one value) are dropped, since they make P rank deficient;
+* anything still singular or inaccurate falls back to a minimum-norm least-squares solve.
+
+Refitting is cheap as points arrive: the distance matrix of the previous fit is reused
+when the new data extend the old (same points first), and only new rows are computed.
+All distances come from one elementwise routine, so an incremental fit is bit-identical
+to a fresh one (needed for exact resume of the strategy).
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import scipy.linalg
+
+
+def distances(A: np.ndarray, B: np.ndarray) -> np.ndarray:
+    """Euclidean distances between the rows of A (m, d) and B (n, d).
+
+    Summed one coordinate at a time: every entry is computed by the same sequence of
+    float operations whatever the shapes, which keeps cached and fresh fits identical.
+    """
+    A = np.asarray(A, dtype=float)
+    B = np.asarray(B, dtype=float)
+    acc = np.zeros((A.shape[0], B.shape[0]))
+    for k in range(A.shape[1]):
+        diff = A[:, k, None] - B[None, :, k]
+        acc += diff * diff
+    return np.sqrt(acc)
+
+
+class CubicRBF:
+    """Cubic RBF interpolant with linear tail; ``fit(X, f)`` then ``s(Xq)``."""
+
+    def __init__(self, ridge: float = 1e-10):
+        self.ridge = float(ridge)
+        self.X: np.ndarray | None = None
+        self._D: np.ndarray | None = None
+        self.lam: np.ndarray | None = None
+        self.beta: np.ndarray | None = None  # [a, b_j for j in tail_dims]
+        self.tail_dims: np.ndarray | None = None
+        self.used_lstsq = False
+
+    # -- fitting ------------------------------------------------------------
+    def _distance_matrix(self, X: np.ndarray) -> np.ndarray:
+        n0 = 0 if self.X is None else len(self.X)
+        if 0 < n0 <= len(X) and self.X.shape[1] == X.shape[1] and np.array_equal(X[:n0], self.X):
+            D = np.empty((len(X), len(X)))
+            D[:n0, :n0] = self._D
+            if len(X) > n0:
+                new = distances(X[n0:], X)
+                D[n0:, :] = new
+                D[:, n0:] = new.T
+            return D
+        return distances(X, X)
+
+    def fit(self, X: np.ndarray, f: np.ndarray) -> "CubicRBF":
+        X = np.array(X, dtype=float, ndmin=2)
+        f = np.asarray(f, dtype=float).ravel()
+        n, d = X.shape
+        if len(f) != n:
+            raise ValueError(f"{n} points but {len(f)} values")
+        if n == 0:
+            raise ValueError("cannot fit an RBF to no points")
+        if not np.all(np.isfinite(f)) or not np.all(np.isfinite(X)):
+            raise ValueError("RBF data must be finite")
+        D = self._distance_matrix(X)
+        self.X, self._D = X, D
+        Phi = D * D * D
+        tail = np.flatnonzero(np.ptp(X, axis=0) > 0) if n > 1 else np.empty(0, dtype=int)
+        P = np.hstack([np.ones((n, 1)), X[:, tail]])
+        m = P.shape[1]
+        A = np.zeros((n + m, n + m))
+        A[:n, :n] = Phi
+        A[np.arange(n), np.arange(n)] += self.ridge * max(1.0, float(Phi.max()))
+        A[:n, n:] = P
+        A[n:, :n] = P.T
+        rhs = np.concatenate([f, np.zeros(m)])
+        sol = None
+        self.used_lstsq = False
+        if np.linalg.matrix_rank(P) == m:
+            try:
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore", scipy.linalg.LinAlgWarning)
+                    sol = scipy.linalg.solve(A, rhs, assume_a="sym", check_finite=False)
+                res = np.abs(A @ sol - rhs).max()
+                if not np.isfinite(res) or res > 1e-8 * max(1.0, np.abs(f).max()):
+                    sol = None
+            except (np.linalg.LinAlgError, ValueError):
+                sol = None
+        if sol is None:
+            self.used_lstsq = True
+            sol = scipy.linalg.lstsq(A, rhs, check_finite=False, lapack_driver="gelsd")[0]
+        self.lam, self.beta, self.tail_dims = sol[:n], sol[n:], tail
+        return self
+
+    # -- evaluation ------------------------------------------------------------
+    def __call__(self, Xq: np.ndarray) -> np.ndarray:
+        if self.lam is None:
+            raise RuntimeError("RBF not fitted")
+        Xq = np.asarray(Xq, dtype=float)
+        single = Xq.ndim == 1
+        Xq = np.atleast_2d(Xq)
+        r = distances(Xq, self.X)
+        s = (r * r * r) @ self.lam + self.beta[0] + Xq[:, self.tail_dims] @ self.beta[1:]
+        return s[0] if single else s
+
+    def gradient(self, x: np.ndarray) -> np.ndarray:
+        """Gradient at one point x (d,): d/dx ||x - x_k||^3 = 3 ||x - x_k|| (x - x_k)."""
+        x = np.asarray(x, dtype=float)
+        diff = x[None, :] - self.X
+        r = np.sqrt(np.einsum("ij,ij->i", diff, diff))
+        g = 3.0 * (self.lam * r) @ diff
+        g[self.tail_dims] += self.beta[1:]
+        return g

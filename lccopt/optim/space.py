@@ -1,0 +1,143 @@
+"""Design space: bounded continuous and integer variables plus given points.
+
+The optimiser works on the unit box internally (so that distances and the RBF
+shape do not depend on the units of the variables); this module owns the
+mapping both ways and the rounding of integer variables.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+@dataclass
+class DesignSpace:
+    names: list[str]
+    lower: list[float]
+    upper: list[float]
+    integer: list[bool]
+    given: list[list[float]] = field(default_factory=list)
+
+    def __post_init__(self) -> None:
+        self.names = [str(n) for n in self.names]
+        self.lower = [float(v) for v in np.asarray(self.lower, dtype=float).ravel()]
+        self.upper = [float(v) for v in np.asarray(self.upper, dtype=float).ravel()]
+        self.integer = [bool(v) for v in self.integer]
+        d = len(self.names)
+        if d == 0:
+            raise ValueError("design space needs at least one variable")
+        if len(set(self.names)) != d:
+            raise ValueError(f"variable names must be unique: {self.names}")
+        for what, seq in (("lower", self.lower), ("upper", self.upper), ("integer", self.integer)):
+            if len(seq) != d:
+                raise ValueError(f"{what} has {len(seq)} entries, expected {d} (one per variable)")
+        for i, name in enumerate(self.names):
+            lo, hi = self.lower[i], self.upper[i]
+            if not (math.isfinite(lo) and math.isfinite(hi)):
+                raise ValueError(f"variable {name!r}: bounds must be finite, got [{lo}, {hi}]")
+            if lo > hi:
+                raise ValueError(f"variable {name!r}: lower bound {lo} > upper bound {hi}")
+            if self.integer[i] and (lo != round(lo) or hi != round(hi)):
+                raise ValueError(f"integer variable {name!r}: bounds must be integers, got [{lo}, {hi}]")
+        given = np.asarray(self.given, dtype=float)
+        if given.size == 0:
+            given = np.empty((0, d))
+        if given.ndim == 1:
+            given = given[None, :]
+        if given.ndim != 2 or given.shape[1] != d:
+            raise ValueError(f"given points must each have {d} values, got shape {given.shape}")
+        for j, g in enumerate(given):
+            self.check(g, what=f"given point {j}")
+        for j in range(len(given)):
+            for k in range(j):
+                if np.array_equal(given[j], given[k]):
+                    raise ValueError(f"given points {k} and {j} are the same point")
+        self.given = [[float(v) for v in g] for g in given]
+
+    # -- arrays -----------------------------------------------------------
+    @property
+    def dim(self) -> int:
+        return len(self.names)
+
+    @property
+    def lb(self) -> np.ndarray:
+        return np.array(self.lower)
+
+    @property
+    def ub(self) -> np.ndarray:
+        return np.array(self.upper)
+
+    @property
+    def int_mask(self) -> np.ndarray:
+        return np.array(self.integer, dtype=bool)
+
+    @property
+    def span(self) -> np.ndarray:
+        """Range of each variable; 1 for fixed variables so that scaling never divides by 0."""
+        s = self.ub - self.lb
+        return np.where(s > 0, s, 1.0)
+
+    @property
+    def given_array(self) -> np.ndarray:
+        return np.array(self.given, dtype=float).reshape(-1, self.dim)
+
+    # -- mapping ----------------------------------------------------------
+    def to_unit(self, x: np.ndarray) -> np.ndarray:
+        return (np.asarray(x, dtype=float) - self.lb) / self.span
+
+    def from_unit(self, u: np.ndarray) -> np.ndarray:
+        return self.lb + np.asarray(u, dtype=float) * self.span
+
+    def snap(self, x: np.ndarray) -> np.ndarray:
+        """Clip to the bounds and round the integer variables (works on (d,) or (n, d))."""
+        x = np.clip(np.asarray(x, dtype=float), self.lb, self.ub)
+        m = self.int_mask
+        if m.any():
+            x[..., m] = np.rint(x[..., m])
+        return x
+
+    def check(self, x, what: str = "point") -> np.ndarray:
+        x = np.asarray(x, dtype=float)
+        if x.shape != (self.dim,):
+            raise ValueError(f"{what}: expected {self.dim} values, got shape {x.shape}")
+        if not np.all(np.isfinite(x)):
+            raise ValueError(f"{what}: values must be finite, got {x.tolist()}")
+        bad = (x < self.lb) | (x > self.ub)
+        if bad.any():
+            i = int(np.flatnonzero(bad)[0])
+            raise ValueError(f"{what}: {self.names[i]}={x[i]} outside [{self.lower[i]}, {self.upper[i]}]")
+        m = self.int_mask
+        if np.any(x[m] != np.rint(x[m])):
+            i = int(np.flatnonzero(m & (x != np.rint(x)))[0])
+            raise ValueError(f"{what}: integer variable {self.names[i]}={x[i]} is not integral")
+        return x
+
+    # -- integer grid -----------------------------------------------------
+    @property
+    def n_grid(self) -> float:
+        """Number of distinct points if every variable is integer (or fixed), else inf."""
+        span = self.ub - self.lb
+        if np.any(~self.int_mask & (span > 0)):
+            return math.inf
+        return float(np.prod(np.where(self.int_mask, span + 1, 1.0)))
+
+    def grid(self) -> np.ndarray:
+        """All points of a finite (all-integer) space, in lexicographic order."""
+        if not math.isfinite(self.n_grid):
+            raise ValueError("space has continuous variables; it has no finite grid")
+        axes = [np.arange(lo, hi + 1.0) if m else np.array([lo])
+                for lo, hi, m in zip(self.lower, self.upper, self.integer)]
+        return np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, self.dim)
+
+    # -- serialisation ------------------------------------------------------
+    def to_dict(self) -> dict:
+        return {"names": list(self.names), "lower": list(self.lower), "upper": list(self.upper),
+                "integer": list(self.integer), "given": [list(g) for g in self.given]}
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "DesignSpace":
+        return cls(names=d["names"], lower=d["lower"], upper=d["upper"],
+                   integer=d["integer"], given=d.get("given", []))

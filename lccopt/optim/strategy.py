@@ -1,0 +1,545 @@
+"""Mixed-integer surrogate optimisation as an ask/tell state machine (paper Steps A, C-G).
+
+Metric Stochastic Response Surface (Regis & Shoemaker) with DYCORS perturbations:
+
+* Step A: the given points, then an integer-aware Latin hypercube (``sampling``).
+* Step C: a cubic RBF with linear tail (``rbf``) on the evaluated points of the current
+  restart, in the unit box, fitted to median-capped values (values above the median are
+  replaced by the median, as in Regis & Shoemaker and pySOT: one huge value would
+  otherwise flatten the surrogate everywhere else).
+* Steps D-E: candidates (DYCORS perturbations of the best point, uniform points, and a
+  local mixed-integer search of the surrogate), scored by the merit of Eq. (11) with the
+  weight cycling through 0.3, 0.5, 0.8, 0.95; the best-scoring candidate is proposed.
+  A candidate equal to a point already evaluated, failed or pending (same integers,
+  continuous part within a tolerance) is never proposed.
+* Step F: step size sigma adapted by success/failure counters; restart with a fresh
+  design when sigma collapses or evaluations keep failing.
+* Step G: stop at a budget of told evaluations (failures included).
+
+The object holds no references to files, processes or clocks: every decision depends only
+on its state, which ``state_dict`` writes out completely (random generator included) as
+plain JSON types, so a restored strategy proposes exactly what the original would have.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import tempfile
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.optimize
+from scipy.spatial.distance import cdist
+
+from .rbf import CubicRBF
+from .sampling import latin_hypercube
+from .space import DesignSpace
+
+STATE_FORMAT = "lccopt.optim.strategy"
+STATE_VERSION = 1
+PHASES = ("initial", "adaptive", "random", "local")
+
+# Largest all-integer grid that is listed point by point once random candidates stop
+# finding unused points (so that a nearly exhausted grid is still searched to the end).
+_ENUMERATE_LIMIT = 200_000
+
+
+@dataclass
+class Proposal:
+    id: int
+    x: np.ndarray
+    phase: str
+    restart: int
+
+
+def _default_settings(space: DesignSpace) -> dict:
+    d = space.dim
+    return {
+        "weights": [0.3, 0.5, 0.8, 0.95],
+        "n_perturb": min(5000, 100 * d),   # DYCORS candidates per proposal
+        "n_uniform": min(1000, 10 * d),    # uniform candidates per proposal
+        "uniform_weights": [0.3],          # weights of the cycle at which they compete
+        "n_branches": 3,                   # integer assignments tried by the local search
+        "local_maxiter": 30,               # L-BFGS-B iterations per branch
+        "sigma_init": 0.2,
+        "sigma_max": 0.2,
+        "sigma_min": 0.2 * 0.5 ** 6,       # restart when sigma falls below this
+        "fail_tol": max(d, 5),             # failures in a row that halve sigma
+        "succ_tol": 3,                     # successes in a row that double sigma
+        "improvement_tol": 1e-3,           # success: f < f_best - tol * |f_best|
+        "max_failed_row": max(d, 5),       # failed evaluations in a row that force a restart
+        "capping": True,                   # median-cap values before fitting
+        "dist_tol": 1e-3,                  # duplicate radius (unit box, times sqrt(d_cont))
+    }
+
+
+class Strategy:
+    """MSRS/DYCORS mixed-integer strategy; see the module docstring."""
+
+    def __init__(self, space: DesignSpace, budget: int = 200, n_initial: int = 20,
+                 seed: int | None = 0, **settings):
+        if not isinstance(space, DesignSpace):
+            raise TypeError("space must be a DesignSpace")
+        if int(budget) < 1:
+            raise ValueError("budget must be >= 1")
+        if int(n_initial) < 1:
+            raise ValueError("n_initial must be >= 1")
+        self._setup(space, int(budget), int(n_initial), seed, settings)
+        self._rng = np.random.default_rng(seed)
+        self._records: list[dict] = []
+        self._restart = 0
+        given = space.given_array
+        lhs = latin_hypercube(space, max(0, self.n_initial - len(given)), self._rng, exclude=given)
+        self._begin_restart_state(list(given) + list(lhs))
+
+    def _setup(self, space: DesignSpace, budget: int, n_initial: int, seed, settings: dict) -> None:
+        unknown = set(settings) - set(_default_settings(space))
+        if unknown:
+            raise TypeError(f"unknown Strategy settings: {sorted(unknown)}")
+        self.space = space
+        self.budget = budget
+        self.n_initial = n_initial
+        self.seed = None if seed is None else int(seed)
+        self.settings = {**_default_settings(space), **settings}
+        for key in ("weights", "uniform_weights"):
+            self.settings[key] = [float(w) for w in self.settings[key]]
+        if not self.settings["weights"] or not all(0.0 <= w <= 1.0 for w in self.settings["weights"]):
+            raise ValueError("weights must be a non-empty list of numbers in [0, 1]")
+        self._rbf = CubicRBF()  # cache only (distance matrix); never part of the state
+        span = space.ub - space.lb
+        self._int = space.int_mask
+        self._cont = ~self._int & (span > 0)
+        self._free = span > 0
+        self._span = space.span
+
+    def _begin_restart_state(self, design: list) -> None:
+        self._queue = [np.asarray(x, dtype=float) for x in design]
+        self._restart_start_n = len(self._records)
+        self._n_init_restart = len(self._queue)
+        self._sigma = float(self.settings["sigma_init"])
+        self._n_fail = 0
+        self._n_succ = 0
+        self._failed_row = 0
+        self._n_adaptive = 0
+        self._w_index = 0
+        self._fbest_restart: float | None = None
+        self._exhausted = False
+
+    # -- public read-only view ------------------------------------------------------
+    @property
+    def n_asked(self) -> int:
+        return len(self._records)
+
+    @property
+    def n_told(self) -> int:
+        return sum(r["status"] != "pending" for r in self._records)
+
+    @property
+    def pending(self) -> list[int]:
+        return [r["id"] for r in self._records if r["status"] == "pending"]
+
+    @property
+    def exhausted(self) -> bool:
+        """True once every point of a finite (all-integer) space has been proposed."""
+        return self._exhausted
+
+    @property
+    def done(self) -> bool:
+        """Budget of told evaluations used up (or the space exhausted with nothing pending)."""
+        return self.n_told >= self.budget or (self._exhausted and not self.pending)
+
+    @property
+    def restart(self) -> int:
+        return self._restart
+
+    @property
+    def sigma(self) -> float:
+        return self._sigma
+
+    @property
+    def best(self):
+        ok = [r for r in self._records if r["status"] == "ok"]
+        if not ok:
+            return None
+        r = min(ok, key=lambda r: (r["value"], r["id"]))
+        return r["x"].copy(), r["value"]
+
+    @property
+    def history(self) -> list[dict]:
+        return [{**r, "x": r["x"].copy()} for r in self._records]
+
+    # -- ask ------------------------------------------------------------------------------
+    def ask(self, k: int = 1) -> list[Proposal]:
+        """Up to k new points; fewer only at the budget or when the space is exhausted."""
+        out: list[Proposal] = []
+        ctx = None
+        for _ in range(int(k)):
+            if self.n_asked >= self.budget or self._exhausted:
+                break
+            if not self._queue and self._needs_restart():
+                self._start_restart()
+                ctx = None
+            if self._queue:
+                x, phase = self._queue.pop(0), "initial"
+                if ctx is not None:
+                    ctx.add(x)
+            else:
+                if ctx is None:
+                    ctx = self._prepare()
+                pick = self._select(ctx)
+                if pick is None:
+                    self._exhausted = True
+                    break
+                x, phase = pick
+                ctx.add(x)
+            rec = {"id": self.n_asked, "x": np.asarray(x, dtype=float).copy(), "phase": phase,
+                   "restart": self._restart, "status": "pending", "value": None, "reason": None}
+            self._records.append(rec)
+            out.append(Proposal(rec["id"], rec["x"].copy(), phase, self._restart))
+        return out
+
+    def _needs_restart(self) -> bool:
+        s = self.settings
+        return self._sigma < s["sigma_min"] or self._failed_row >= s["max_failed_row"]
+
+    def _start_restart(self) -> None:
+        """Fresh design; earlier points stay in the record and the duplicate set only."""
+        self._restart += 1
+        taken = np.array([r["x"] for r in self._records]).reshape(-1, self.space.dim)
+        design = latin_hypercube(self.space, self.n_initial, self._rng, exclude=taken)
+        self._begin_restart_state(list(design))
+
+    # -- surrogate and candidates -------------------------------------------------------------
+    def _prepare(self) -> "_Context":
+        sp = self.space
+        recs = self._records
+        taken = np.array([r["x"] for r in recs]).reshape(-1, sp.dim)
+        # Distance criterion: points of this restart (any status) and everything in flight.
+        near = [r["x"] for r in recs if r["restart"] == self._restart or r["status"] == "pending"]
+        ctx = _Context(self, taken, np.array(near).reshape(-1, sp.dim))
+        ok = sorted((r for r in recs if r["status"] == "ok" and r["restart"] == self._restart),
+                    key=lambda r: r["id"])
+        if ok:
+            ib = min(range(len(ok)), key=lambda i: (ok[i]["value"], ok[i]["id"]))
+            ctx.best = ok[ib]["x"]
+        if len(ok) >= 2:
+            X = sp.to_unit(np.array([r["x"] for r in ok]))
+            f = np.array([r["value"] for r in ok])
+            if self.settings["capping"]:
+                f = np.minimum(f, np.median(f))
+            ctx.rbf = self._rbf.fit(X, f)
+            ctx.local = self._local_search(ctx)
+        return ctx
+
+    def _select(self, ctx: "_Context"):
+        """Best candidate by the merit of Eq. (11), or None if the space is exhausted."""
+        if math.isfinite(ctx.n_grid) and len(ctx.taken) >= ctx.n_grid:
+            return None
+        s = self.settings
+        w = s["weights"][self._w_index % len(s["weights"])]
+        n_pert, n_unif, sigma = s["n_perturb"], s["n_uniform"], self._sigma
+        for attempt in range(8):
+            C, src = [], []
+            if ctx.best is not None and n_pert > 0:
+                C.append(self._perturb(ctx.best, n_pert, sigma))
+                src += ["adaptive"] * n_pert
+            if ctx.local is not None and attempt == 0 and len(ctx.local):
+                C.append(ctx.local)
+                src += ["local"] * len(ctx.local)
+            if n_unif > 0 and (attempt > 0 or w in s["uniform_weights"]):
+                C.append(self._uniform(n_unif))
+                src += ["random"] * n_unif
+            if attempt >= 3 and math.isfinite(ctx.n_grid) and ctx.n_grid <= _ENUMERATE_LIMIT:
+                G = self.space.grid()
+                C.append(G)
+                src += ["random"] * len(G)
+            C = np.vstack(C) if C else np.empty((0, self.space.dim))
+            free = ~ctx.is_taken(C)
+            if free.any():
+                C, src = C[free], [t for t, f in zip(src, free) if f]
+                break
+            # Everything near the best is used up: widen the steps, add more uniform points.
+            sigma = min(1.0, 2.0 * sigma)
+            n_unif = max(2 * n_unif, 100)
+        else:
+            return None
+        if len(C) == 0:
+            return None
+        Cu = self.space.to_unit(C)
+        dist = cdist(Cu, ctx.near_u).min(axis=1) if len(ctx.near_u) else np.ones(len(C))
+        dd = _scale(dist.max() - dist)
+        if ctx.rbf is None:
+            i = int(np.argmin(dd))  # no surrogate yet: pure space filling
+        else:
+            i = int(np.argmin(w * _scale(ctx.rbf(Cu)) + (1.0 - w) * dd))
+            self._w_index += 1
+        self._n_adaptive += 1
+        return C[i].copy(), src[i]
+
+    def _perturb(self, best: np.ndarray, m: int, sigma: float) -> np.ndarray:
+        """DYCORS: perturb each coordinate with a probability that shrinks with the budget."""
+        sp, rng = self.space, self._rng
+        d = sp.dim
+        free_idx = np.flatnonzero(self._free)
+        if len(free_idx) == 0:
+            return np.repeat(best[None, :], m, axis=0)
+        n_left = self.budget - self._restart_start_n - self._n_init_restart
+        p = min(20.0 / d, 1.0)
+        if n_left > 1:
+            p *= max(0.0, 1.0 - math.log(self._n_adaptive + 1) / math.log(n_left))
+        else:
+            p = 0.0
+        mask = (rng.random((m, d)) < p) & self._free
+        none = ~mask.any(axis=1)
+        pick = free_idx[rng.integers(len(free_idx), size=m)]
+        mask[np.flatnonzero(none), pick[none]] = True  # always at least one coordinate
+        step = sigma * self._span * rng.standard_normal((m, d))
+        # Integers move by at least one unit step, then by the rounded step.
+        step[:, self._int] = np.where(step[:, self._int] >= 0, 1.0, -1.0) * np.maximum(
+            1.0, np.rint(np.abs(step[:, self._int])))
+        X = best[None, :] + np.where(mask, step, 0.0)
+        lb, ub = sp.lb, sp.ub
+        X = np.where(X < lb, 2 * lb - X, X)  # reflect back into the box
+        X = np.where(X > ub, 2 * ub - X, X)
+        return sp.snap(X)
+
+    def _uniform(self, m: int) -> np.ndarray:
+        sp = self.space
+        lo = np.where(self._int, sp.lb - 0.5, sp.lb)
+        hi = np.where(self._int, sp.ub + 0.5, sp.ub)
+        return sp.snap(lo + self._rng.random((m, sp.dim)) * (hi - lo))
+
+    def _local_search(self, ctx: "_Context") -> np.ndarray:
+        """Node-limited branch-and-bound stand-in on the surrogate (no RNG use).
+
+        An RBF gives no valid lower bound, so branches are heuristic integer assignments:
+        the best point's, the rounded minimiser of the relaxed (all-continuous) surrogate,
+        and the best unused unit-step neighbours of the best point by surrogate value. On
+        each branch the continuous part is minimised with L-BFGS-B from the best point.
+        """
+        sp, rbf, best = self.space, ctx.rbf, ctx.best
+        s = self.settings
+        if best is None or s["n_branches"] <= 0:
+            return np.empty((0, sp.dim))
+        bu = sp.to_unit(best)
+        opts = {"maxiter": int(s["local_maxiter"])}
+
+        def minimise(u0: np.ndarray, dims: np.ndarray) -> np.ndarray:
+            if len(dims) == 0:
+                return u0
+            u = u0.copy()
+
+            def fg(z):
+                u[dims] = z
+                return float(rbf(u)), rbf.gradient(u)[dims]
+
+            res = scipy.optimize.minimize(fg, u0[dims], jac=True, method="L-BFGS-B",
+                                          bounds=[(0.0, 1.0)] * len(dims), options=opts)
+            out = u0.copy()
+            out[dims] = np.clip(res.x, 0.0, 1.0)
+            return out
+
+        cont = np.flatnonzero(self._cont)
+        ints = np.flatnonzero(self._int & self._free)
+        branches = [best[ints]]
+        if len(ints):
+            relaxed = sp.snap(sp.from_unit(minimise(bu, np.flatnonzero(self._free))))
+            branches.append(relaxed[ints])
+            nb = np.repeat(best[None, :], 2 * len(ints), axis=0)
+            nb[np.arange(len(ints)), ints] += 1.0
+            nb[len(ints) + np.arange(len(ints)), ints] -= 1.0
+            inside = np.all((nb >= sp.lb) & (nb <= sp.ub), axis=1)
+            nb = nb[inside]
+            if len(cont) == 0:
+                nb = nb[~ctx.is_taken(nb)]
+            order = np.argsort(rbf(sp.to_unit(nb)), kind="stable")
+            branches += [nb[j, ints] for j in order]
+        pts, seen = [], set()
+        for b in branches:
+            key = tuple(np.asarray(b).tolist())
+            if key in seen:
+                continue
+            seen.add(key)
+            x0 = best.copy()
+            x0[ints] = b
+            u = sp.to_unit(x0)
+            pts.append(sp.snap(sp.from_unit(minimise(u, cont))))
+            if len(pts) >= s["n_branches"] + 1:
+                break
+        return np.array(pts).reshape(-1, sp.dim)
+
+    # -- tell -----------------------------------------------------------------------------------
+    def _find(self, x_or_id) -> dict:
+        if isinstance(x_or_id, (int, np.integer)):
+            i = int(x_or_id)
+            if not 0 <= i < len(self._records):
+                raise KeyError(f"no proposal with id {i}")
+            rec = self._records[i]
+        elif isinstance(x_or_id, Proposal):
+            rec = self._records[x_or_id.id]
+        else:
+            x = np.asarray(x_or_id, dtype=float)
+            hits = [r for r in self._records if np.array_equal(r["x"], x)]
+            if not hits:
+                raise KeyError(f"point {x.tolist()} was never proposed")
+            pend = [r for r in hits if r["status"] == "pending"]
+            rec = pend[0] if pend else hits[0]
+        if rec["status"] != "pending":
+            raise ValueError(f"proposal {rec['id']} was already told ({rec['status']})")
+        return rec
+
+    def tell(self, x_or_id, value: float) -> None:
+        """Result of a proposal (by id, Proposal or x). A non-finite value counts as failed."""
+        rec = self._find(x_or_id)
+        value = float(value)
+        if not math.isfinite(value):
+            self._fail(rec, f"non-finite value {value!r}")
+            return
+        rec["status"], rec["value"] = "ok", value
+        if rec["restart"] != self._restart:
+            return  # a straggler from before the restart: recorded, not used
+        self._failed_row = 0
+        fb = self._fbest_restart
+        if rec["phase"] != "initial" and fb is not None:
+            self._count(value < fb - self.settings["improvement_tol"] * abs(fb))
+        if fb is None or value < fb:
+            self._fbest_restart = value
+
+    def tell_failed(self, x_or_id, reason: str = "") -> None:
+        """A failed evaluation: uses budget, never proposed again, not fitted."""
+        self._fail(self._find(x_or_id), str(reason))
+
+    def _fail(self, rec: dict, reason: str) -> None:
+        rec["status"], rec["reason"] = "failed", reason
+        if rec["restart"] != self._restart:
+            return
+        self._failed_row += 1
+        if rec["phase"] != "initial":
+            self._count(False)
+
+    def _count(self, success: bool) -> None:
+        s = self.settings
+        if success:
+            self._n_succ, self._n_fail = self._n_succ + 1, 0
+        else:
+            self._n_fail, self._n_succ = self._n_fail + 1, 0
+        if self._n_fail >= s["fail_tol"]:
+            self._sigma, self._n_fail = self._sigma / 2.0, 0
+        if self._n_succ >= s["succ_tol"]:
+            self._sigma, self._n_succ = min(2.0 * self._sigma, s["sigma_max"]), 0
+
+    # -- state ----------------------------------------------------------------------------------
+    def state_dict(self) -> dict:
+        """The whole state as plain JSON types (floats round-trip exactly through json)."""
+        return {
+            "format": STATE_FORMAT,
+            "version": STATE_VERSION,
+            "space": self.space.to_dict(),
+            "budget": self.budget,
+            "n_initial": self.n_initial,
+            "seed": self.seed,
+            "settings": {k: (list(v) if isinstance(v, (list, tuple)) else v)
+                         for k, v in self.settings.items()},
+            "rng": self._rng.bit_generator.state,
+            "records": [{**r, "x": [float(v) for v in r["x"]]} for r in self._records],
+            "queue": [[float(v) for v in x] for x in self._queue],
+            "restart": self._restart,
+            "restart_start_n": self._restart_start_n,
+            "n_init_restart": self._n_init_restart,
+            "sigma": self._sigma,
+            "n_fail": self._n_fail,
+            "n_succ": self._n_succ,
+            "failed_row": self._failed_row,
+            "n_adaptive": self._n_adaptive,
+            "w_index": self._w_index,
+            "fbest_restart": self._fbest_restart,
+            "exhausted": self._exhausted,
+        }
+
+    @classmethod
+    def from_state(cls, d: dict) -> "Strategy":
+        if d.get("format") != STATE_FORMAT:
+            raise ValueError("not an lccopt strategy state")
+        if d.get("version") != STATE_VERSION:
+            raise ValueError(f"unsupported strategy state version {d.get('version')}")
+        s = cls.__new__(cls)
+        s._setup(DesignSpace.from_dict(d["space"]), int(d["budget"]), int(d["n_initial"]),
+                 d["seed"], dict(d["settings"]))
+        bg = getattr(np.random, d["rng"]["bit_generator"])()
+        bg.state = d["rng"]
+        s._rng = np.random.Generator(bg)
+        s._records = [{**r, "x": np.array(r["x"], dtype=float)} for r in d["records"]]
+        s._queue = [np.array(x, dtype=float) for x in d["queue"]]
+        s._restart = int(d["restart"])
+        s._restart_start_n = int(d["restart_start_n"])
+        s._n_init_restart = int(d["n_init_restart"])
+        s._sigma = float(d["sigma"])
+        s._n_fail, s._n_succ = int(d["n_fail"]), int(d["n_succ"])
+        s._failed_row = int(d["failed_row"])
+        s._n_adaptive, s._w_index = int(d["n_adaptive"]), int(d["w_index"])
+        s._fbest_restart = None if d["fbest_restart"] is None else float(d["fbest_restart"])
+        s._exhausted = bool(d["exhausted"])
+        return s
+
+    def save(self, path) -> None:
+        """Atomic write: temporary file in the same directory, fsync, rename."""
+        path = os.fspath(path)
+        text = json.dumps(self.state_dict(), allow_nan=False)
+        fd, tmp = tempfile.mkstemp(dir=os.path.dirname(os.path.abspath(path)),
+                                   prefix=os.path.basename(path) + ".", suffix=".tmp")
+        try:
+            with os.fdopen(fd, "w", encoding="utf-8") as fh:
+                fh.write(text)
+                fh.flush()
+                os.fsync(fh.fileno())
+            os.replace(tmp, path)
+        except BaseException:
+            if os.path.exists(tmp):
+                os.unlink(tmp)
+            raise
+
+    @classmethod
+    def load(cls, path) -> "Strategy":
+        with open(path, encoding="utf-8") as fh:
+            return cls.from_state(json.load(fh))
+
+
+def _scale(v: np.ndarray) -> np.ndarray:
+    lo, hi = float(v.min()), float(v.max())
+    return (v - lo) / (hi - lo) if hi > lo else np.zeros_like(v)
+
+
+class _Context:
+    """Per-ask working data: the fitted surrogate and the points to keep away from."""
+
+    def __init__(self, strategy: Strategy, taken: np.ndarray, near: np.ndarray):
+        sp = strategy.space
+        self.space = sp
+        self.int = strategy._int
+        self.cont = strategy._cont
+        self.tol = strategy.settings["dist_tol"] * math.sqrt(max(1, int(self.cont.sum())))
+        self.n_grid = sp.n_grid
+        self.taken = taken
+        self.near_u = sp.to_unit(near)
+        self.best: np.ndarray | None = None
+        self.rbf: CubicRBF | None = None
+        self.local: np.ndarray | None = None
+
+    def add(self, x: np.ndarray) -> None:
+        self.taken = np.vstack([self.taken, x[None, :]])
+        self.near_u = np.vstack([self.near_u, self.space.to_unit(x)[None, :]])
+
+    def is_taken(self, C: np.ndarray) -> np.ndarray:
+        """Same integer values and continuous part within tol of a used point."""
+        if len(self.taken) == 0 or len(C) == 0:
+            return np.zeros(len(C), dtype=bool)
+        same = np.ones((len(C), len(self.taken)), dtype=bool)
+        if self.int.any():
+            same &= cdist(C[:, self.int], self.taken[:, self.int], "chebyshev") == 0
+        if self.cont.any():
+            Cu = self.space.to_unit(C)[:, self.cont]
+            Tu = self.space.to_unit(self.taken)[:, self.cont]
+            same &= cdist(Cu, Tu) < self.tol
+        return same.any(axis=1)

@@ -1,0 +1,96 @@
+import numpy as np
+
+from lccopt.optim.rbf import CubicRBF
+
+
+def f_test(X):
+    return np.sin(3 * X[:, 0]) + X[:, 1] ** 2 - 0.5 * X[:, 2] * X[:, 0]
+
+
+def test_interpolates_data_exactly():
+    rng = np.random.default_rng(0)
+    X = rng.random((40, 4))
+    f = f_test(X)
+    s = CubicRBF().fit(X, f)
+    np.testing.assert_allclose(s(X), f, rtol=0, atol=1e-8)
+    assert not s.used_lstsq
+    # and approximates in between (a smooth function, 40 points in 4-D)
+    Xq = rng.random((200, 4))
+    assert np.abs(s(Xq) - f_test(Xq)).mean() < 0.2
+
+
+def test_linear_function_reproduced_everywhere():
+    rng = np.random.default_rng(1)
+    X = rng.random((15, 3))
+    lin = lambda Z: 2.0 - Z @ np.array([1.0, -3.0, 0.5])
+    s = CubicRBF().fit(X, lin(X))
+    Xq = rng.random((50, 3)) * 2 - 0.5  # also outside the data's box
+    np.testing.assert_allclose(s(Xq), lin(Xq), atol=1e-9)
+    np.testing.assert_allclose(s.lam, 0.0, atol=1e-9)
+
+
+def test_saddle_system_side_condition():
+    rng = np.random.default_rng(2)
+    X = rng.random((25, 3))
+    s = CubicRBF().fit(X, f_test(X))
+    # P^T lambda = 0 (Eq. 9, second block row)
+    P = np.hstack([np.ones((25, 1)), X])
+    np.testing.assert_allclose(P.T @ s.lam, 0.0, atol=1e-9)
+
+
+def test_near_duplicates_stay_finite():
+    rng = np.random.default_rng(3)
+    X = rng.random((20, 3))
+    X = np.vstack([X, X[:5] + 1e-13, X[5:7]])  # near and exact duplicates
+    f = f_test(X)
+    s = CubicRBF().fit(X, f)
+    v = s(rng.random((100, 3)))
+    assert np.all(np.isfinite(v))
+    assert np.all(np.isfinite(s.lam))
+    np.testing.assert_allclose(s(X), f, atol=1e-5)
+    assert np.abs(v).max() < 10 * np.abs(f).max() + 10
+
+
+def test_rank_deficient_tail():
+    rng = np.random.default_rng(4)
+    X = rng.random((12, 4))
+    X[:, 2] = 0.25  # a coordinate constant over the data: P has a dependent column
+    f = f_test(X)
+    s = CubicRBF().fit(X, f)
+    np.testing.assert_allclose(s(X), f, atol=1e-8)
+    # points on a line in 3-D (rank P = 2 < d + 1 even after dropping constant columns)
+    t = np.linspace(0, 1, 6)[:, None]
+    L = np.hstack([t, 2 * t, 1 - t])
+    s2 = CubicRBF().fit(L, np.sin(5 * t[:, 0]))
+    assert s2.used_lstsq
+    np.testing.assert_allclose(s2(L), np.sin(5 * t[:, 0]), atol=1e-7)
+    assert np.all(np.isfinite(s2(rng.random((20, 3)))))
+
+
+def test_too_few_points():
+    s = CubicRBF().fit(np.array([[0.1, 0.2, 0.3], [0.5, 0.5, 0.5]]), np.array([1.0, 2.0]))
+    assert np.all(np.isfinite(s(np.random.default_rng(0).random((5, 3)))))
+    np.testing.assert_allclose(s(np.array([[0.1, 0.2, 0.3]])), [1.0], atol=1e-8)
+
+
+def test_incremental_fit_bit_identical_to_fresh():
+    rng = np.random.default_rng(5)
+    X = rng.random((60, 8))
+    f = f_test(X)
+    inc = CubicRBF()
+    for n in (20, 21, 35, 60):
+        inc.fit(X[:n], f[:n])
+    fresh = CubicRBF().fit(X, f)
+    Xq = rng.random((30, 8))
+    assert np.array_equal(inc.lam, fresh.lam)
+    assert np.array_equal(inc(Xq), fresh(Xq))
+
+
+def test_gradient_matches_finite_differences():
+    rng = np.random.default_rng(6)
+    X = rng.random((30, 4))
+    s = CubicRBF().fit(X, f_test(X))
+    x = rng.random(4)
+    h = 1e-6
+    fd = np.array([(s(x + h * e) - s(x - h * e)) / (2 * h) for e in np.eye(4)])
+    np.testing.assert_allclose(s.gradient(x), fd, rtol=1e-5, atol=1e-6)

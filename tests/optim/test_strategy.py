@@ -1,0 +1,240 @@
+import json
+
+import numpy as np
+import pytest
+
+from lccopt.optim import problems
+from lccopt.optim.sampling import latin_hypercube
+from lccopt.optim.space import DesignSpace
+from lccopt.optim.strategy import PHASES, Proposal, Strategy
+
+REFERENCE = [600.0, 600.0, 600.0, 0.0, 6.0, 6.0, 4.0, 0.0]  # like the paper's reference design
+
+
+def run_serial(strategy, fun):
+    while not strategy.done:
+        props = strategy.ask(1)
+        if not props:
+            break
+        for p in props:
+            strategy.tell(p.id, fun(p.x))
+    return strategy
+
+
+# -- basic behaviour -------------------------------------------------------------------------
+def test_given_point_first_then_lhs_then_adaptive():
+    p = problems.paper_size("levy", given=[REFERENCE])
+    s = Strategy(p.space, budget=40, n_initial=20, seed=0)
+    first = s.ask(1)[0]
+    assert isinstance(first, Proposal)
+    assert first.id == 0 and first.phase == "initial" and first.restart == 0
+    assert first.x.tolist() == REFERENCE
+    s.tell(first.id, p(first.x))
+    run_serial(s, p)
+    h = s.history
+    assert [r["id"] for r in h] == list(range(40))
+    assert [r["phase"] for r in h[:20]] == ["initial"] * 20
+    assert all(r["phase"] in PHASES[1:] for r in h[20:])
+    X = np.array([r["x"] for r in h])
+    assert np.all(X >= p.space.lb) and np.all(X <= p.space.ub)
+    assert np.all(X[:, 3:] == np.rint(X[:, 3:]))
+    assert len(np.unique(X, axis=0)) == 40
+    assert s.n_asked == s.n_told == 40 and s.done and s.pending == []
+    assert s.ask(3) == []
+    x, v = s.best
+    assert v == min(r["value"] for r in h)
+
+
+def test_budget_counts_failures_and_ask_stops():
+    sp = problems.paper_size("ackley").space
+    s = Strategy(sp, budget=5, n_initial=3, seed=1)
+    props = s.ask(10)
+    assert len(props) == 5 and s.n_asked == 5 and s.ask(1) == []
+    assert s.pending == [0, 1, 2, 3, 4]
+    s.tell_failed(props[3].id, "solver diverged")
+    s.tell(props[1].x, 1.0)  # by x
+    s.tell(props[0], float("nan"))  # by Proposal; non-finite counts as failed
+    assert not s.done
+    s.tell(2, 3.0)
+    s.tell(4, 0.5)
+    assert s.done and s.n_told == 5
+    h = s.history
+    assert [r["status"] for r in h] == ["failed", "ok", "ok", "failed", "ok"]
+    assert h[3]["reason"] == "solver diverged" and "non-finite" in h[0]["reason"]
+    assert s.best[1] == 0.5
+    with pytest.raises(ValueError, match="already told"):
+        s.tell(2, 1.0)
+    with pytest.raises(KeyError):
+        s.tell(np.zeros(8), 1.0)
+
+
+def test_all_phases_occur():
+    p = problems.paper_size("rastrigin")
+    s = run_serial(Strategy(p.space, budget=120, seed=3), p)
+    phases = {r["phase"] for r in s.history}
+    assert phases == set(PHASES)
+
+
+# -- beats random search and Latin hypercube ---------------------------------------------------------
+@pytest.mark.parametrize("name", ["ackley8", "levy8", "rastrigin8", "gear", "nvs09"])
+def test_beats_random_and_lhs(name):
+    p = problems.get(name)
+    budget, seeds = 70, range(3)
+    ours = [run_serial(Strategy(p.space, budget=budget, seed=s), p).best[1] - p.f_opt for s in seeds]
+    rand, lhs = [], []
+    for s in seeds:
+        rng = np.random.default_rng(100 + s)
+        sp = p.space
+        lo = np.where(sp.int_mask, sp.lb - 0.5, sp.lb)
+        hi = np.where(sp.int_mask, sp.ub + 0.5, sp.ub)
+        rand.append(p(sp.snap(lo + rng.random((budget, sp.dim)) * (hi - lo))).min() - p.f_opt)
+        lhs.append(p(latin_hypercube(sp, budget, rng)).min() - p.f_opt)
+    assert np.mean(ours) < np.mean(rand)
+    assert np.mean(ours) < np.mean(lhs)
+
+
+# -- duplicates and exhaustion ------------------------------------------------------------------------
+def int_space():
+    return DesignSpace(["a", "b", "c"], [0, 0, 0], [4, 4, 4], [True] * 3)  # 125 points
+
+
+def bowl(x):
+    return float(np.sum((np.asarray(x) - [1, 3, 2]) ** 2))
+
+
+def test_no_duplicates_on_integer_problem():
+    s = run_serial(Strategy(int_space(), budget=100, n_initial=10, seed=0), bowl)
+    X = np.array([r["x"] for r in s.history])
+    assert len(X) == 100 and len(np.unique(X, axis=0)) == 100
+    assert s.best[1] == 0.0
+
+
+def test_integer_space_exhausted():
+    s = Strategy(int_space(), budget=200, n_initial=10, seed=2)
+    props = []
+    while True:
+        got = s.ask(4)
+        if not got:
+            break
+        props += got
+        for p in got:
+            s.tell(p.id, bowl(p.x))
+    X = np.array([p.x for p in props])
+    assert len(X) == 125 and len(np.unique(X, axis=0)) == 125
+    assert s.exhausted and s.done
+
+
+# -- failures ----------------------------------------------------------------------------------------------
+def test_failed_points_not_reproposed_and_surrogate_survives():
+    p = problems.paper_size("levy")
+    s = Strategy(p.space, budget=90, seed=4)
+    n_failed = 0
+    while not s.done:
+        for pr in s.ask(2):
+            # The "simulator" crashes on a third of the railpad range and at random.
+            if pr.x[0] > 850 or pr.id % 7 == 3:
+                s.tell_failed(pr.id, "crash")
+                n_failed += 1
+            else:
+                s.tell(pr.id, p(pr.x))
+    h = s.history
+    X = np.array([r["x"] for r in h])
+    assert len(np.unique(X, axis=0)) == len(X) == 90
+    assert n_failed == sum(r["status"] == "failed" for r in h) > 10
+    x, v = s.best
+    assert np.isfinite(v) and x[0] <= 850
+    # still better than the best of the initial design
+    assert v < min(r["value"] for r in h[:20] if r["status"] == "ok")
+
+
+def test_repeated_failures_force_restart():
+    p = problems.paper_size("ackley")
+    s = Strategy(p.space, budget=60, n_initial=10, seed=0, max_failed_row=4)
+    while not s.done:
+        for pr in s.ask(1):
+            if pr.phase == "initial" and pr.restart == 0:
+                s.tell(pr.id, p(pr.x))
+            else:
+                s.tell_failed(pr.id, "always fails")
+    assert s.restart >= 1
+    h = s.history
+    assert {r["phase"] for r in h if r["restart"] == 1} >= {"initial"}
+
+
+# -- state and resume --------------------------------------------------------------------------------------
+def drive(s, fun, steps, workers, pending, save_every=None, tmp_path=None):
+    """Deterministic asynchronous engine: keep `workers` busy, finish them out of order.
+
+    `pending` (list of ids, oldest first) is the engine's own state, passed across resumes.
+    With save_every, the strategy is saved, dropped and reloaded every that many steps.
+    """
+    for step in range(steps):
+        if s.done:
+            break
+        pending += [p.id for p in s.ask(workers - len(pending))]
+        if not pending:
+            break
+        i = pending.pop((s.n_told * 5 + 2) % len(pending))  # out of order
+        x = s.history[i]["x"]
+        if i % 11 == 5:
+            s.tell_failed(i, "crashed")
+        else:
+            s.tell(x if i % 2 else i, fun(x))
+        if save_every and step % save_every == save_every - 1:
+            path = tmp_path / "state.json"
+            s.save(path)
+            s = Strategy.load(path)
+    return s, pending
+
+
+def fingerprint(s):
+    return json.dumps(s.state_dict(), sort_keys=True)
+
+
+@pytest.mark.parametrize("workers", [1, 3])
+def test_resume_half_way_is_bit_identical(tmp_path, workers):
+    p = problems.paper_size("rastrigin", given=[REFERENCE])
+    make = lambda: Strategy(p.space, budget=70, n_initial=15, seed=11)
+    straight, pend_a = drive(make(), p, 200, workers, [])
+    half, pend_b = drive(make(), p, 35, workers, [])
+    half.save(tmp_path / "s.json")
+    resumed, pend_b = drive(Strategy.load(tmp_path / "s.json"), p, 165, workers, pend_b)
+    assert straight.done and resumed.done
+    assert fingerprint(straight) == fingerprint(resumed)
+    for a, b in zip(straight.history, resumed.history):
+        assert a["x"].tobytes() == b["x"].tobytes()
+        assert (a["phase"], a["restart"], a["status"], a["value"]) == \
+               (b["phase"], b["restart"], b["status"], b["value"])
+
+
+def test_resume_at_every_step_across_restarts(tmp_path):
+    # Settings that make sigma collapse fast, so the run restarts several times.
+    p = problems.paper_size("ackley")
+    kw = dict(budget=90, n_initial=10, seed=5, fail_tol=1, sigma_min=0.05)
+    straight, _ = drive(Strategy(p.space, **kw), p, 400, 2, [])
+    assert straight.restart >= 2
+    resumed, _ = drive(Strategy(p.space, **kw), p, 400, 2, [], save_every=1, tmp_path=tmp_path)
+    assert fingerprint(straight) == fingerprint(resumed)
+
+
+def test_state_is_plain_json_and_exact():
+    p = problems.paper_size("levy")
+    s = Strategy(p.space, budget=30, seed=2)
+    for pr in s.ask(25):
+        s.tell(pr.id, p(pr.x) / 3.0)  # values that need all 17 digits
+    d = json.loads(json.dumps(s.state_dict()))
+    t = Strategy.from_state(d)
+    assert fingerprint(t) == fingerprint(s)
+    a, b = s.ask(3), t.ask(3)
+    assert [x.x.tobytes() for x in a] == [x.x.tobytes() for x in b]
+    assert [x.phase for x in a] == [x.phase for x in b]
+
+
+def test_save_is_atomic_and_leaves_no_temp(tmp_path):
+    sp = problems.gear().space
+    s = Strategy(sp, budget=10, n_initial=4, seed=0)
+    s.save(tmp_path / "st.json")
+    s.ask(2)
+    s.save(tmp_path / "st.json")
+    assert [f.name for f in tmp_path.iterdir()] == ["st.json"]
+    assert Strategy.load(tmp_path / "st.json").n_asked == 2
