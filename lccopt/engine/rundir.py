@@ -1,0 +1,380 @@
+"""The run directory: creation, lock, case copy, journal table, state snapshot, results.h5.
+
+    runs/<name>/
+      run.json          what the run is: case file path, sha256 of the resolved case, versions
+      case.yaml         the resolved case (extends and defaults applied) the run uses
+      journal.jsonl     the commit log (see journal.py); the truth everything else is rebuilt from
+      state.json        optimiser state snapshot + the journal seq it reflects (a cache: resume
+                        replays the journal events after it)
+      evals/NNNNNN.h5   one immutable file per evaluation (time histories), NNNNNN = id
+      results.h5        table of all evaluations, rebuilt atomically from the journal
+      lock              fcntl lock: one process drives a run at a time
+
+Every file but the journal is written to a temporary name, fsynced and renamed.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import datetime as _dt
+import errno
+import fcntl
+import hashlib
+import json
+import math
+import os
+import platform
+import shutil
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+RESULTS_FORMAT = "lccopt-results"
+RESULTS_VERSION = 1
+RUN_FORMAT = "lccopt-run"
+RUN_VERSION = 1
+OBJECTIVE_NAMES = ("F_rms", "F_max", "E_rms", "E_max")
+
+
+class RunError(Exception):
+    """A run directory problem the user can fix (exists, locked, not a run, ...)."""
+
+
+def sha256_text(text: str) -> str:
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()
+
+
+def versions() -> dict:
+    import h5py
+    import scipy
+
+    from .. import __version__
+
+    return {"lccopt": __version__, "numpy": np.__version__, "scipy": scipy.__version__,
+            "h5py": h5py.__version__, "python": platform.python_version()}
+
+
+def now_iso() -> str:
+    return _dt.datetime.now(_dt.timezone.utc).astimezone().isoformat(timespec="seconds")
+
+
+def fsync_dir(directory: Path) -> None:
+    fd = os.open(directory, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+def _normal_mode(path, directory: bool = False) -> None:
+    """mkstemp/mkdtemp create 0600/0700: give files the permissions open() would."""
+    os.chmod(path, (0o777 if directory else 0o666) & ~_umask())
+
+
+def atomic_write_bytes(path: Path, data: bytes) -> None:
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name + ".", suffix=".tmp")
+    _normal_mode(tmp)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise
+    fsync_dir(path.parent)
+
+
+def eval_name(i: int) -> str:
+    return f"evals/{i:06d}.h5"
+
+
+# ------------------------------------------------------------------------------ directory
+
+class RunDir:
+    def __init__(self, path: Path):
+        self.path = Path(path)
+        self._lock_fh = None
+
+    journal_path = property(lambda self: self.path / "journal.jsonl")
+    state_path = property(lambda self: self.path / "state.json")
+    results_path = property(lambda self: self.path / "results.h5")
+    meta_path = property(lambda self: self.path / "run.json")
+    case_path = property(lambda self: self.path / "case.yaml")
+    evals_path = property(lambda self: self.path / "evals")
+
+    @classmethod
+    def create(cls, path: Path, case, problem, evaluator: str) -> "RunDir":
+        """Create the directory atomically (build under a temporary name, then rename)."""
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = Path(tempfile.mkdtemp(dir=path.parent, prefix=f".{path.name}.creating-"))
+        _normal_mode(tmp, directory=True)
+        try:
+            (tmp / "evals").mkdir()
+            resolved = case.resolved
+            meta = {
+                "format": RUN_FORMAT, "version": RUN_VERSION, "name": case.name,
+                "case_file": str(Path(case.path).resolve()), "case_sha256": sha256_text(resolved),
+                "created": now_iso(), "versions": versions(), "evaluator": evaluator,
+            }
+            (tmp / "case.yaml").write_text(resolved, encoding="utf-8")
+            (tmp / "case.source.yaml").write_text(case.text, encoding="utf-8")
+            (tmp / "run.json").write_text(json.dumps(meta, indent=2) + "\n", encoding="utf-8")
+            (tmp / "lock").touch()
+            with open(tmp / "journal.jsonl", "wb") as fh:
+                line = {"seq": 0, "event": "run", "time": now_iso(), "case_sha256": meta["case_sha256"],
+                        "budget": problem.budget, "objectives": list(problem.objectives),
+                        "seed": problem.seed, "versions": meta["versions"]}
+                fh.write((json.dumps(line, separators=(",", ":")) + "\n").encode())
+                fh.flush()
+                os.fsync(fh.fileno())
+            for f in tmp.iterdir():
+                if f.is_file():
+                    with open(f, "rb") as fh:
+                        os.fsync(fh.fileno())
+            fsync_dir(tmp)
+            os.rename(tmp, path)
+        except OSError as exc:
+            shutil.rmtree(tmp, ignore_errors=True)
+            if exc.errno in (errno.EEXIST, errno.ENOTEMPTY):
+                raise RunError(f"{path} already exists (another run was started at the same time?)") from None
+            raise
+        fsync_dir(path.parent)
+        return cls(path)
+
+    @classmethod
+    def open(cls, path: Path) -> "RunDir":
+        path = Path(path)
+        if not path.is_dir():
+            raise RunError(f"{path}: no such run directory")
+        if not (path / "run.json").is_file() or not (path / "journal.jsonl").is_file():
+            raise RunError(f"{path}: not an lccopt run directory (no run.json or journal.jsonl)")
+        return cls(path)
+
+    def meta(self) -> dict:
+        try:
+            return json.loads(self.meta_path.read_text(encoding="utf-8"))
+        except (OSError, ValueError) as exc:
+            raise RunError(f"{self.meta_path}: unreadable ({exc})") from None
+
+    def write_meta(self, meta: dict) -> None:
+        atomic_write_bytes(self.meta_path, (json.dumps(meta, indent=2) + "\n").encode())
+
+    # -- lock -------------------------------------------------------------------------------
+    def lock(self) -> None:
+        fh = open(self.path / "lock", "a+")
+        try:
+            fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            fh.seek(0)
+            holder = fh.read().strip()
+            fh.close()
+            raise RunError(f"{self.path} is in use by another lccopt process"
+                           f"{' (' + holder + ')' if holder else ''}; wait for it to finish or stop it first")
+        fh.seek(0)
+        fh.truncate()
+        fh.write(f"pid {os.getpid()} on {platform.node()} since {now_iso()}\n")
+        fh.flush()
+        self._lock_fh = fh
+
+    def unlock(self) -> None:
+        if self._lock_fh is not None:
+            with contextlib.suppress(OSError):
+                self._lock_fh.seek(0)
+                self._lock_fh.truncate()
+            fcntl.flock(self._lock_fh.fileno(), fcntl.LOCK_UN)
+            self._lock_fh.close()
+            self._lock_fh = None
+
+    # -- snapshot -----------------------------------------------------------------------------
+    def save_state(self, seq: int, state: dict) -> None:
+        data = json.dumps({"seq": seq, "strategy": state}, allow_nan=False, separators=(",", ":"))
+        atomic_write_bytes(self.state_path, data.encode())
+
+    def load_state(self) -> dict | None:
+        try:
+            d = json.loads(self.state_path.read_text(encoding="utf-8"))
+            return d if isinstance(d, dict) and "seq" in d and "strategy" in d else None
+        except (OSError, ValueError):
+            return None
+
+    def clean(self, keep_evals: set[str]) -> list[str]:
+        """Remove temporary files and evaluation files without a journal line; return them."""
+        gone = []
+        for d in (self.path, self.evals_path):
+            if not d.is_dir():
+                continue
+            for f in d.iterdir():
+                rel = f.relative_to(self.path).as_posix()
+                orphan = d == self.evals_path and f.suffix == ".h5" and rel not in keep_evals
+                if f.is_file() and (f.name.endswith(".tmp") or orphan):
+                    f.unlink()
+                    gone.append(rel)
+        return gone
+
+
+# ------------------------------------------------------------------------------ table
+
+class Table:
+    """All evaluations as the journal describes them (rebuilt by replaying its events)."""
+
+    def __init__(self, names: list[str], objectives: list[str]):
+        self.names = list(names)
+        self.objectives = list(objectives)
+        self.rows: dict[int, dict] = {}
+        self.reference: dict | None = None   # objectives, point, worst, ...
+        self.finished = False
+        self.seq = -1
+
+    def apply(self, ev: dict) -> None:
+        self.seq = ev["seq"]
+        kind = ev["event"]
+        if kind == "asked":
+            self.rows[ev["id"]] = {
+                "id": ev["id"], "x": list(ev["x"]), "phase": ev["phase"], "restart": ev["restart"],
+                "status": "pending", "reason": "", "objectives": {}, "value": math.nan,
+                "wall_time": math.nan, "worker": "", "file": "",
+            }
+        elif kind in ("evaluated", "failed"):
+            r = self.rows[ev["id"]]
+            r["status"] = "ok" if kind == "evaluated" else "failed"
+            r["objectives"] = dict(ev.get("objectives") or {})
+            r["value"] = ev.get("value", math.nan) if kind == "evaluated" else math.nan
+            r["reason"] = ev.get("reason", "")
+            r["wall_time"] = ev.get("wall_time", math.nan)
+            r["worker"] = ev.get("worker", "")
+            r["file"] = ev.get("file", "")
+        elif kind == "reference":
+            self.reference = {k: v for k, v in ev.items() if k not in ("seq", "event")}
+        elif kind == "finished":
+            self.finished = True
+        elif kind == "case_changed":  # e.g. a larger budget: a finished run carries on
+            self.finished = False
+
+    # -- views ----------------------------------------------------------------------------------
+    def done_rows(self) -> list[dict]:
+        return [self.rows[i] for i in sorted(self.rows) if self.rows[i]["status"] != "pending"]
+
+    def pending_ids(self) -> list[int]:
+        return sorted(i for i, r in self.rows.items() if r["status"] == "pending")
+
+    @property
+    def n_done(self) -> int:
+        return sum(r["status"] != "pending" for r in self.rows.values())
+
+    @property
+    def n_failed(self) -> int:
+        return sum(r["status"] == "failed" for r in self.rows.values())
+
+    def best(self) -> dict | None:
+        ok = [r for r in self.rows.values() if r["status"] == "ok"]
+        return min(ok, key=lambda r: (r["value"], r["id"])) if ok else None
+
+    def files(self) -> set[str]:
+        return {r["file"] for r in self.rows.values() if r["file"]}
+
+
+def write_results(path: Path, table: Table, *, case, problem, meta: dict) -> None:
+    """Write results.h5 (layout in the README section 'results.h5') to tmp, fsync, rename."""
+    import h5py
+
+    path = Path(path)
+    rows = table.done_rows()
+    n, d = len(rows), len(table.names)
+    sdt = h5py.string_dtype()
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name + ".", suffix=".tmp")
+    os.close(fd)
+    _normal_mode(tmp)
+    try:
+        with h5py.File(tmp, "w") as f:
+            a = f.attrs
+            a["format"], a["format_version"] = RESULTS_FORMAT, RESULTS_VERSION
+            a["case_name"] = case.name
+            a["objectives"] = list(problem.objectives)
+            a["scalarisation"] = problem.scalarisation
+            a["rho"], a["improvement"] = problem.rho, problem.improvement
+            a["worst"] = np.array(problem.worst if problem.worst else [], dtype=float)
+            a["budget"], a["seed"] = problem.budget, problem.seed
+            a["initial_points"] = problem.initial_points
+            a["n_evaluations"], a["n_failed"] = n, table.n_failed
+            a["n_pending"] = len(table.pending_ids())
+            a["finished"] = bool(table.finished)
+            a["journal_seq"] = table.seq
+            a["created"], a["updated"] = meta.get("created", ""), now_iso()
+
+            g = f.create_group("case")
+            g.create_dataset("text", data=case.text, dtype=sdt)
+            g.create_dataset("resolved", data=case.resolved, dtype=sdt)
+            g.attrs["sha256"] = sha256_text(case.resolved)
+            g.attrs["file"] = meta.get("case_file", "")
+
+            g = f.create_group("versions")
+            for k, v in versions().items():
+                g.attrs[k] = v
+            g.attrs["run_started_with"] = json.dumps(meta.get("versions", {}))
+
+            g = f.create_group("reference")
+            ds = g.create_dataset("x", data=np.array(problem.reference, dtype=float))
+            ds.attrs["names"] = list(table.names)
+            ref = table.reference or {}
+            og = g.create_group("objectives")
+            for k, v in (ref.get("objectives") or {}).items():
+                og.attrs[k] = v
+            if ref.get("point") is not None:
+                g.create_dataset("point", data=np.array(ref["point"], dtype=float))
+            if problem.worst:
+                g.create_dataset("worst", data=np.array(problem.worst, dtype=float))
+
+            e = f.create_group("evaluations")
+            e.attrs["names"] = list(table.names)
+            e.create_dataset("id", data=np.array([r["id"] for r in rows], dtype=np.int64))
+            x = e.create_dataset("x", data=np.array([r["x"] for r in rows], dtype=float).reshape(n, d))
+            x.attrs["names"] = list(table.names)
+            for k in OBJECTIVE_NAMES:
+                col = e.create_dataset(k, data=np.array([float(r["objectives"].get(k, math.nan))
+                                                         for r in rows], dtype=float))
+                col.attrs["unit"] = "N" if k.startswith("F") else "J"
+            e.create_dataset("value", data=np.array([r["value"] for r in rows], dtype=float))
+            for k in ("status", "reason", "phase", "worker", "file"):
+                e.create_dataset(k, data=[str(r[k]) for r in rows], dtype=sdt)
+            e.create_dataset("restart", data=np.array([r["restart"] for r in rows], dtype=np.int64))
+            wt = e.create_dataset("wall_time", data=np.array([r["wall_time"] for r in rows], dtype=float))
+            wt.attrs["unit"] = "s"
+            F = np.array([[float(r["objectives"].get(k, math.nan)) for k in problem.objectives]
+                          for r in rows], dtype=float).reshape(n, len(problem.objectives))
+            ok = np.array([r["status"] == "ok" for r in rows], dtype=bool)
+            if n:
+                from ..optim.scalarise import pareto_mask
+
+                F[~ok] = math.nan
+                e.create_dataset("pareto", data=pareto_mask(F))
+            else:
+                e.create_dataset("pareto", data=np.zeros(0, dtype=bool))
+
+            g = f.create_group("best")
+            best = table.best()
+            if best is not None:
+                g.attrs["id"], g.attrs["value"] = best["id"], best["value"]
+                ds = g.create_dataset("x", data=np.array(best["x"], dtype=float))
+                ds.attrs["names"] = list(table.names)
+                for k, v in best["objectives"].items():
+                    g.attrs[k] = v
+        with open(tmp, "rb") as fh:
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise
+    fsync_dir(path.parent)

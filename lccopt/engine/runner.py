@@ -1,0 +1,453 @@
+"""The main job: ``lccopt optimise CASE`` and ``lccopt resume RUN``.
+
+One process (this one) runs the ask/tell loop and is the only writer of the journal,
+the state snapshot and results.h5. Workers evaluate designs (and, in the local pool,
+write their own immutable ``evals/NNNNNN.h5`` before reporting back).
+
+Commit protocol, per evaluation ``i``:
+
+1. ``asked`` line (id, x, phase, restart) after ``strategy.ask`` returned the proposal;
+2. the worker writes ``evals/00000i.h5`` (tmp + fsync + rename);
+3. ``evaluated`` (objectives, scalar value, wall time, worker, file) or ``failed`` (reason)
+   line, then ``strategy.tell`` / ``tell_failed``;
+4. now and then: ``state.json`` (strategy state + the journal seq it reflects) and
+   ``results.h5`` (rebuilt from the journal), both atomic.
+
+The journal lines are exactly the optimiser calls in order, so the optimiser state after
+any committed line is the snapshot plus a replay of the lines after it (``ask`` must give
+back the logged point, which is checked). Resume re-runs the ``asked`` ids without a
+result. With one worker the sequence of calls, and so the run, is the same as without
+the interruption.
+
+For two or more objectives the reference design (always proposal 0) runs alone first: its
+objectives fix the ASF reference point (``reference`` line) before any value is computed.
+"""
+
+from __future__ import annotations
+
+import math
+import shutil
+import signal
+import sys
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import typer
+
+from ..case import Case, CaseError, load_case
+from ..problem import Problem
+from .executors import ExecutorError, default_workers, make_executor
+from .journal import Journal, JournalError
+from .progress import Progress, fmt, hms
+from .rundir import RunDir, RunError, Table, eval_name, now_iso, sha256_text, write_results
+from .worker import Outcome, Task, evaluator_spec
+
+RESULTS_EVERY = 2.0  # [s] results.h5 is rebuilt at most this often while running (and at the end)
+
+
+def _usage_error(message: str) -> Exception:
+    from ..cli import UsageError
+
+    return UsageError(message)
+
+
+# ------------------------------------------------------------------------------ public API
+
+def optimise(case, workers: int | None = None, scheduler=None, runs: Path = Path("runs"),
+             force: bool = False, *, evaluator=None, progress: bool = True, stream=None) -> Path:
+    """Start a run of CASE in ``runs/<case name>/``; return the run directory.
+
+    Raises CaseError (bad case), UsageError (bad options, run exists or is locked),
+    typer.Exit(130) after an interruption (the run is saved and resumable).
+    """
+    case_obj = case if isinstance(case, Case) else load_case(case)
+    problem = Problem.from_case(case_obj)
+    _check_options(workers, scheduler)
+    spec = evaluator_spec(evaluator)
+    run_path = Path(runs) / case_obj.name
+    try:
+        if run_path.exists():
+            if not force:
+                raise _usage_error(f"{run_path} already exists: carry it on with 'lccopt resume {run_path}', "
+                                   f"or start again with 'lccopt optimise {case_obj.path} --force'")
+            old = RunDir(run_path)
+            if (run_path / "lock").exists():
+                old.lock()  # refuse to delete a run another process is driving
+            shutil.rmtree(run_path)
+            old.unlock()
+        rd = RunDir.create(run_path, case_obj, problem, spec if isinstance(spec, str) else repr(spec))
+        rd.lock()
+    except RunError as exc:
+        raise _usage_error(str(exc)) from None
+    try:
+        journal, events, _ = Journal.open(rd.journal_path)
+        strategy, table = restore(problem, events, None)
+        engine = Engine(rd, case_obj, problem, journal, table, strategy, spec, workers, scheduler,
+                        Progress(problem.budget, stream, progress))
+        engine.run()
+    except (ExecutorError, JournalError) as exc:
+        raise _usage_error(str(exc)) from None
+    finally:
+        rd.unlock()
+    return rd.path
+
+
+def resume(run, workers: int | None = None, scheduler=None, case=None, allow_changed_case: bool = False,
+           *, evaluator=None, progress: bool = True, stream=None) -> Path:
+    """Carry on the run in directory RUN; see the module docstring."""
+    _check_options(workers, scheduler)
+    out = Progress(0, stream, progress)
+    try:
+        rd = RunDir.open(Path(run))
+        rd.lock()
+    except RunError as exc:
+        raise _usage_error(str(exc)) from None
+    try:
+        meta = rd.meta()
+        journal, events, torn = Journal.open(rd.journal_path)
+        if torn:
+            out.log("dropped a torn last line of the journal (the run was killed while writing it)")
+        case_obj = _resume_case(rd, meta, case, allow_changed_case, out)
+        problem = Problem.from_case(case_obj)
+        if events and events[0].get("objectives") not in (None, list(problem.objectives)):
+            raise _usage_error(f"the case's objectives {list(problem.objectives)} differ from the run's "
+                               f"{events[0]['objectives']}; start a new run instead")
+        if meta.get("case_sha256") != sha256_text(case_obj.resolved):
+            ev = journal.append("case_changed", time=now_iso(), case_sha256=sha256_text(case_obj.resolved),
+                                budget=problem.budget, case_file=str(case_obj.path))
+            events.append(ev)
+            rd.case_path.write_text(case_obj.resolved, encoding="utf-8")
+            meta.update(case_sha256=sha256_text(case_obj.resolved), case_file=str(Path(case_obj.path).resolve()))
+            rd.write_meta(meta)
+        strategy, table = restore(problem, events, rd.load_state())
+        spec = evaluator_spec(evaluator if evaluator is not None else _saved_evaluator(meta))
+        removed = rd.clean(keep_evals=table.files())
+        if removed:
+            out.log(f"removed {len(removed)} temporary or unfinished file(s): {', '.join(removed[:5])}"
+                    f"{' ...' if len(removed) > 5 else ''}")
+        if strategy.done and not table.pending_ids():
+            if not table.finished:
+                table.apply(journal.append("finished", time=now_iso(), evaluations=table.n_done))
+            write_results(rd.results_path, table, case=case_obj, problem=problem, meta=meta)
+            best = table.best()
+            out.log(f"{rd.path} is finished: {table.n_done} evaluations ({table.n_failed} failed)"
+                    + (f", best #{best['id']} value {fmt(best['value'])}" if best else "")
+                    + "; nothing to do")
+            return rd.path
+        engine = Engine(rd, case_obj, problem, journal, table, strategy, spec, workers, scheduler,
+                        Progress(problem.budget, stream, progress))
+        engine.run()
+    except (ExecutorError, JournalError) as exc:
+        raise _usage_error(str(exc)) from None
+    finally:
+        rd.unlock()
+    return rd.path
+
+
+def _saved_evaluator(meta: dict):
+    """The evaluator the run was started with, unless it was the default."""
+    import os
+
+    from .worker import DEFAULT_EVALUATOR, ENV_EVALUATOR
+
+    if os.environ.get(ENV_EVALUATOR):
+        return None
+    saved = meta.get("evaluator")
+    return saved if isinstance(saved, str) and saved != DEFAULT_EVALUATOR and ":" in saved else None
+
+
+def _check_options(workers, scheduler) -> None:
+    if workers is not None and workers < 1:
+        raise _usage_error(f"--workers must be at least 1, got {workers}")
+    if workers is not None and scheduler is not None:
+        raise _usage_error("--workers and --scheduler exclude each other (the Dask cluster decides "
+                           "how many evaluations run at once)")
+
+
+def _resume_case(rd: RunDir, meta: dict, case, allow_changed: bool, out: Progress) -> Case:
+    """The case to carry on with: the original file (must be unchanged) or the run's copy."""
+    if case is None:
+        original = Path(meta.get("case_file", ""))
+        if meta.get("case_file") and original.is_file():
+            case = original
+        else:
+            out.log(f"the case file {original} is gone; using the run's copy {rd.case_path}")
+            case = rd.case_path
+    case_obj = case if isinstance(case, Case) else load_case(case)
+    if sha256_text(case_obj.resolved) != meta.get("case_sha256"):
+        if not allow_changed:
+            raise _usage_error(
+                f"the case file {case_obj.path} changed since the run started (the resolved case "
+                f"differs from {rd.case_path}); restore it, or resume with --allow-changed-case to "
+                f"use the changed case")
+        old = Problem.from_case(load_case(rd.case_path))
+        new = Problem.from_case(case_obj)
+        if not old.same_space(new):
+            raise _usage_error(f"the changed case {case_obj.path} has other design variables, bounds, "
+                               f"reference design or objectives; start a new run instead")
+        out.log(f"the case file {case_obj.path} changed since the run started: carrying on with it "
+                f"(--allow-changed-case)")
+    return case_obj
+
+
+# ------------------------------------------------------------------------------ restore
+
+def restore(problem: Problem, events: list[dict], snapshot: dict | None):
+    """Optimiser and table after the journal's events (snapshot + replay of the rest)."""
+    from ..optim.strategy import Strategy
+
+    table = Table(list(problem.names), list(problem.objectives))
+    for ev in events:
+        table.apply(ev)
+    strategy, start = None, 0
+    if snapshot is not None and 0 <= int(snapshot["seq"]) < len(events):
+        try:
+            strategy = Strategy.from_state(snapshot["strategy"])
+            start = int(snapshot["seq"]) + 1
+        except Exception:  # noqa: BLE001 - a stale or foreign snapshot: replay everything
+            strategy = None
+    if strategy is None:
+        budget0 = events[0].get("budget", problem.budget) if events else problem.budget
+        strategy = Strategy(problem.space(), budget=budget0, n_initial=problem.initial_points,
+                            seed=problem.seed)
+        start = 0
+    for ev in events[start:]:
+        replay(strategy, ev)
+    return strategy, table
+
+
+def replay(strategy, ev: dict) -> None:
+    kind = ev["event"]
+    if kind == "asked":
+        props = strategy.ask(1)
+        if not props or props[0].id != ev["id"] or not np.array_equal(props[0].x, np.asarray(ev["x"], float)):
+            got = f"#{props[0].id} {props[0].x.tolist()}" if props else "nothing"
+            raise JournalError(f"journal line {ev['seq'] + 1}: the optimiser proposes {got}, the journal "
+                               f"says #{ev['id']} {ev['x']}; was lccopt changed since the run started?")
+    elif kind == "evaluated":
+        strategy.tell(ev["id"], ev["value"])
+    elif kind == "failed":
+        strategy.tell_failed(ev["id"], ev.get("reason", ""))
+    elif kind == "case_changed":
+        strategy.budget = int(ev["budget"])
+
+
+# ------------------------------------------------------------------------------ the loop
+
+class Engine:
+    def __init__(self, rd: RunDir, case: Case, problem: Problem, journal: Journal, table: Table,
+                 strategy, spec, workers, scheduler, progress: Progress):
+        self.rd, self.case, self.problem = rd, case, problem
+        self.journal, self.table, self.strategy = journal, table, strategy
+        self.spec = spec
+        self.progress = progress
+        self.meta = rd.meta()
+        self.executor = make_executor(case, spec, workers, scheduler, problem.timeout)
+        self.strategy.budget = problem.budget
+        self.ref_point = (table.reference or {}).get("point")
+        self.stop = False
+        self.abort = False
+        self._stop_logged = False
+        self._saved_seq = table.seq
+        self._results_at = 0.0
+        self.t_optimiser = 0.0     # time in ask/tell
+        self.t_bookkeeping = 0.0   # journal, snapshots, results.h5, files written here
+        self._old_handlers: dict = {}
+
+    # -- signals ---------------------------------------------------------------------------------
+    def _on_signal(self, signum, frame) -> None:
+        if signum == signal.SIGINT and not self.stop:
+            self.stop = True
+        else:
+            self.stop = self.abort = True
+
+    def _install_signals(self) -> None:
+        if threading.current_thread() is not threading.main_thread():
+            return
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            self._old_handlers[sig] = signal.signal(sig, self._on_signal)
+
+    def _restore_signals(self) -> None:
+        for sig, h in self._old_handlers.items():
+            signal.signal(sig, h)
+        self._old_handlers.clear()
+
+    # -- main ---------------------------------------------------------------------------------------
+    def run(self) -> None:
+        p, pb = self.progress, self.problem
+        if pb.multi and 0 in self.table.rows and self.table.rows[0]["status"] == "failed" \
+                and self.table.reference is None:
+            raise self._reference_failed(self.table.rows[0]["reason"])
+        self._install_signals()
+        t_start = time.monotonic()
+        n_start = self.table.n_done
+        try:
+            self.executor.start()
+            what = ", ".join(pb.objectives) + (" (ASF, Eq. 7)" if pb.multi else "")
+            p.log(f"run {self.rd.path}: case '{self.case.name}', {pb.dim} variables, minimising {what}, "
+                  f"budget {pb.budget}, {self.table.n_done} done; {self.executor.description}")
+            requeue = self.table.pending_ids()
+            if requeue:
+                p.log(f"running again {len(requeue)} evaluation(s) that were in flight: "
+                      f"{', '.join('#' + str(i) for i in requeue)}")
+            while True:
+                submitted = 0 if self.stop else self._fill(requeue)
+                self._snapshot()
+                if self.executor.running == 0:
+                    if self.stop or self.strategy.done:
+                        break
+                    if submitted == 0 and self.executor.free() > 0:
+                        break  # nothing left to propose and nothing in flight
+                for o in self.executor.wait(0.2):
+                    self._record(o)
+                if self.stop and not self._stop_logged:
+                    self._stop_logged = True
+                    n = self.executor.running
+                    if not self.abort and n:
+                        p.log(f"interrupted: no new evaluations; waiting for the {n} running to finish "
+                              f"(Ctrl-C again to stop them now)")
+                if self.abort:
+                    n = self.executor.running
+                    if n:
+                        p.log(f"stopping {n} running evaluation(s); they run again on resume")
+                    self.executor.kill_running()
+                    break
+                if time.monotonic() - self._results_at > RESULTS_EVERY:
+                    self._write_results()
+        finally:
+            self.executor.close()
+            self._restore_signals()
+            p.close()
+            self._snapshot()
+            wall = time.monotonic() - t_start
+            try:
+                self.table.apply(self.journal.append(
+                    "session", time=now_iso(), wall_time=wall, evaluations=self.table.n_done - n_start,
+                    optimiser_time=self.t_optimiser, bookkeeping_time=self.t_bookkeeping,
+                    executor=self.executor.description))
+                if self.strategy.done and not self.table.pending_ids() and not self.table.finished:
+                    self.table.apply(self.journal.append("finished", time=now_iso(),
+                                                         evaluations=self.table.n_done))
+                self._write_results()
+            finally:
+                self.journal.close()
+        if not self.table.finished:
+            p.log(f"saved {self.table.n_done}/{pb.budget} evaluations in {self.rd.path}; carry on with:")
+            p.log(f"    lccopt resume {self.rd.path}")
+            raise typer.Exit(130)
+        self._summary(wall)
+
+    def _fill(self, requeue: list[int]) -> int:
+        n = 0
+        while self.executor.free() > 0:
+            if requeue:
+                self._submit(self.table.rows[requeue.pop(0)])
+                n += 1
+                continue
+            if self.problem.multi and self.ref_point is None and self.strategy.n_asked >= 1:
+                break  # the reference design runs alone: it fixes the reference point
+            if self.strategy.done:
+                break
+            t0 = time.perf_counter()
+            props = self.strategy.ask(1)
+            t1 = time.perf_counter()
+            self.t_optimiser += t1 - t0
+            if not props:
+                break
+            pr = props[0]
+            ev = self.journal.append("asked", id=int(pr.id), x=[float(v) for v in pr.x], phase=pr.phase,
+                                     restart=int(pr.restart))
+            self.table.apply(ev)
+            self.t_bookkeeping += time.perf_counter() - t1
+            self._submit(self.table.rows[pr.id])
+            n += 1
+        return n
+
+    def _submit(self, row: dict) -> None:
+        out = str(self.rd.path / eval_name(row["id"])) if self.executor.kind == "local" else None
+        self.executor.submit(Task(row["id"], list(row["x"]), row["phase"], row["restart"], out))
+
+    def _record(self, o: Outcome) -> None:
+        row = self.table.rows.get(o.id)
+        if row is None or row["status"] != "pending":
+            return
+        t0 = time.perf_counter()
+        pb, j = self.problem, self.journal
+        error = o.error
+        objectives = o.objectives
+        if error is None:
+            error = pb.finite(objectives)
+        file = ""
+        if objectives is not None:
+            if o.file_written:
+                file = eval_name(o.id)
+            elif o.evaluation is not None:
+                from ..store import write_evaluation
+
+                write_evaluation(self.rd.path / eval_name(o.id), o.evaluation, row["x"], self.case.names,
+                                 attrs={"id": o.id, "phase": row["phase"], "restart": row["restart"],
+                                        "worker": o.worker, "wall_time": o.wall_time})
+                file = eval_name(o.id)
+        common = dict(id=o.id, objectives=objectives or {}, wall_time=o.wall_time, worker=o.worker, file=file)
+        if error is None:
+            if o.id == 0 and self.table.reference is None:
+                point = pb.reference_point(objectives)  # CaseError if worst <= reference point
+                self.table.apply(j.append("reference", id=0, x=row["x"], objectives=objectives, point=point,
+                                          worst=list(pb.worst) if pb.worst else None, rho=pb.rho,
+                                          improvement=pb.improvement))
+                self.ref_point = point
+            value = pb.value(objectives, self.ref_point)
+            self.table.apply(j.append("evaluated", value=value, **common))
+            t1 = time.perf_counter()
+            self.strategy.tell(o.id, value)
+            self.t_optimiser += time.perf_counter() - t1
+            self.t_bookkeeping -= time.perf_counter() - t1
+        else:
+            self.table.apply(j.append("failed", reason=error, **common))
+            t1 = time.perf_counter()
+            self.strategy.tell_failed(o.id, error)
+            self.t_optimiser += time.perf_counter() - t1
+            self.t_bookkeeping -= time.perf_counter() - t1
+        self.t_bookkeeping += time.perf_counter() - t0
+        self.progress.update(self.table, self.executor.running, last=row)
+        if error is not None and pb.multi and o.id == 0 and self.table.reference is None:
+            raise self._reference_failed(error)
+
+    def _reference_failed(self, reason: str) -> CaseError:
+        return CaseError(f"{self.case.path}: the reference design (evaluation #0) failed: {reason}; a "
+                         f"multi-objective case needs its objectives for the ASF reference point")
+
+    def _snapshot(self) -> None:
+        if self.table.seq == self._saved_seq:
+            return
+        t0 = time.perf_counter()
+        self.rd.save_state(self.table.seq, self.strategy.state_dict())
+        self._saved_seq = self.table.seq
+        self.t_bookkeeping += time.perf_counter() - t0
+
+    def _write_results(self) -> None:
+        t0 = time.perf_counter()
+        write_results(self.rd.results_path, self.table, case=self.case, problem=self.problem, meta=self.meta)
+        self._results_at = time.monotonic()
+        self.t_bookkeeping += time.perf_counter() - t0
+
+    def _summary(self, wall: float) -> None:
+        t, pb = self.table, self.problem
+        lines = [f"done: {t.n_done} evaluations ({t.n_failed} failed) in {self.rd.path}, "
+                 f"this session {hms(wall)} wall, optimiser {self.t_optimiser:.1f} s, "
+                 f"bookkeeping {self.t_bookkeeping:.1f} s"]
+        best = t.best()
+        ref = (t.reference or {}).get("objectives") or {}
+        if best is not None:
+            lines.append(f"best #{best['id']} ({best['phase']}, restart {best['restart']}): value "
+                         f"{fmt(best['value'])}")
+            lines.append("  x: " + ", ".join(f"{n}={v:.6g}" for n, v in zip(pb.names, best["x"])))
+            for k in pb.objectives:
+                v, r = best["objectives"].get(k), ref.get(k)
+                rel = f" ({(v - r) / r:+.1%} vs reference design {r:.6g})" if r else ""
+                lines.append(f"  {k} = {v:.6g}{rel}")
+        lines.append(f"results: {self.rd.results_path}")
+        sys.stdout.write("\n".join(lines) + "\n")
+        sys.stdout.flush()

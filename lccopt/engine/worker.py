@@ -1,0 +1,158 @@
+"""What runs in a worker: one evaluation of one design, and the local worker process loop.
+
+The evaluator is named by a ``module:function`` string so that it can be sent to any
+worker (a local process or a Dask worker) and imported there. The default is the
+simulator, ``lccopt.vti.simulate:evaluate``.
+
+Testing hook: the environment variable ``LCCOPT_EVALUATOR=module:function`` replaces the
+simulator (tests point it at faulty evaluators that raise, return NaN, kill their process
+or hang). The function takes ``(case, x)`` and returns a
+:class:`lccopt.vti.response.Evaluation`.
+"""
+
+from __future__ import annotations
+
+import importlib
+import os
+import signal
+import socket
+import time
+import traceback
+from dataclasses import dataclass, field
+from typing import Any, Callable
+
+DEFAULT_EVALUATOR = "lccopt.vti.simulate:evaluate"
+ENV_EVALUATOR = "LCCOPT_EVALUATOR"
+
+# Set in every local worker before numpy is imported: N workers use N cores.
+SINGLE_THREAD_ENV = {
+    "OMP_NUM_THREADS": "1",
+    "OPENBLAS_NUM_THREADS": "1",
+    "MKL_NUM_THREADS": "1",
+    "VECLIB_MAXIMUM_THREADS": "1",
+    "NUMEXPR_NUM_THREADS": "1",
+}
+
+
+def evaluator_spec(evaluator: str | Callable | None = None) -> str | Callable:
+    """The evaluator to use: the argument, else $LCCOPT_EVALUATOR, else the simulator."""
+    if evaluator is not None:
+        return evaluator
+    return os.environ.get(ENV_EVALUATOR) or DEFAULT_EVALUATOR
+
+
+def load_evaluator(spec: str | Callable) -> Callable:
+    if callable(spec):
+        return spec
+    module, _, name = str(spec).partition(":")
+    if not module or not name:
+        raise ValueError(f"evaluator {spec!r}: expected 'module:function'")
+    fn = getattr(importlib.import_module(module), name, None)
+    if not callable(fn):
+        raise ValueError(f"evaluator {spec!r}: {module} has no function {name}")
+    return fn
+
+
+@dataclass
+class Task:
+    """One evaluation to run: proposal id and design vector (plus file-writing details)."""
+    id: int
+    x: list[float]
+    phase: str = ""
+    restart: int = 0
+    out_path: str | None = None  # local pool: the worker writes evals/NNNNNN.h5 itself
+
+
+@dataclass
+class Outcome:
+    """What came back for a task: ``objectives`` (ok) or ``error`` (failed)."""
+    id: int
+    objectives: dict | None = None
+    info: dict = field(default_factory=dict)
+    evaluation: Any = None        # the whole Evaluation when the worker did not write the file
+    file_written: bool = False
+    error: str | None = None
+    wall_time: float = float("nan")
+    worker: str = ""
+
+
+def run_task(case, task: Task, evaluator: Callable, worker: str) -> Outcome:
+    """Evaluate one design; never raises (an exception becomes a failed Outcome)."""
+    import numpy as np
+
+    t0 = time.perf_counter()
+    try:
+        ev = evaluator(case, np.asarray(task.x, dtype=float))
+        objectives = {k: float(v) for k, v in ev.objectives.items()}
+    except Exception as exc:  # noqa: BLE001 - every failure of a simulation is data
+        tb = traceback.extract_tb(exc.__traceback__)
+        where = f" ({os.path.basename(tb[-1].filename)}:{tb[-1].lineno})" if tb else ""
+        msg = str(exc).strip().splitlines()[0] if str(exc).strip() else ""
+        return Outcome(task.id, error=f"{type(exc).__name__}: {msg}{where}"[:500],
+                       wall_time=time.perf_counter() - t0, worker=worker)
+    wall = time.perf_counter() - t0
+    out = Outcome(task.id, objectives=objectives, info=_plain(ev.info), wall_time=wall, worker=worker)
+    if task.out_path:
+        try:
+            from ..store import write_evaluation
+
+            write_evaluation(task.out_path, ev, task.x, case.names,
+                             attrs={"id": task.id, "phase": task.phase, "restart": task.restart,
+                                    "worker": worker, "wall_time": wall})
+            out.file_written = True
+        except Exception as exc:  # noqa: BLE001
+            out.objectives, out.error = None, f"could not write {task.out_path}: {exc}"
+    else:
+        out.evaluation = ev
+    return out
+
+
+def _plain(info: dict) -> dict:
+    out = {}
+    for k, v in (info or {}).items():
+        if hasattr(v, "item") and getattr(v, "ndim", 1) == 0:
+            v = v.item()
+        if isinstance(v, (bool, int, float, str)):
+            out[k] = v
+    return out
+
+
+def local_worker_main(conn, case, spec, slot: int, parent_pid: int) -> None:
+    """Loop of a local worker process: receive a Task, send back its Outcome.
+
+    Ignores SIGINT (the parent decides what Ctrl-C means) and dies with its parent.
+    """
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    _die_with_parent(parent_pid)
+    name = f"{socket.gethostname()}:local-{slot}:pid{os.getpid()}"
+    try:
+        evaluator = load_evaluator(spec)
+    except Exception as exc:  # noqa: BLE001
+        conn.send(("fatal", f"cannot load the evaluator {spec!r}: {type(exc).__name__}: {exc}"))
+        return
+    conn.send(("ready", os.getpid()))
+    while True:
+        try:
+            task = conn.recv()
+        except (EOFError, OSError):
+            return
+        if task is None:
+            return
+        out = run_task(case, task, evaluator, name)
+        try:
+            conn.send(("done", out))
+        except (BrokenPipeError, OSError):
+            return
+
+
+def _die_with_parent(parent_pid: int) -> None:
+    """Linux: ask the kernel to SIGKILL this process when its parent dies (kill -9 of the run)."""
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL("libc.so.6", use_errno=True)
+        libc.prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
+        if os.getppid() != parent_pid:  # the parent died before prctl
+            os._exit(1)
+    except Exception:  # noqa: BLE001 - not Linux: the worker exits on the broken pipe instead
+        pass

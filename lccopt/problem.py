@@ -1,0 +1,128 @@
+"""Case -> optimisation problem: the design space and the scalar value the optimiser minimises.
+
+Pure and small: no files, no processes. The run engine asks it for
+
+* ``space`` (a :class:`lccopt.optim.space.DesignSpace` with the reference design as the one
+  given point, so the reference design is always evaluation 0),
+* ``value(objectives, reference_point)``: the objective itself for a single-objective case,
+  the augmented Chebyshev ASF of the paper's Eq. (7) for two or more objectives,
+* ``reference_point(reference_objectives)``: f^r = (1 - improvement) * f(x_ref), the paper's
+  "20 % better than the reference design" (only for two or more objectives).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .case import Case, CaseError
+
+
+@dataclass(frozen=True)
+class Problem:
+    names: tuple[str, ...]
+    lower: tuple[float, ...]
+    upper: tuple[float, ...]
+    integer: tuple[bool, ...]
+    reference: tuple[float, ...]
+    objectives: tuple[str, ...]
+    budget: int
+    initial_points: int
+    seed: int
+    timeout: float
+    rho: float
+    improvement: float
+    worst: tuple[float, ...] | None
+
+    @classmethod
+    def from_case(cls, case: Case) -> "Problem":
+        opt = case.optimisation
+        if opt is None:
+            raise CaseError(f"{case.path}:1: optimisation: missing section (objectives, budget, "
+                            f"initial_points, ...); 'lccopt optimise' needs it")
+        asf = opt["asf"] or {}
+        worst = asf.get("worst")
+        return cls(
+            names=tuple(case.names),
+            lower=tuple(float(v) for v in case.lower),
+            upper=tuple(float(v) for v in case.upper),
+            integer=tuple(bool(v) for v in case.integer),
+            reference=tuple(float(v) for v in case.reference),
+            objectives=tuple(opt["objectives"]),
+            budget=int(opt["budget"]),
+            initial_points=int(opt["initial_points"]),
+            seed=int(opt["seed"]),
+            timeout=float(opt["timeout"]),
+            rho=float(asf.get("rho", 0.05) if asf.get("rho") is not None else 0.05),
+            improvement=float(asf.get("improvement") if asf.get("improvement") is not None else 0.2),
+            worst=None if worst is None else tuple(float(w) for w in worst),
+        )
+
+    # -- design space -----------------------------------------------------------------------
+    @property
+    def dim(self) -> int:
+        return len(self.names)
+
+    @property
+    def multi(self) -> bool:
+        return len(self.objectives) > 1
+
+    @property
+    def scalarisation(self) -> str:
+        return "asf" if self.multi else "single"
+
+    def space(self):
+        from .optim.space import DesignSpace
+
+        return DesignSpace(names=list(self.names), lower=list(self.lower), upper=list(self.upper),
+                           integer=list(self.integer), given=[list(self.reference)])
+
+    def strategy(self):
+        from .optim.strategy import Strategy
+
+        return Strategy(self.space(), budget=self.budget, n_initial=self.initial_points, seed=self.seed)
+
+    def same_space(self, other: "Problem") -> bool:
+        """Same variables, bounds, reference design and objectives (what a resume must keep)."""
+        keys = ("names", "lower", "upper", "integer", "reference", "objectives")
+        return all(getattr(self, k) == getattr(other, k) for k in keys)
+
+    # -- scalar value ------------------------------------------------------------------------
+    def reference_point(self, reference_objectives: dict) -> list[float] | None:
+        """f^r = (1 - improvement) f(x_ref) for a multi-objective case, else None.
+
+        Raises CaseError when a worst value does not exceed its reference point (kappa_i
+        would be infinite or negative)."""
+        if not self.multi:
+            return None
+        from .optim.scalarise import improvement_target
+
+        f = [float(reference_objectives[k]) for k in self.objectives]
+        point = [float(v) for v in improvement_target(f, self.improvement)]
+        for name, w, r in zip(self.objectives, self.worst, point):
+            if not w > r:
+                raise CaseError(f"{name}: optimisation.asf.worst = {w:g} must exceed the reference "
+                                f"point {r:g} (reference design {name} = {r / (1 - self.improvement):g} "
+                                f"improved by {self.improvement:.0%})")
+        return point
+
+    def objective_vector(self, objectives: dict) -> np.ndarray:
+        return np.array([float(objectives.get(k, math.nan)) for k in self.objectives])
+
+    def finite(self, objectives: dict) -> str | None:
+        """None if every objective of the case is a finite number, else the reason."""
+        bad = [f"{k}={objectives.get(k)!r}" for k in self.objectives
+               if not isinstance(objectives.get(k), (int, float)) or not math.isfinite(objectives[k])]
+        return f"non-finite objectives: {', '.join(bad)}" if bad else None
+
+    def value(self, objectives: dict, reference_point=None) -> float:
+        """The scalar the optimiser minimises."""
+        if not self.multi:
+            return float(objectives[self.objectives[0]])
+        if reference_point is None:
+            raise ValueError("a multi-objective value needs the reference point")
+        from .optim.scalarise import asf
+
+        return float(asf(self.objective_vector(objectives), reference_point, self.worst, rho=self.rho))

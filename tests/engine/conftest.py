@@ -1,0 +1,91 @@
+"""Helpers for the run-engine tests: cheap case files, results tables, CLI subprocesses."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+
+REPO = Path(__file__).resolve().parents[2]
+REFERENCE = REPO / "configs" / "reference.yaml"
+if str(REPO) not in sys.path:  # 'tests.engine.fakesim' importable here and in spawned workers
+    sys.path.insert(0, str(REPO))
+
+FAKE = "tests.engine.fakesim:evaluate"
+FAULTY = "tests.engine.fakesim:faulty"
+REAL = "lccopt.vti.simulate:evaluate"
+
+# A short, coarse simulation: same model, ~0.1-0.2 s per evaluation instead of ~1 s.
+CHEAP_SIMULATION = """\
+simulation:
+  time_step: 1.0e-3
+  element_length: 0.1
+  far_element_length: 0.1
+  run_in: 3.0
+  run_out: 1.0
+"""
+
+
+def write_case(directory: Path, name: str = "t", objectives=("F_max", "E_max"), budget: int = 12,
+               initial: int = 5, seed: int = 1, timeout: float = 60.0, worst=(60000.0, 5.0),
+               cheap: bool = True, extra: str = "") -> Path:
+    lines = [f"extends: {REFERENCE}", f"name: {name}", "optimisation:",
+             f"  objectives: [{', '.join(objectives)}]", f"  budget: {budget}",
+             f"  initial_points: {initial}", f"  seed: {seed}", f"  timeout: {timeout}"]
+    if len(objectives) > 1:
+        lines += ["  asf:", f"    worst: [{', '.join(str(w) for w in worst)}]"]
+    text = "\n".join(lines) + "\n" + (CHEAP_SIMULATION if cheap else "") + extra
+    path = Path(directory) / f"{name}.yaml"
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+COLUMNS = ("id", "x", "F_rms", "F_max", "E_rms", "E_max", "value", "status", "reason", "phase",
+           "restart", "file")
+
+
+def read_table(run: Path) -> dict:
+    """The evaluation table of results.h5 as numpy arrays (strings decoded)."""
+    with h5py.File(Path(run) / "results.h5", "r") as f:
+        e = f["evaluations"]
+        out = {}
+        for k in e:
+            v = e[k][()]
+            if v.dtype.kind == "O":
+                v = np.array([s.decode() if isinstance(s, bytes) else s for s in v], dtype=object)
+            out[k] = v
+    return out
+
+
+def assert_same_evaluations(a: dict, b: dict, columns=COLUMNS) -> None:
+    for k in columns:
+        va, vb = a[k], b[k]
+        assert va.shape == vb.shape, (k, va.shape, vb.shape)
+        if va.dtype.kind == "f":
+            np.testing.assert_array_equal(va, vb, err_msg=k)
+        else:
+            assert list(va.ravel()) == list(vb.ravel()), k
+
+
+def cli(*args, env: dict | None = None, cwd: Path | None = None, **kw) -> subprocess.Popen:
+    e = {**os.environ, "PYTHONPATH": str(REPO), **(env or {})}
+    return subprocess.Popen([sys.executable, "-m", "lccopt.cli", *map(str, args)], env=e, cwd=cwd,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, **kw)
+
+
+def cli_run(*args, env=None, cwd=None, timeout=300) -> subprocess.CompletedProcess:
+    p = cli(*args, env=env, cwd=cwd)
+    out, err = p.communicate(timeout=timeout)
+    return subprocess.CompletedProcess(p.args, p.returncode, out, err)
+
+
+@pytest.fixture
+def fake_env(monkeypatch):
+    """Use the analytic stand-in in workers started from this process."""
+    monkeypatch.setenv("LCCOPT_EVALUATOR", FAKE)
+    return {"LCCOPT_EVALUATOR": FAKE}

@@ -1,0 +1,71 @@
+"""Test evaluators for the run engine (pointed at by LCCOPT_EVALUATOR or the ``evaluator``
+argument): a cheap analytic stand-in for the simulator, and faulty variants.
+
+``evaluate``: deterministic smooth objectives of x (+ small time histories); sleeps
+``LCCOPT_FAKE_DELAY`` seconds (default 0) to look like a simulation.
+
+``faulty``: like ``evaluate`` for the reference design; otherwise fires each fault listed
+in ``LCCOPT_TEST_FAULTS`` (comma-separated: raise, nan, exit, hang) exactly once, claimed
+through marker files in ``LCCOPT_TEST_FAULT_DIR`` (so each fault happens once whatever the
+worker), then behaves like ``evaluate``.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+
+import numpy as np
+
+from lccopt.vti.response import Evaluation
+
+
+def _objectives(case, x) -> dict:
+    x = np.asarray(x, dtype=float)
+    u = (x - case.lower) / np.where(case.upper > case.lower, case.upper - case.lower, 1.0)
+    a = np.array([0.3, 0.2, 0.1, 0.25, 0.5, 0.5, 0.25, 0.0])[: len(u)]
+    b = np.array([0.9, 0.8, 0.7, 0.1, 0.6, 0.4, 0.2, 0.3])[: len(u)]
+    f = 5000.0 + 12000.0 * np.sum((u - a) ** 2) + 300 * np.sin(7 * u).sum()
+    e = 0.1 + 0.5 * np.sum((u - b) ** 2) + 0.01 * np.cos(5 * u).sum()
+    return {"F_rms": 49000.0 + 0.1 * f, "F_max": float(f), "E_rms": 1.5 + e, "E_max": float(e)}
+
+
+def evaluate(case, x) -> Evaluation:
+    delay = float(os.environ.get("LCCOPT_FAKE_DELAY", "0") or 0)
+    if delay:
+        time.sleep(delay)
+    x = case.check_design(x)
+    obj = _objectives(case, x)
+    t = np.linspace(0.0, 0.1, 200)
+    force = 87000.0 + obj["F_max"] * np.sin(60 * t)
+    return Evaluation(obj, {"time": t, "contact_force": force,
+                            "sleeper_energy": np.full(5, obj["E_max"])},
+                      {"static_load": 87000.0, "fake": True})
+
+
+def _claim(kind: str) -> bool:
+    d = os.environ["LCCOPT_TEST_FAULT_DIR"]
+    try:
+        fd = os.open(os.path.join(d, kind), os.O_CREAT | os.O_EXCL | os.O_WRONLY)
+    except FileExistsError:
+        return False
+    os.close(fd)
+    return True
+
+
+def faulty(case, x) -> Evaluation:
+    if not np.array_equal(np.asarray(x, float), case.reference):
+        for kind in [k for k in os.environ.get("LCCOPT_TEST_FAULTS", "").split(",") if k]:
+            if _claim(kind):
+                if kind == "raise":
+                    raise RuntimeError("injected simulation error")
+                if kind == "nan":
+                    ev = evaluate(case, x)
+                    ev.objectives = {k: float("nan") for k in ev.objectives}
+                    return ev
+                if kind == "exit":
+                    os._exit(7)
+                if kind == "hang":
+                    while True:
+                        time.sleep(1)
+    return evaluate(case, x)
