@@ -107,13 +107,12 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         typer.echo("lccopt: interrupted", err=True)
         return EXIT_INTERRUPTED
-    except Exception as exc:  # click usage errors carry their own exit code
-        import click
-
-        if isinstance(exc, click.exceptions.Abort):
+    except Exception as exc:
+        # click's usage errors (typer may vendor click): print the usage line, exit 2
+        if type(exc).__name__ == "Abort":
             typer.echo("lccopt: interrupted", err=True)
             return EXIT_INTERRUPTED
-        if isinstance(exc, click.ClickException):
+        if hasattr(exc, "show") and hasattr(exc, "exit_code"):
             exc.show()
             return EXIT_USAGE
         import traceback

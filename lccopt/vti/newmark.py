@@ -81,12 +81,17 @@ class History:
 
 def integrate(track: TrackLike, dt: float, speed: float, x_start: float, n_steps: int, *,
               vehicle=None, load: float = 0.0, irregularity: Callable[[float], float] | None = None,
-              record_dofs: np.ndarray | None = None,
+              record_dofs: np.ndarray | None = None, initial: tuple | None = None,
+              vehicle_offset: np.ndarray | None = None,
               on_step: Callable | None = None) -> History:
     """Run ``n_steps`` Newmark steps from static equilibrium with the wheel at ``x_start``.
 
     vehicle: a :class:`~lccopt.vti.vehicle.Vehicle` (coupled through its Hertz spring), or
     None for a constant moving force ``load`` [N].
+    initial: (u, v) of the track instead of static equilibrium (moving load only), e.g. a
+    known steady state; the accelerations follow from equilibrium.
+    vehicle_offset: displacements added to the vehicle's static position at t = 0 (free
+    vibration from a chosen shape).
     on_step(n, u, v, a, z, zd, zdd, idx, vals, force): optional hook after each step (tests).
     """
     M, C, K = track.M.tocsr(), track.C.tocsr(), track.K.tocsr()
@@ -128,8 +133,23 @@ def integrate(track: TrackLike, dt: float, speed: float, x_start: float, n_steps
         u0 = spsolve(K.tocsc(), f)
         z = np.zeros(3)
     u0[np.abs(u0) < FLUSH_BELOW] = 0.0
+    v0 = np.zeros(n)
+    acc0 = np.zeros(n)
     zd = np.zeros(3)
     zdd = np.zeros(3)
+    if initial is not None:
+        if coupled:
+            raise ValueError("an initial track state is supported for a moving load only")
+        u0, v0 = (np.asarray(a, dtype=float).copy() for a in initial)
+        acc0 = spsolve(M.tocsc(), f - K @ u0 - C @ v0)
+    if vehicle_offset is not None:
+        if not coupled:
+            raise ValueError("vehicle_offset needs a vehicle")
+        z = z + np.asarray(vehicle_offset, dtype=float)
+        # the offset unbalances the vehicle: start from the consistent accelerations
+        delta0 = float(vals @ u0[idx])
+        fc = kw * (z[2] - delta0 - r0)
+        zdd = np.linalg.solve(Mv, fv - Kv @ z - np.array([0.0, 0.0, fc]))
 
     # --- constant effective matrix, factorised once (banded Cholesky)
     ab, kd = to_upper_banded(K + a0 * M + a1 * C)
@@ -157,7 +177,7 @@ def integrate(track: TrackLike, dt: float, speed: float, x_start: float, n_steps
     # state rows: u, v, a, u_next (so that one small matrix product updates them)
     X = np.zeros((4, n))
     Y = np.zeros((4, n))
-    X[0] = u0
+    X[0], X[1], X[2] = u0, v0, acc0
     S = np.array([[a0, a2, 1.0], [a1, 1.0, 0.0]])            # -> [M-part; C-part] of the rhs
     R = np.array([[-a1, -1.0, 0.0, a1], [-a0, -a2, -1.0, a0]])  # -> [v_next; a_next]
     PQ = np.zeros((2, n))
@@ -178,6 +198,7 @@ def integrate(track: TrackLike, dt: float, speed: float, x_start: float, n_steps
     veh[0] = z
     force[0] = kw * (z[2] - delta - r0) if coupled else load
     rec_u[0] = u0[record_dofs]
+    rec_v[0] = v0[record_dofs]
 
     for k in range(1, steps):
         # right-hand side of the track from the state at step k-1

@@ -245,3 +245,40 @@ def build_track(case: Case, x: np.ndarray) -> TrackModel:
         entry_sleeper_x=entry_x, entry_sleeper_dof=sleeper_dof[:n_entry],
         entry_support_damping=sl_c, entry_strengthened=strengthened, entry_pad_stiffness=pad_k,
         exit_sleeper_x=exit_x, type_ii_end=float(type_ii_end), info=info)
+
+
+@dataclass
+class WinklerBeam:
+    """A uniform rail on a continuous Winkler foundation, pinned at both ends: the track of the
+    closed-form solutions (THEORY.md) used to validate the elements and the integrator."""
+    node_x: np.ndarray
+    rail_w: np.ndarray
+    rail_th: np.ndarray
+    M: sp.csr_matrix
+    C: sp.csr_matrix
+    K: sp.csr_matrix
+
+    @classmethod
+    def build(cls, length: float, element_length: float, ei: float, mass: float, k: float,
+              c: float = 0.0) -> "WinklerBeam":
+        n_el = int(round(length / element_length))
+        node_x = np.arange(n_el + 1) * element_length
+        # dofs (w_j, th_j) in node order, w at both ends fixed
+        full = np.arange(2 * (n_el + 1)).reshape(-1, 2)
+        fixed = np.zeros(full.size, bool)
+        fixed[[0, 2 * n_el]] = True
+        index = np.cumsum(~fixed) - 1
+        index[fixed] = -1
+        dof = index[full]
+        el = np.hstack([dof[:-1], dof[1:]])
+        n = int((~fixed).sum())
+        gram = hermite_gram(np.full(n_el, element_length))
+        mats = []
+        for assemble in (lambda a: a.add(el, mass * gram),
+                         lambda a: a.add(el, c * gram),
+                         lambda a: (a.add(el, beam_stiffness(ei, np.full(n_el, element_length))),
+                                    a.add(el, k * gram))):
+            a = Assembler(n)
+            assemble(a)
+            mats.append(a.build())
+        return cls(node_x, dof[:, 0], dof[:, 1], *mats)

@@ -1,0 +1,114 @@
+"""``lccopt simulate``: one design, its objectives on screen, histories in HDF5, PNG plots."""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import numpy as np
+import typer
+
+from .case import load_case, parse_design
+from .store import write_evaluation
+from .vti.response import OBJECTIVE_UNITS, Evaluation
+
+
+def run_simulate(case_path: Path, design: str | None, out: Path | None, plots: bool) -> Evaluation:
+    from .cli import UsageError
+
+    case = load_case(case_path)
+    try:
+        x = case.reference if design is None else parse_design(design, case)
+    except ValueError as exc:
+        raise UsageError(f"--design: {exc}") from None
+    out = out or Path("runs") / f"{case.name}-simulate"
+    out.mkdir(parents=True, exist_ok=True)
+
+    from .vti.simulate import evaluate
+
+    t0 = time.perf_counter()
+    ev = evaluate(case, x)
+    wall = time.perf_counter() - t0
+    info = ev.info
+    typer.echo(f"case '{case.name}' ({case_path}), design "
+               + ", ".join(f"{n}={v:g}" for n, v in zip(case.names, x)))
+    typer.echo(f"static wheel load {info['static_wheel_load'] / 1e3:.2f} kN (this vehicle's weight); "
+               f"Hertz spring linearised at P = {info['hertz_load'] / 1e3:.1f} kN: "
+               f"k_w = {info['contact_stiffness'] / 1e9:.3f} GN/m")
+    typer.echo(f"{info['n_dofs']} track dofs, {info['n_steps']} steps of {info['time_step'] * 1e3:g} ms, "
+               f"wheel from {info['x_start']:.1f} m to {info['x_end']:.1f} m, {wall:.2f} s")
+    for k, v in ev.objectives.items():
+        typer.echo(f"  {k:<6} = {v:12.6g} {OBJECTIVE_UNITS[k]}")
+    if info["contact_loss_steps"]:
+        typer.echo(f"WARNING: contact lost (force <= 0) in {info['contact_loss_steps']} steps, first at "
+                   f"{info['contact_loss_first_position']:.2f} m; the linear contact spring pulled the wheel",
+                   err=True)
+    h5 = write_evaluation(out / "simulation.h5", ev, x, case.names, {"case": case.resolved})
+    typer.echo(f"histories: {h5}")
+    if plots:
+        for p in plot_evaluation(ev, case, out):
+            typer.echo(f"plot: {p}")
+    return ev
+
+
+def plot_evaluation(ev: Evaluation, case, out: Path) -> list[Path]:
+    """Contact force along the track, energy per zone sleeper, wheel and rail displacement."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    h, info = ev.histories, ev.info
+    x = h["wheel_position"]
+    x_a, x_b = info["interface_entry"], info["interface_exit"]
+    paths = []
+
+    def mark(ax):
+        ax.axvspan(x_a, min(x_b, x.max()), color="0.85", label="ERS (level crossing)")
+        ax.axvspan(info["zone_start"], info["zone_end"], color="tab:orange", alpha=0.12,
+                   label="force evaluation zone")
+        if info["type_ii_end"] > x_a:
+            ax.axvspan(x_a, info["type_ii_end"], color="tab:purple", alpha=0.15, label="Type II strip")
+
+    fig, ax = plt.subplots(figsize=(9, 4))
+    mark(ax)
+    ax.plot(x, h["contact_force"] / 1e3, lw=0.9, color="tab:blue", label="contact force")
+    ax.axhline(info["static_wheel_load"] / 1e3, color="k", ls=":", lw=0.8, label="static wheel load")
+    ax.set(xlabel="wheel position along the track [m]", ylabel="wheel-rail contact force [kN]",
+           title=f"{case.name}: F_max = {ev.objectives['F_max'] / 1e3:.2f} kN, "
+                 f"F_rms = {ev.objectives['F_rms'] / 1e3:.2f} kN")
+    ax.legend(loc="lower left", fontsize=8)
+    fig.tight_layout()
+    paths.append(out / "contact_force.png")
+    fig.savefig(paths[-1], dpi=120)
+    plt.close(fig)
+
+    fig, ax = plt.subplots(figsize=(9, 4))
+    e = h["sleeper_energy"]
+    n = np.arange(1, len(e) + 1)
+    colors = np.where(h["sleeper_strengthened"] > 0, "tab:red", "tab:green")
+    ax.bar(n, e, color=colors)
+    ax.bar([0], [0], color="tab:red", label="strengthened sleeper")
+    ax.bar([0], [0], color="tab:green", label="standard sleeper")
+    ax.set(xlabel="sleeper number (1 = next to the interface)", ylabel="energy dissipated in support [J]",
+           title=f"E_max = {ev.objectives['E_max']:.4f} J, E_rms = {ev.objectives['E_rms']:.4f} J",
+           xticks=n, xlim=(0.3, len(e) + 0.7))
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    paths.append(out / "sleeper_energy.png")
+    fig.savefig(paths[-1], dpi=120)
+    plt.close(fig)
+
+    fig, ax = plt.subplots(figsize=(9, 4))
+    mark(ax)
+    ax.plot(x, h["wheel_displacement"] * 1e3, lw=0.9, label="wheel")
+    ax.plot(x, h["rail_displacement"] * 1e3, lw=0.9, label="rail under the wheel")
+    ax.invert_yaxis()
+    ax.set(xlabel="wheel position along the track [m]", ylabel="displacement, downward [mm]",
+           title="wheel and rail displacement")
+    ax.legend(loc="lower left", fontsize=8)
+    fig.tight_layout()
+    paths.append(out / "displacement.png")
+    fig.savefig(paths[-1], dpi=120)
+    plt.close(fig)
+    return paths

@@ -1,0 +1,103 @@
+"""`lccopt simulate` and `lccopt check` as a user runs them: subprocess, real files, real HDF5."""
+
+import h5py
+import numpy as np
+import pytest
+
+from tests.conftest import CONFIGS
+
+PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.fixture(scope="module")
+def reference_run(tmp_path_factory):
+    import subprocess, os
+    from tests.conftest import lccopt_command
+    out = tmp_path_factory.mktemp("sim")
+    proc = subprocess.run(lccopt_command() + ["simulate", str(CONFIGS / "reference.yaml"), "--out", str(out)],
+                          capture_output=True, text=True, timeout=300, env={**os.environ, "MPLBACKEND": "Agg"})
+    return proc, out
+
+
+def test_simulate_prints_the_four_objectives_with_units(reference_run):
+    proc, out = reference_run
+    assert proc.returncode == 0, proc.stderr
+    lines = {l.split("=")[0].strip(): l for l in proc.stdout.splitlines() if "=" in l and l.startswith("  ")}
+    for name, unit in [("F_rms", "N"), ("F_max", "N"), ("E_rms", "J"), ("E_max", "J")]:
+        assert lines[name].rstrip().endswith(f" {unit}")
+    assert "static wheel load 87.2" in proc.stdout and "P = 100.0 kN" in proc.stdout
+
+
+def test_simulate_writes_readable_histories_and_plots(reference_run):
+    proc, out = reference_run
+    with h5py.File(out / "simulation.h5", "r") as f:
+        x = f["design"][()]
+        assert list(f["design"].attrs["names"]) == ["x_r1", "x_r2", "x_r3", "x_n", "x_s1", "x_s2", "x_s3", "x_l"]
+        assert np.array_equal(x, [1120e6] * 3 + [8, 6, 6, 4, 0])
+        force = f["histories/contact_force"][()]
+        zone = f["histories/in_force_zone"][()].astype(bool)
+        energy = f["histories/sleeper_energy"][()]
+        f_max = f["objectives"].attrs["F_max"]
+        e_max = f["objectives"].attrs["E_max"]
+        assert len(force) == len(f["histories/wheel_position"][()]) == f["info"].attrs["n_steps"] + 1
+        assert "vehicle:" in f["info"].attrs["case"]
+    # the stored objectives are those of the stored histories
+    assert f_max == pytest.approx(force[zone].max() - force[zone].min())
+    assert e_max == pytest.approx(energy.max() - energy.min())
+    assert len(energy) == 20 and np.all(energy > 0)
+    printed = float(next(l for l in proc.stdout.splitlines() if l.strip().startswith("F_max")).split("=")[1].split()[0])
+    assert printed == pytest.approx(f_max, rel=1e-5)
+    for name in ("contact_force.png", "sleeper_energy.png", "displacement.png"):
+        data = (out / name).read_bytes()
+        assert data.startswith(PNG_MAGIC) and len(data) > 10_000
+
+
+def test_simulate_another_design(run_cli, tmp_path):
+    proc = run_cli("simulate", CONFIGS / "reference.yaml", "--design", "214e6,155e6,50e6,5,6,7,3,0",
+                   "--out", tmp_path / "moo", "--no-plots")
+    assert proc.returncode == 0, proc.stderr
+    with h5py.File(tmp_path / "moo" / "simulation.h5") as f:
+        assert f["design"][()][0] == 214e6
+        pads = f["histories/entry_pad_stiffness"][()]
+        assert list(pads[:4]) == [50e6, 155e6, 214e6, 1120e6]
+    assert not list((tmp_path / "moo").glob("*.png"))
+
+
+def test_simulate_rejects_a_bad_design(run_cli):
+    proc = run_cli("simulate", CONFIGS / "reference.yaml", "--design", "214e6,155e6,50e6,5,6,7,3,500")
+    assert proc.returncode == 2
+    assert proc.stderr.strip().splitlines() == ["lccopt: error: --design: x_l = 500 is outside [0, 120]"]
+
+
+def test_check_accepts_a_good_case(run_cli):
+    proc = run_cli("check", CONFIGS / "reference.yaml")
+    assert proc.returncode == 0
+    assert "ok" in proc.stdout and "8 design variables" in proc.stdout
+
+
+@pytest.mark.parametrize("old,new,expect", [
+    ("    reference: 8\n", "    reference: 21\n", ": design.strengthened_sleepers.reference: reference x_n = 21 "
+                                                  "is outside the bounds [0, 20]"),
+    ("  run_in: 10.0", "  run_in: ten", ": simulation.run_in: expected a number, got 'ten'"),
+    ("  speed: 38.88888888888889", "  speed: 38.88888888888889\n  colour: red", ": vehicle.colour: unknown key"),
+])
+def test_check_rejects_bad_cases_with_one_line(run_cli, tmp_path, old, new, expect):
+    text = (CONFIGS / "reference.yaml").read_text()
+    assert old in text
+    bad = tmp_path / "bad.yaml"
+    bad_text = text.replace(old, new, 1)
+    bad.write_text(bad_text)
+    key_line = bad_text[:bad_text.index(new.strip().splitlines()[-1])].count("\n") + 1
+    for command in ("check", "simulate"):
+        proc = run_cli(command, bad)
+        assert proc.returncode == 2
+        err = proc.stderr.strip().splitlines()
+        assert len(err) == 1 and err[0].startswith(f"lccopt: error: {bad}:{key_line}: ")
+        assert expect in err[0]
+
+
+def test_missing_file_and_usage_errors(run_cli, tmp_path):
+    proc = run_cli("check", tmp_path / "none.yaml")
+    assert proc.returncode == 2 and "cannot read" in proc.stderr
+    proc = run_cli("simulate")
+    assert proc.returncode == 2
