@@ -241,8 +241,8 @@ SCHEMA = Section({
         "time_step": Num("Newmark time step", "s", gt=0),
         "element_length": Num("rail element length where the wheel runs (must divide 0.1 m)", "m",
                               gt=0, le=0.1),
-        "far_element_length": Num("rail element length elsewhere (must divide 0.1 m)", "m", gt=0, le=0.1,
-                                  default=0.1, required=False),
+        "far_element_length": Num("longest rail element away from the wheel (supports stay on nodes)",
+                                  "m", gt=0, le=0.6, default=0.3, required=False),
         "run_in": Num("distance run before the evaluation zone", "m", ge=0),
         "run_out": Num("distance run after the force zone (sleepers settle)", "m", ge=0),
         "irregularity": Str("CSV file (position m, dip m) of the vertical rail profile, relative "
@@ -555,10 +555,9 @@ def load_case(path: str | Path) -> Case:
 
     if not re.fullmatch(r"[A-Za-z0-9_.-]+", data["name"]):
         raise err(("name",), "use letters, digits, '.', '-' and '_' only (it names the run directory)")
-    for key in ("element_length", "far_element_length"):
-        le = data["simulation"][key]
-        if not _is_multiple(ELEMENT_UNIT, le):
-            raise err(("simulation", key), f"must divide 0.1 m exactly, got {le:g}")
+    le = data["simulation"]["element_length"]
+    if not _is_multiple(ELEMENT_UNIT, le):
+        raise err(("simulation", "element_length"), f"must divide 0.1 m exactly, got {le:g}")
     layout = data["track"]["layout"]
     for key in ("entry_length", "exit_length", "sleeper_spacing", "exit_first_span"):
         if not _is_multiple(layout[key], ELEMENT_UNIT):

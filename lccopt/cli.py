@@ -63,7 +63,12 @@ def optimise(
     """Run the surrogate optimisation of a case into runs/<case name>/."""
     from .engine.runner import optimise as run_optimise
 
-    run_optimise(case, workers=workers, scheduler=scheduler, runs=runs, force=force)
+    try:
+        run_optimise(case, workers=workers, scheduler=scheduler, runs=runs, force=force)
+    except typer.Exit as exc:  # interrupted and saved: main() turns KeyboardInterrupt into exit 130
+        if exc.exit_code == EXIT_INTERRUPTED:
+            raise KeyboardInterrupt from None
+        raise
 
 
 @app.command()
@@ -78,7 +83,12 @@ def resume(
     """Carry on an interrupted run where it stopped."""
     from .engine.runner import resume as run_resume
 
-    run_resume(run, workers=workers, scheduler=scheduler, case=case, allow_changed_case=allow_changed_case)
+    try:
+        run_resume(run, workers=workers, scheduler=scheduler, case=case, allow_changed_case=allow_changed_case)
+    except typer.Exit as exc:  # interrupted and saved: main() turns KeyboardInterrupt into exit 130
+        if exc.exit_code == EXIT_INTERRUPTED:
+            raise KeyboardInterrupt from None
+        raise
 
 
 @app.command()

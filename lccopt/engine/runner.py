@@ -305,9 +305,10 @@ class Engine:
                 if self.stop and not self._stop_logged:
                     self._stop_logged = True
                     n = self.executor.running
+                    msg = "interrupted: no new evaluations"
                     if not self.abort and n:
-                        p.log(f"interrupted: no new evaluations; waiting for the {n} running to finish "
-                              f"(Ctrl-C again to stop them now)")
+                        msg += f"; waiting for the {n} running to finish (Ctrl-C again to stop them now)"
+                    p.log(msg)
                 if self.abort:
                     n = self.executor.running
                     if n:

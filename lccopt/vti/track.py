@@ -92,15 +92,27 @@ def wheel_window(case: Case, entry_x: np.ndarray) -> tuple[float, float, float, 
     return zone_start - sim["run_in"], zone_start, zone_end, zone_end + sim["run_out"]
 
 
-def rail_nodes(total: float, window: tuple[float, float], fine: float, coarse: float) -> np.ndarray:
-    """Node positions: ``fine`` elements over the wheel's window (plus 2 m each side),
-    ``coarse`` elsewhere. Window edges snap outwards to the coarse grid."""
-    w0 = max(0.0, np.floor((window[0] - 2.0) / coarse + 1e-9) * coarse)
-    w1 = min(total, np.ceil((window[1] + 2.0) / coarse - 1e-9) * coarse)
-    parts = [np.arange(int(round(w0 / coarse))) * coarse,
-             w0 + np.arange(int(round((w1 - w0) / fine))) * fine,
-             w1 + np.arange(int(round((total - w1) / coarse)) + 1) * coarse]
-    return np.concatenate(parts)
+def rail_nodes(total: float, window: tuple[float, float], fine: float, coarse: float,
+               supports: np.ndarray) -> np.ndarray:
+    """Rail node positions.
+
+    Over the wheel's window (plus 2 m each side, snapped outwards to the 0.1 m grid) the
+    elements are ``fine`` long. Elsewhere every support position (sleepers, slab edges) is a
+    node and each gap between them is split into equal elements no longer than ``coarse``.
+    """
+    w0 = max(0.0, np.floor((window[0] - 2.0) / ELEMENT_UNIT + 1e-9) * ELEMENT_UNIT)
+    w1 = min(total, np.ceil((window[1] + 2.0) / ELEMENT_UNIT - 1e-9) * ELEMENT_UNIT)
+    fine_nodes = w0 + np.arange(int(round((w1 - w0) / fine)) + 1) * fine
+    keys = np.unique(np.concatenate([[0.0, w0, w1, total], supports]).round(9))
+    keys = keys[(keys <= w0) | (keys >= w1)]
+    coarse_nodes = []
+    for a, b in zip(keys[:-1], keys[1:]):
+        if a >= w0 - 1e-9 and b <= w1 + 1e-9:
+            continue                                   # the fine window
+        n = max(1, int(np.ceil((b - a) / coarse - 1e-9)))
+        coarse_nodes.append(a + (b - a) * np.arange(n) / n)
+    nodes = np.concatenate(coarse_nodes + [fine_nodes, [total]])
+    return np.unique(nodes.round(9))
 
 
 def build_track(case: Case, x: np.ndarray) -> TrackModel:
@@ -116,7 +128,12 @@ def build_track(case: Case, x: np.ndarray) -> TrackModel:
     total = x_b + lay["exit_length"]
     entry_x = entry_sleeper_positions(x_a, g["sleeper_spans"], lay["sleeper_spacing"])
     window = wheel_window(case, entry_x)
-    node_x = rail_nodes(total, (window[0], window[3]), le, case.simulation["far_element_length"])
+    exit_x = x_b + lay["exit_first_span"] + lay["sleeper_spacing"] * np.arange(
+        int((total - x_b - lay["exit_first_span"]) / lay["sleeper_spacing"] + 1e-9) + 1)
+    exit_x = exit_x[exit_x < total - 1e-9]
+    slab_edges = x_a + np.concatenate([[0.0], np.cumsum(ers["slab_lengths"])])
+    node_x = rail_nodes(total, (window[0], window[3]), le, case.simulation["far_element_length"],
+                        np.concatenate([entry_x, exit_x, slab_edges]))
     n_el = len(node_x) - 1
     el_len = np.diff(node_x)
 
@@ -126,9 +143,6 @@ def build_track(case: Case, x: np.ndarray) -> TrackModel:
         return i
 
     # --- sleepers
-    exit_x = x_b + lay["exit_first_span"] + lay["sleeper_spacing"] * np.arange(
-        int((total - x_b - lay["exit_first_span"]) / lay["sleeper_spacing"] + 1e-9) + 1)
-    exit_x = exit_x[exit_x < total - 1e-9]
     n_entry = len(entry_x)
     strengthened = np.arange(n_entry) < int(g["strengthened_sleepers"][0])
     pads = g["railpad_stiffness"][::-1]  # x_rN nearest the interface
@@ -150,7 +164,6 @@ def build_track(case: Case, x: np.ndarray) -> TrackModel:
     all_c = np.concatenate([sl_c, np.full(n_exit, t["support"]["damping"])])
 
     # --- slabs: node ranges (each slab has its own nodes; neighbouring slabs are not joined)
-    slab_edges = x_a + np.concatenate([[0.0], np.cumsum(ers["slab_lengths"])])
     slab_first = node_of(slab_edges[:-1])
     slab_last = node_of(slab_edges[1:])
 
