@@ -70,14 +70,14 @@ def plot_evaluation(ev: Evaluation, case, out: Path) -> list[Path]:
         if info["type_ii_end"] > x_a:
             ax.axvspan(x_a, info["type_ii_end"], color="tab:purple", alpha=0.15, label="Type II strip")
 
-    fig, ax = plt.subplots(figsize=(9, 4))
+    fig, ax = plt.subplots(figsize=(9, 4.4))
     mark(ax)
     ax.plot(x, h["contact_force"] / 1e3, lw=0.9, color="tab:blue", label="contact force")
     ax.axhline(info["static_wheel_load"] / 1e3, color="k", ls=":", lw=0.8, label="static wheel load")
     ax.set(xlabel="wheel position along the track [m]", ylabel="wheel-rail contact force [kN]",
-           title=f"{case.name}: F_max = {ev.objectives['F_max'] / 1e3:.2f} kN, "
+           title=f"case {case.name}: F_max = {ev.objectives['F_max'] / 1e3:.2f} kN, "
                  f"F_rms = {ev.objectives['F_rms'] / 1e3:.2f} kN")
-    ax.legend(loc="lower left", fontsize=8)
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=5, fontsize=8, frameon=False)
     fig.tight_layout()
     paths.append(out / "contact_force.png")
     fig.savefig(paths[-1], dpi=120)
@@ -99,14 +99,14 @@ def plot_evaluation(ev: Evaluation, case, out: Path) -> list[Path]:
     fig.savefig(paths[-1], dpi=120)
     plt.close(fig)
 
-    fig, ax = plt.subplots(figsize=(9, 4))
+    fig, ax = plt.subplots(figsize=(9, 4.4))
     mark(ax)
     ax.plot(x, h["wheel_displacement"] * 1e3, lw=0.9, label="wheel")
     ax.plot(x, h["rail_displacement"] * 1e3, lw=0.9, label="rail under the wheel")
     ax.invert_yaxis()
     ax.set(xlabel="wheel position along the track [m]", ylabel="displacement, downward [mm]",
            title="wheel and rail displacement")
-    ax.legend(loc="lower left", fontsize=8)
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=5, fontsize=8, frameon=False)
     fig.tight_layout()
     paths.append(out / "displacement.png")
     fig.savefig(paths[-1], dpi=120)
