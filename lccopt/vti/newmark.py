@@ -57,15 +57,36 @@ class Contact:
     force: float = 0.0
 
 
-def contact_vector(track: TrackLike, x: float) -> tuple[np.ndarray, np.ndarray]:
-    """Dof indices and Hermite values of N at position x (fixed dofs have index -1)."""
+def contact_vectors(track: TrackLike, x) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Element index, dof indices (n, 4) and Hermite values (n, 4) of N at positions x.
+
+    Fixed dofs get index 0 and value 0, so they take no part in the products."""
+    x = np.atleast_1d(np.asarray(x, dtype=float))
     nx = track.node_x
-    e = min(max(int(np.searchsorted(nx, x, side="right")) - 1, 0), len(nx) - 2)
-    idx = np.array([track.rail_w[e], track.rail_th[e], track.rail_w[e + 1], track.rail_th[e + 1]])
-    vals = np.array(hermite(x - nx[e], nx[e + 1] - nx[e]))
+    e = np.clip(np.searchsorted(nx, x, side="right") - 1, 0, len(nx) - 2)
+    L = nx[e + 1] - nx[e]
+    s = (x - nx[e]) / L
+    s2, s3 = s * s, s * s * s
+    vals = np.stack([1 - 3 * s2 + 2 * s3, L * (s - 2 * s2 + s3), 3 * s2 - 2 * s3, L * (s3 - s2)], axis=1)
+    idx = np.stack([track.rail_w[e], track.rail_th[e], track.rail_w[e + 1], track.rail_th[e + 1]], axis=1)
     vals[idx < 0] = 0.0
     idx[idx < 0] = 0
-    return idx, vals
+    return e, idx, vals
+
+
+def contact_vector(track: TrackLike, x: float) -> tuple[np.ndarray, np.ndarray]:
+    """Dof indices and Hermite values of N at one position x."""
+    _, idx, vals = contact_vectors(track, x)
+    return idx[0], vals[0]
+
+
+def inverse_columns(chol: np.ndarray, dofs: np.ndarray) -> np.ndarray:
+    """Rows A⁻¹e_j (shape (len(dofs), n)) of a matrix factorised by ``dpbtrf``."""
+    n = chol.shape[1]
+    unit = np.zeros((n, len(dofs)), order="F")
+    unit[dofs, np.arange(len(dofs))] = 1.0
+    sol, info = lapack.dpbtrs(chol, unit, lower=0, overwrite_b=1)
+    return sol.T
 
 
 @dataclass
@@ -159,22 +180,6 @@ def integrate(track: TrackLike, dt: float, speed: float, x_start: float, n_steps
     # rhs of the track from [u; v; a]: M(a0 u + a2 v + a) + C(a1 u + v), one sparse product
     W = sp.hstack([a0 * M + a1 * C, a2 * M + C, M]).tocsr()
 
-    # A_t⁻¹ columns of the rail dofs the wheel will touch: w = A_t⁻¹ N is then a 4-row
-    # combination instead of a second banded solve per step (the solve dominates a step).
-    x_end = x_start + speed * dt * n_steps
-    nx = track.node_x
-    e0 = min(max(int(np.searchsorted(nx, x_start, side="right")) - 1, 0), len(nx) - 2)
-    e1 = min(max(int(np.searchsorted(nx, x_end, side="right")), 0), len(nx) - 2)
-    touched = np.unique(np.concatenate([track.rail_w[e0:e1 + 2], track.rail_th[e0:e1 + 2]]))
-    touched = touched[touched >= 0]
-    unit = np.zeros((n, len(touched)), order="F")
-    unit[touched, np.arange(len(touched))] = 1.0
-    GT, info = lapack.dpbtrs(chol, unit, lower=0, overwrite_b=1)
-    GT = np.ascontiguousarray(GT.T)                  # row j = A_t⁻¹ e_touched[j]
-    row_of = np.full(n, -1)
-    row_of[touched] = np.arange(len(touched))
-    del unit
-
     # state rows: u, v, a, u_next (so that one small matrix product updates them)
     X = np.zeros((4, n))
     Y = np.zeros((4, n))
@@ -182,10 +187,16 @@ def integrate(track: TrackLike, dt: float, speed: float, x_start: float, n_steps
     R = np.array([[-a1, -1.0, 0.0, a1], [-a0, -a2, -1.0, a0]])  # -> [v_next; a_next]
     rhs = np.zeros(n)
     w = np.zeros(n)
+    # A_t⁻¹N = vals · (A_t⁻¹ e_j for the element's 4 dofs): columns solved when the wheel
+    # enters an element; the next element shares a node, so that costs two columns, not a
+    # second banded solve every step.
+    cols = np.empty((4, n))
 
     steps = n_steps + 1
     time = dt * np.arange(steps)
     position = x_start + speed * time
+    elem, idx_all, vals_all = contact_vectors(track, position)
+    new_elem = np.r_[True, True, elem[2:] != elem[1:-1]]   # step 1 always fills the columns
     force = np.zeros(steps)
     rail_disp = np.zeros(steps)
     veh = np.zeros((steps, 3))
@@ -203,10 +214,16 @@ def integrate(track: TrackLike, dt: float, speed: float, x_start: float, n_steps
         # right-hand side of the track from the state at step k-1
         rhs.fill(0.0)
         _csr_matvec(n, 3 * n, W.indptr, W.indices, W.data, X[:3].reshape(-1), rhs)
-        idx, vals = contact_vector(track, position[k])
+        idx, vals = idx_all[k], vals_all[k]
+        if new_elem[k]:
+            if k > 1 and elem[k] == elem[k - 1] + 1:
+                cols[:2] = cols[2:]
+                cols[2:] = inverse_columns(chol, idx[2:])
+            else:
+                cols[:] = inverse_columns(chol, idx)
         r = r_of(position[k])
         y, info = lapack.dpbtrs(chol, rhs, lower=0)
-        np.dot(vals, GT[row_of[idx]], out=w)
+        np.dot(vals, cols, out=w)
         g1 = float(vals @ y[idx])
         g2 = float(vals @ w[idx])
         if coupled:
