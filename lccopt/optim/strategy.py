@@ -70,7 +70,8 @@ def _default_settings(space: DesignSpace) -> dict:
         "succ_tol": 3,                     # successes in a row that double sigma
         "improvement_tol": 1e-3,           # success: f < f_best - tol * |f_best|
         "max_failed_row": max(d, 5),       # failed evaluations in a row that force a restart
-        "capping": True,                   # median-cap values before fitting
+        "capping": True,
+        "force_int_move": True,            # selected integers move >= 1 unit (else pySOT-like)                   # median-cap values before fitting
         "dist_tol": 1e-3,                  # duplicate radius (unit box, times sqrt(d_cont))
     }
 
@@ -297,8 +298,12 @@ class Strategy:
         mask[np.flatnonzero(none), pick[none]] = True  # always at least one coordinate
         step = sigma * self._span * rng.standard_normal((m, d))
         # Integers move by at least one unit step, then by the rounded step.
-        step[:, self._int] = np.where(step[:, self._int] >= 0, 1.0, -1.0) * np.maximum(
-            1.0, np.rint(np.abs(step[:, self._int])))
+        if self.settings["force_int_move"]:
+            step[:, self._int] = np.where(step[:, self._int] >= 0, 1.0, -1.0) * np.maximum(
+                1.0, np.rint(np.abs(step[:, self._int])))
+        else:  # pySOT-like: scale at least one unit, plain rounding (may not move)
+            scale = np.maximum(sigma * self._span, 1.0) / (sigma * self._span)
+            step[:, self._int] = np.rint(step[:, self._int] * scale[self._int])
         X = best[None, :] + np.where(mask, step, 0.0)
         lb, ub = sp.lb, sp.ub
         X = np.where(X < lb, 2 * lb - X, X)  # reflect back into the box
