@@ -479,7 +479,7 @@ def var_value(v: VarInfo, value: float) -> str:
         return f"{value:g} ({value * 0.1:.1f} m)"
     if v.integer or v.group == "strengthened_sleepers":
         return f"{value:g}"
-    return fnum(value * v.scale, 4)
+    return f"{value * v.scale:.4g}"
 
 
 def var_axis_label(v: VarInfo) -> str:
@@ -518,23 +518,13 @@ def _save(fig, path: Path) -> Path:
     return path
 
 
-def fig_search_history(run: RunData, out: Path) -> Path:
-    plt = _plt()
+def _history_panel(ax, run: RunData, vals: np.ndarray, ylo: float, yhi: float, arrows: bool = True) -> list:
+    """One panel of the search history; returns the legend handles."""
+    import matplotlib.transforms as mtransforms
     from matplotlib.lines import Line2D
 
-    s, ylabel = value_label(run)
-    fig, ax = plt.subplots(figsize=(9, 4.6))
-    ok = run.ok & np.isfinite(run.value)
+    ok = run.ok & np.isfinite(vals)
     ref_i = run.ref_index()
-    vals = run.value * s
-    # y range: robust against a few huge values (they are drawn at the top edge, marked)
-    if ok.any():
-        v_ok = vals[ok]
-        lo, hi = float(v_ok.min()), float(np.percentile(v_ok, 95) if ok.sum() > 10 else v_ok.max())
-        pad = 0.06 * (hi - lo if hi > lo else (abs(hi) or 1.0))
-        ylo, yhi = lo - pad, hi + 2.5 * pad
-    else:
-        ylo, yhi = 0.0, 1.0
     clipped = ok & (vals > yhi)
     handles = []
     for ph, (label, marker, color) in PHASE_STYLE.items():
@@ -543,66 +533,107 @@ def fig_search_history(run: RunData, out: Path) -> Path:
             m[ref_i] = False
         if m.any():
             ax.scatter(run.ids[m], vals[m], marker=marker, s=18, color=color, alpha=0.8, lw=0, zorder=3)
-            handles.append(Line2D([], [], ls="", marker=marker, color=color, label=f"{label} ({m.sum()})"))
+        n_ph = int((ok & (run.phase == ph)).sum())
+        if n_ph:
+            handles.append(Line2D([], [], ls="", marker=marker, color=color, label=f"{label} ({n_ph})"))
     other = ok & ~np.isin(run.phase, list(PHASE_STYLE)) & ~clipped
     if other.any():
         ax.scatter(run.ids[other], vals[other], marker="o", s=18, color="0.6", zorder=3)
         handles.append(Line2D([], [], ls="", marker="o", color="0.6", label=f"other ({other.sum()})"))
+    if ref_i is not None and ok[ref_i] and not clipped[ref_i]:
+        ax.scatter([run.ids[ref_i]], [vals[ref_i]], marker="D", s=60, color=REF_COLOR, edgecolor="k", zorder=5)
     if ref_i is not None and ok[ref_i]:
-        ax.scatter([run.ids[ref_i]], [min(vals[ref_i], yhi)], marker="D", s=60, color=REF_COLOR,
-                   edgecolor="k", zorder=5)
         handles.append(Line2D([], [], ls="", marker="D", color=REF_COLOR, markeredgecolor="k",
-                              label="reference design (#0)"))
-    if clipped.any():
-        ax.scatter(run.ids[clipped], np.full(clipped.sum(), yhi), marker="^", s=22, color="0.5",
-                   clip_on=False, zorder=4)
-        handles.append(Line2D([], [], ls="", marker="^", color="0.5",
+                              label=f"reference design (#{run.ids[ref_i]})"))
+    tr = mtransforms.blended_transform_factory(ax.transData, ax.transAxes)
+    if clipped.any() and arrows:
+        ax.scatter(run.ids[clipped], np.full(clipped.sum(), 0.985), marker="$\u2191$", s=40, color="0.45",
+                   transform=tr, clip_on=False, zorder=4)
+        handles.append(Line2D([], [], ls="", marker="$\u2191$", markersize=8, color="0.45",
                               label=f"above the plotted range ({clipped.sum()})"))
     failed = run.status == "failed"
     if failed.any():
-        import matplotlib.transforms as mtransforms
-
-        tr = mtransforms.blended_transform_factory(ax.transData, ax.transAxes)
         ax.scatter(run.ids[failed], np.full(failed.sum(), 0.03), marker="x", s=40, color=FAIL_COLOR,
                    transform=tr, zorder=6, clip_on=False)
         handles.append(Line2D([], [], ls="", marker="x", color=FAIL_COLOR,
                               label=f"failed evaluation ({failed.sum()}), no value"))
-    # best so far, in evaluation-number order
     order = np.argsort(run.ids)
     v = np.where(ok, vals, np.inf)[order]
     best = np.minimum.accumulate(v)
     has = np.isfinite(best)
     if has.any():
-        ax.step(run.ids[order][has], best[has], where="post", color=FRONT_COLOR, lw=2.2, zorder=4)
+        xs = np.append(run.ids[order][has], run.ids.max() + 0.5)
+        ax.step(xs, np.append(best[has], best[has][-1]), where="post", color=FRONT_COLOR, lw=2.2, zorder=4)
         handles.append(Line2D([], [], color=FRONT_COLOR, lw=2.2, label="best so far"))
     bi = run.best_index()
     if bi is not None:
         ax.scatter([run.ids[bi]], [vals[bi]], marker="*", s=180, color=BEST_COLOR, edgecolor="k", zorder=7)
         handles.append(Line2D([], [], ls="", marker="*", markersize=12, color=BEST_COLOR, markeredgecolor="k",
                               label=f"best: #{run.ids[bi]}, {fnum(vals[bi], 4)}"))
-    # restarts
     starts = [int(run.ids[run.restart == r].min()) for r in np.unique(run.restart) if r > 0]
     for k, i0 in enumerate(starts):
         ax.axvline(i0 - 0.5, color="k", ls="--", lw=1.0, zorder=2)
-        ax.text(i0 - 0.5, 0.97, f" restart {k + 1}", transform=ax.get_xaxis_transform(), va="top",
-                ha="left", fontsize=8)
+        ax.text(i0 - 0.5, 0.95, f" restart {k + 1}", transform=ax.get_xaxis_transform(), va="top",
+                ha="left", fontsize=8, bbox=dict(facecolor="white", edgecolor="none", alpha=0.7, pad=1))
     if starts:
         handles.append(Line2D([], [], color="k", ls="--", lw=1.0, label="restart (fresh design)"))
-    if run.multi and run.ref_point is not None:
+    if run.multi and run.ref_point is not None and ylo < 0 < yhi:
         ax.axhline(0.0, color="0.3", lw=0.8, ls=":")
-        handles.append(Line2D([], [], color="0.3", ls=":", lw=0.8, label="0 = reference point reached"))
+        handles.append(Line2D([], [], color="0.3", ls=":", lw=0.8, label="0: the reference point f^r"))
     ax.set_ylim(ylo, yhi)
     ax.set_xlim(-1, max(int(run.ids.max()) + 1, run.budget))
-    ax.set(xlabel="evaluation number", ylabel=ylabel,
-           title=f"Search history of '{run.name}': {run.n} of {run.budget} evaluations ({run.state})")
-    ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0, frameon=False)
+    return handles
+
+
+def fig_search_history(run: RunData, out: Path) -> Path:
+    """All evaluations (top) and, when it adds detail, a zoom on the best-so-far line (bottom)."""
+    plt = _plt()
+    s, ylabel = value_label(run)
+    vals = run.value * s
+    ok = run.ok & np.isfinite(vals)
+    if ok.any():
+        v_ok = vals[ok]
+        lo, hi = float(v_ok.min()), float(np.percentile(v_ok, 95) if ok.sum() > 10 else v_ok.max())
+        pad = 0.06 * (hi - lo if hi > lo else (abs(hi) or 1.0))
+        ylo, yhi = lo - pad, hi + 2.5 * pad
+    else:
+        ylo, yhi = 0.0, 1.0
+    zoom = None
+    if ok.sum() > 3:
+        order = np.argsort(run.ids)
+        bsf = np.minimum.accumulate(np.where(ok, vals, np.inf)[order])
+        later = np.flatnonzero(run.phase[order] != "initial")  # first candidate after the initial design
+        n0 = max(0, int(later[0]) - 1) if len(later) else len(bsf) - 1
+        top, bottom = float(bsf[n0]), float(bsf[-1])
+        if np.isfinite(top) and top > bottom and (top - bottom) < 0.35 * (yhi - ylo):
+            pz = 0.12 * (top - bottom)
+            zoom = (bottom - pz, top + 2.5 * pz)
+    if zoom is None:
+        fig, ax = plt.subplots(figsize=(10, 4.6))
+        axes = [ax]
+    else:
+        fig, axes = plt.subplots(2, 1, figsize=(10, 7.2), sharex=True, gridspec_kw={"height_ratios": [1.25, 1]})
+    handles = _history_panel(axes[0], run, vals, ylo, yhi)
+    axes[0].set_title(f"Search history of '{run.name}': {run.n} of {run.budget} evaluations ({run.state})")
+    axes[0].set_ylabel(ylabel)
+    if zoom is not None:
+        _history_panel(axes[1], run, vals, *zoom, arrows=False)
+        axes[1].set_ylabel(ylabel)
+        axes[1].set_title("zoom on the best so far (after the initial design)", fontsize=9)
+    axes[-1].set_xlabel("evaluation number")
+    axes[0].legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0, frameon=False)
     fig.tight_layout()
     return _save(fig, out / "search-history.png")
 
 
 def fig_objective_space(run: RunData, out: Path) -> tuple[Path, str]:
-    """(path, note). Multi-objective: the run's first two objectives; else F_max vs E_max."""
+    """(path, note). Multi-objective: the run's first two objectives; else F_max vs E_max.
+
+    Left: all evaluations (logarithmic axes when they span a wide range); right: a zoom on the
+    Pareto front, the reference design and the reference point."""
     plt = _plt()
+    from matplotlib.ticker import FuncFormatter, LogLocator
+
     if run.multi:
         kx, ky = run.objectives[0], run.objectives[1]
         front = run.pareto.copy()
@@ -617,60 +648,72 @@ def fig_objective_space(run: RunData, out: Path) -> tuple[Path, str]:
         F = np.column_stack([run.obj[kx], run.obj[ky]])
         F[~run.ok] = math.nan
         front = pareto_mask(F)
-        note = (f"This run minimised {run.objectives[0]} alone; the figure shows all evaluations in "
-                f"(F_max, E_max) anyway, with the evaluations no other beats in both (not the run's goal).")
+        note = (f"This run minimised {run.objectives[0]} alone; the objective-space figure shows all evaluations "
+                f"in (F_max, E_max) anyway, with the evaluations that no other beats in both (not the run's goal).")
     sx, ux = obj_display(kx)
     sy, uy = obj_display(ky)
     X, Y = run.obj[kx] * sx, run.obj[ky] * sy
     ok = run.ok & np.isfinite(X) & np.isfinite(Y)
-    fig, ax = plt.subplots(figsize=(7.5, 5.4))
-    ax.scatter(X[ok & ~front], Y[ok & ~front], s=16, color="0.6", alpha=0.7, lw=0,
-               label=f"evaluations ({(ok & ~front).sum()})")
     fm = ok & front
-    if fm.any():
-        o = np.argsort(X[fm])
-        ax.plot(X[fm][o], Y[fm][o], color=FRONT_COLOR, lw=1.2, drawstyle="steps-post", zorder=3)
-        ax.scatter(X[fm], Y[fm], s=34, color=FRONT_COLOR, edgecolor="k", lw=0.5, zorder=4,
-                   label=f"Pareto front of all evaluations ({fm.sum()})" if run.multi
-                   else f"non-dominated in ({kx}, {ky}) ({fm.sum()})")
     rx, ry = run.ref_objectives.get(kx, math.nan) * sx, run.ref_objectives.get(ky, math.nan) * sy
-    if np.isfinite(rx) and np.isfinite(ry):
-        ax.scatter([rx], [ry], marker="D", s=70, color=REF_COLOR, edgecolor="k", zorder=5,
-                   label=f"reference design ({fnum(rx, 4)} {ux}, {fnum(ry, 4)} {uy})")
+    target = None
     if run.multi and run.ref_point is not None:
-        px, py = run.ref_point[0] * sx, run.ref_point[1] * sy
-        imp = f"{run.improvement:.0%} better" if run.improvement and np.isfinite(run.improvement) else "target"
-        ax.scatter([px], [py], marker="P", s=90, color="tab:red", edgecolor="k", zorder=5,
-                   label=f"reference point f^r ({imp} than the reference)")
-        ax.axvline(px, color="tab:red", lw=0.7, ls=":", zorder=1)
-        ax.axhline(py, color="tab:red", lw=0.7, ls=":", zorder=1)
+        target = (run.ref_point[0] * sx, run.ref_point[1] * sy)
     bi = run.best_index()
+    fig, axes = plt.subplots(1, 2, figsize=(11, 5.4))
+
+    def draw(ax, labels: bool):
+        L = (lambda t: t) if labels else (lambda t: None)  # noqa: E731
+        ax.scatter(X[ok & ~front], Y[ok & ~front], s=16, color="0.6", alpha=0.7, lw=0,
+                   label=L(f"evaluations ({(ok & ~front).sum()})"))
+        if fm.any():
+            o = np.argsort(X[fm])
+            ax.plot(X[fm][o], Y[fm][o], color=FRONT_COLOR, lw=1.0, drawstyle="steps-post", zorder=3)
+            ax.scatter(X[fm], Y[fm], s=34, color=FRONT_COLOR, edgecolor="k", lw=0.5, zorder=4,
+                       label=L(f"Pareto front of all evaluations ({fm.sum()})" if run.multi
+                               else f"non-dominated in ({kx}, {ky}) ({fm.sum()})"))
+        if np.isfinite(rx) and np.isfinite(ry):
+            ax.scatter([rx], [ry], marker="D", s=70, color=REF_COLOR, edgecolor="k", zorder=5,
+                       label=L(f"reference design ({fnum(rx, 4)} {ux}, {fnum(ry, 4)} {uy})"))
+        if target is not None:
+            imp = f"{run.improvement:.0%} better than the reference design" \
+                if run.improvement is not None and np.isfinite(run.improvement) else "target"
+            ax.scatter([target[0]], [target[1]], marker="P", s=90, color="tab:red", edgecolor="k", zorder=5,
+                       label=L(f"reference point f^r ({imp})"))
+            ax.axvline(target[0], color="tab:red", lw=0.7, ls=":", zorder=1)
+            ax.axhline(target[1], color="tab:red", lw=0.7, ls=":", zorder=1)
+        if bi is not None:
+            lab = "chosen compromise (best ASF value)" if run.multi else f"best {run.objectives[0]}"
+            ax.scatter([X[bi]], [Y[bi]], marker="*", s=260, color=BEST_COLOR, edgecolor="k", zorder=6,
+                       label=L(f"{lab}: #{run.ids[bi]} ({fnum(X[bi], 4)} {ux}, {fnum(Y[bi], 4)} {uy})"))
+        ax.set(xlabel=f"{kx} [{ux}]", ylabel=f"{ky} [{uy}]")
+
+    a0, a1 = axes
+    draw(a0, True)
+    a0.set_title("all evaluations")
+    for vals, axis in ((X[ok], a0.xaxis), (Y[ok], a0.yaxis)):
+        if len(vals) and np.all(vals > 0) and vals.max() > 4 * vals.min():
+            (a0.set_xscale if axis is a0.xaxis else a0.set_yscale)("log")
+            axis.set_major_locator(LogLocator(subs=(1.0, 2.0, 3.0, 5.0)))
+            axis.set_minor_locator(LogLocator(subs=np.arange(1, 10)))
+            axis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+            axis.set_minor_formatter(FuncFormatter(lambda v, _: ""))
+    draw(a1, False)
+    a1.set_title("zoom: Pareto front, reference design" + (", reference point" if target else ""))
+    px = list(X[fm]) + [v for v in (rx, target[0] if target else math.nan) if np.isfinite(v)]
+    py = list(Y[fm]) + [v for v in (ry, target[1] if target else math.nan) if np.isfinite(v)]
     if bi is not None:
-        lab = "chosen compromise (best ASF value)" if run.multi else f"best {run.objectives[0]}"
-        ax.scatter([X[bi]], [Y[bi]], marker="*", s=260, color=BEST_COLOR, edgecolor="k", zorder=6,
-                   label=f"{lab}: #{run.ids[bi]} ({fnum(X[bi], 4)} {ux}, {fnum(Y[bi], 4)} {uy})")
-    # zoom on the interesting part: the front, reference, target and best, plus the bulk
-    pts_x = [v for v in [rx, X[bi] if bi is not None else math.nan] if np.isfinite(v)] + list(X[fm])
-    pts_y = [v for v in [ry, Y[bi] if bi is not None else math.nan] if np.isfinite(v)] + list(Y[fm])
-    if run.multi and run.ref_point is not None:
-        pts_x.append(run.ref_point[0] * sx)
-        pts_y.append(run.ref_point[1] * sy)
-    if ok.sum() > 5:
-        pts_x.append(np.percentile(X[ok], 80))
-        pts_y.append(np.percentile(Y[ok], 80))
-    if pts_x and pts_y:
-        x0, x1, y0, y1 = min(pts_x), max(pts_x), min(pts_y), max(pts_y)
-        dx, dy = (x1 - x0) or abs(x1) or 1.0, (y1 - y0) or abs(y1) or 1.0
-        ax.set_xlim(x0 - 0.08 * dx, x1 + 0.08 * dx)
-        ax.set_ylim(y0 - 0.08 * dy, y1 + 0.08 * dy)
-        hidden = ok & ((X > x1 + 0.08 * dx) | (Y > y1 + 0.08 * dy))
-        if hidden.any():
-            ax.text(0.99, 0.01, f"{hidden.sum()} evaluations beyond the plotted range", transform=ax.transAxes,
-                    ha="right", va="bottom", fontsize=8, color="0.4")
-    ax.set(xlabel=f"{kx} [{ux}]", ylabel=f"{ky} [{uy}]",
-           title=f"Objective space of '{run.name}'" + ("" if run.multi else f" (run minimised {run.objectives[0]})"))
-    ax.legend(loc="upper left", bbox_to_anchor=(0.0, -0.13), ncol=1, frameon=False)
-    fig.tight_layout()
+        px.append(X[bi])
+        py.append(Y[bi])
+    if px and py:
+        x0, x1, y0, y1 = min(px), max(px), min(py), max(py)
+        dx, dy = (x1 - x0) or abs(x1) * 0.1 or 1.0, (y1 - y0) or abs(y1) * 0.1 or 1.0
+        a1.set_xlim(x0 - 0.1 * dx, x1 + 0.1 * dx)
+        a1.set_ylim(y0 - 0.1 * dy, y1 + 0.1 * dy)
+    fig.suptitle(f"Objective space of '{run.name}'" + ("" if run.multi else
+                                                        f" (the run minimised {run.objectives[0]} alone)"))
+    fig.legend(*a0.get_legend_handles_labels(), loc="lower center", ncol=2, frameon=False)
+    fig.tight_layout(rect=(0, 0.15, 1, 1))
     return _save(fig, out / "objective-space.png"), note
 
 
@@ -688,15 +731,18 @@ def fig_best_vs_reference(run: RunData, bi: int, ri: int | None, out: Path) -> P
     colors = [("tab:green" if c < 0 else "tab:red") for c in np.nan_to_num(ch)]
     y = np.arange(len(names))
     a1.barh(y, np.nan_to_num(ch), color=colors)
-    a1.set_yticks(y, [f"{k}{' (objective)' if k in run.objectives else ''}" for k in names])
+    a1.set_yticks(y, names)
+    for t in a1.get_yticklabels():
+        if t.get_text() in run.objectives:
+            t.set_fontweight("bold")
     a1.invert_yaxis()
     a1.axvline(0, color="k", lw=0.8)
     lim = max(5.0, float(np.nanmax(np.abs(ch))) * 1.35) if np.isfinite(ch).any() else 5.0
     a1.set_xlim(-lim, lim)
     for yi, c in zip(y, ch):
         if np.isfinite(c):
-            a1.text(c, yi, f" {c:+.1f} % ", va="center", ha="left" if c >= 0 else "right", fontsize=8)
-    a1.set(xlabel="change vs reference design [%]", title="objectives (negative = better)")
+            a1.text(0, yi, f" {c:+.1f} % ", va="center", ha="right" if c >= 0 else "left", fontsize=8)
+    a1.set(xlabel="change vs reference design [%]", title="objectives (bold: the run's; negative = better)")
     a1.grid(axis="y", visible=False)
     # design vector, as a fraction of each variable's range
     xb, xr = run.x[bi], run.ref_x
@@ -743,7 +789,7 @@ def fig_contact_force(run: RunData, best: tuple, ref: tuple, bi: int, out: Path)
         return None
     plt = _plt()
     info = ib if hb is not None and "wheel_position" in hb else ir
-    fig, ax = plt.subplots(figsize=(9, 4.2))
+    fig, ax = plt.subplots(figsize=(9, 4.8))
     xmax = max(float(np.max(h["wheel_position"])) for h, _ in have)
     _zone_marks(ax, info, xmax)
     if hr is not None and "contact_force" in hr and "wheel_position" in hr:
@@ -755,50 +801,58 @@ def fig_contact_force(run: RunData, best: tuple, ref: tuple, bi: int, out: Path)
     if "static_wheel_load" in info:
         ax.axhline(info["static_wheel_load"] / 1e3, color="k", ls=":", lw=0.8, label="static wheel load")
     if "interface_entry" in info:
-        ax.text(info["interface_entry"], 1.0, " interface", transform=ax.get_xaxis_transform(), va="bottom",
+        ax.text(info["interface_entry"], 0.98, " interface", transform=ax.get_xaxis_transform(), va="top",
                 ha="left", fontsize=8)
     ax.set(xlabel="wheel position along the track [m]", ylabel="wheel-rail contact force [kN]",
            title="Contact force: best against reference design")
-    ax.set_xlim(min(float(np.min(h["wheel_position"])) for h, _ in have), xmax)
-    ax.legend(loc="lower left", frameon=True, framealpha=0.9)
-    fig.tight_layout()
+    x0 = min(float(np.min(h["wheel_position"])) for h, _ in have)
+    if "zone_start" in info:  # the run-in from static equilibrium is not of interest
+        x0 = max(x0, float(info["zone_start"]) - 2.0)
+    ax.set_xlim(x0, xmax)
+    shown = [h["contact_force"][h["wheel_position"] >= x0] / 1e3 for h, _ in have]
+    lo, hi = min(float(v.min()) for v in shown), max(float(v.max()) for v in shown)
+    ax.set_ylim(lo - 0.08 * (hi - lo or 1), hi + 0.15 * (hi - lo or 1))
+    fig.legend(*ax.get_legend_handles_labels(), loc="lower center", ncol=3, frameon=False)
+    fig.tight_layout(rect=(0, 0.13, 1, 1))
     return _save(fig, out / "contact-force.png")
 
 
 def fig_sleeper_energy(run: RunData, best: tuple, ref: tuple, bi: int, out: Path) -> Path | None:
+    """Energy per zone sleeper (profile, as the paper's Fig. 11); E_max = max - min shown as a band."""
     (hb, _), (hr, _) = best, ref
     eb = None if hb is None else hb.get("sleeper_energy")
     er = None if hr is None else hr.get("sleeper_energy")
     if eb is None and er is None:
         return None
     plt = _plt()
-    from matplotlib.patches import Patch
+    from matplotlib.lines import Line2D
 
     n = max(len(e) for e in (eb, er) if e is not None)
-    idx = np.arange(1, n + 1)
-    fig, ax = plt.subplots(figsize=(9, 4.2))
-    w = 0.4
+    fig, ax = plt.subplots(figsize=(9, 4.6))
     handles = []
-    for e, h, off, color, lab in ((er, hr, -w / 2, REF_COLOR, "reference design"),
-                                  (eb, hb, w / 2, BEST_COLOR, f"best #{run.ids[bi]}")):
+    for e, h, color, marker, lab in ((er, hr, REF_COLOR, "D", "reference design"),
+                                     (eb, hb, BEST_COLOR, "o", f"best #{run.ids[bi]}")):
         if e is None:
             continue
-        st = np.asarray(h.get("sleeper_strengthened", np.zeros(len(e))), dtype=bool)
-        ax.bar(idx[:len(e)] + off, e, width=w, color=color, edgecolor="k", lw=0.4,
-               hatch=None, zorder=3)
-        if st.any():
-            ax.bar(idx[:len(e)][st] + off, e[st], width=w, color="none", edgecolor="k", lw=0.4,
-                   hatch="///", zorder=4)
-        handles.append(Patch(color=color, label=f"{lab}: E_max = {fnum(float(e.max() - e.min()), 4)} J, "
-                                                f"total {fnum(float(e.sum()), 4)} J"))
-    handles.append(Patch(facecolor="white", edgecolor="k", hatch="///", label="strengthened sleeper"))
+        e = np.asarray(e, float)
+        idx = np.arange(1, len(e) + 1)
+        st = np.asarray(h.get("sleeper_strengthened", np.zeros(len(e))), dtype=bool)[:len(e)]
+        ax.axhspan(e.min(), e.max(), color=color, alpha=0.10, lw=0)
+        ax.plot(idx, e, color=color, lw=1.4, zorder=3)
+        ax.scatter(idx[~st], e[~st], marker=marker, s=30, facecolor="white", edgecolor=color, lw=1.3, zorder=4)
+        ax.scatter(idx[st], e[st], marker=marker, s=30, facecolor=color, edgecolor=color, lw=1.3, zorder=4)
+        handles.append(Line2D([], [], color=color, marker=marker, markerfacecolor=color,
+                              label=f"{lab}: E_max = {fnum(float(e.max() - e.min()), 4)} J (band: min to max), "
+                                    f"E_rms = {fnum(float(np.sqrt(np.mean(e ** 2))), 4)} J"))
+    handles += [Line2D([], [], ls="", marker="o", color="0.3", label="strengthened sleeper (filled)"),
+                Line2D([], [], ls="", marker="o", markerfacecolor="white", color="0.3",
+                       label="standard sleeper (open)")]
     ax.set(xlabel="sleeper number (1 = next to the interface)", ylabel="energy dissipated in the support [J]",
            title="Energy dissipated under each sleeper of the evaluation zone (cf. paper Fig. 11)",
-           xlim=(0.4, n + 0.6))
-    ax.set_xticks(idx)
-    ax.grid(axis="x", visible=False)
-    ax.legend(handles=handles, loc="upper right")
-    fig.tight_layout()
+           xlim=(0.5, n + 0.5))
+    ax.set_xticks(np.arange(1, n + 1))
+    fig.legend(handles=handles, loc="lower center", ncol=2, frameon=False)
+    fig.tight_layout(rect=(0, 0.12, 1, 1))
     return _save(fig, out / "sleeper-energy.png")
 
 
@@ -851,7 +905,7 @@ def fig_track_layout(run: RunData, best: tuple, ref: tuple, bi: int, out: Path) 
     cmap = plt.get_cmap("viridis")
     # x: distance from the entry slab edge (negative: ballast track)
     n_show = n_zone or 20
-    left = -max(float(l["x_a"] - l["x"][min(n_show, len(l["x"])) - 1]) for _, l in lays) - 0.5
+    left = -max(float(l["x_a"] - l["x"][min(n_show, len(l["x"])) - 1]) for _, l in lays) - 0.8
     ers_len = min(float(l["x_b"] - l["x_a"]) for _, l in lays if np.isfinite(l["x_b"])) if \
         any(np.isfinite(l["x_b"]) for _, l in lays) else 12.0
     right = min(ers_len, max(3.0, max(l["type_ii_end"] - l["x_a"] for _, l in lays) + 1.0))
@@ -873,8 +927,8 @@ def fig_track_layout(run: RunData, best: tuple, ref: tuple, bi: int, out: Path) 
         # Type II strip
         t2 = l["type_ii_end"] - l["x_a"]
         if t2 > 0:
-            ax.add_patch(Rectangle((0, -0.35), t2, 0.2, facecolor="tab:purple", alpha=0.6, edgecolor="none"))
-        ax.add_patch(Rectangle((max(t2, 0), -0.35), max(right, ers_len) - max(t2, 0), 0.2, facecolor="0.55",
+            ax.add_patch(Rectangle((0, -0.35), t2, 0.33, facecolor="tab:purple", alpha=0.6, edgecolor="none"))
+        ax.add_patch(Rectangle((max(t2, 0), -0.35), max(right, ers_len) - max(t2, 0), 0.33, facecolor="0.55",
                                edgecolor="none"))
         # rail
         ax.plot([left, right], [0.0, 0.0], color="k", lw=3, solid_capstyle="butt")
@@ -896,16 +950,26 @@ def fig_track_layout(run: RunData, best: tuple, ref: tuple, bi: int, out: Path) 
         for a, b in zip(pts[:-1], pts[1:]):
             ax.annotate("", xy=(a, 0.28), xytext=(b, 0.28), arrowprops=dict(arrowstyle="<->", lw=0.7))
             ax.text(0.5 * (a + b), 0.36, f"{abs(a - b):.1f}", ha="center", va="bottom", fontsize=7)
+        n_pad = sum(v.group == "railpad_stiffness" for v in run.variables)
+        for xi, k in zip(xs[:n_pad], l["k"][:n_pad]):  # the designed pads, in MN/m
+            ax.text(xi, 0.05, f"{k / 1e6:.0f}", ha="center", va="bottom", fontsize=6.5, color="0.15")
         ax.text(left, 0.62, title, fontsize=9, fontweight="bold", va="center")
         ax.text(0.05, 0.62, f"ERS →  {'Type II strip ' + format(t2, '.1f') + ' m' if t2 > 0 else 'no Type II strip'}",
                 fontsize=8, va="center")
     axes[-1, 0].set_xlabel("distance from the entry slab edge [m] (vehicle runs left to right; "
-                           "sleeper numbers below, spans in m above)")
+                           "sleeper numbers below; above: designed pads in MN/m, spans in m)")
     sm = plt.cm.ScalarMappable(norm=norm, cmap=cmap)
     fig.tight_layout(rect=(0, 0.09, 0.88, 1))
     cax = fig.add_axes((0.895, 0.2, 0.015, 0.7))
     cb = fig.colorbar(sm, cax=cax)
     cb.set_label("railpad stiffness [MN/m]")
+    if isinstance(norm, mcolors.LogNorm):
+        from matplotlib.ticker import FixedLocator, FuncFormatter, NullLocator
+
+        ticks = [t for t in (20, 50, 100, 200, 500, 1000, 2000) if norm.vmin <= t <= norm.vmax]
+        cb.ax.yaxis.set_major_locator(FixedLocator(ticks))
+        cb.ax.yaxis.set_minor_locator(NullLocator())
+        cb.ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
     handles = [Patch(facecolor="burlywood", edgecolor="k", label="standard sleeper"),
                Patch(facecolor="tab:brown", edgecolor="k", hatch="///", label="strengthened sleeper"),
                Patch(facecolor="0.55", label="standard rail strip (Type I)"),
@@ -1017,7 +1081,7 @@ class Doc:
                 lines += ["| " + " | ".join(esc(c) for c in r) + " |" for r in rows]
                 out.append("\n".join(lines))
             elif b[0] == "fig":
-                out.append(f"![{b[2]}]({b[1].name})\n\n*{b[2]}*")
+                out.append(f"![{b[1].stem.replace('-', ' ')}]({b[1].name})\n\n*{b[2]}*")
         return "\n\n".join(out) + "\n"
 
     def html(self, title: str) -> str:
