@@ -65,9 +65,11 @@ def optimise(
 
     try:
         run_optimise(case, workers=workers, scheduler=scheduler, runs=runs, force=force)
-    except typer.Exit as exc:  # interrupted and saved: main() turns KeyboardInterrupt into exit 130
+    except typer.Exit as exc:  # interrupted and saved. Typer returns Exit codes (and turns
+        # KeyboardInterrupt into Exit(130)) from app() in non-standalone mode, and main() drops
+        # that return value: leave with SystemExit, which passes through both.
         if exc.exit_code == EXIT_INTERRUPTED:
-            raise KeyboardInterrupt from None
+            sys.exit(EXIT_INTERRUPTED)
         raise
 
 
@@ -85,9 +87,11 @@ def resume(
 
     try:
         run_resume(run, workers=workers, scheduler=scheduler, case=case, allow_changed_case=allow_changed_case)
-    except typer.Exit as exc:  # interrupted and saved: main() turns KeyboardInterrupt into exit 130
+    except typer.Exit as exc:  # interrupted and saved. Typer returns Exit codes (and turns
+        # KeyboardInterrupt into Exit(130)) from app() in non-standalone mode, and main() drops
+        # that return value: leave with SystemExit, which passes through both.
         if exc.exit_code == EXIT_INTERRUPTED:
-            raise KeyboardInterrupt from None
+            sys.exit(EXIT_INTERRUPTED)
         raise
 
 

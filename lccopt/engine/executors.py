@@ -8,8 +8,9 @@
     ex.kill_running()          stop every task in flight (they are not reported)
     ex.close()
 
-:class:`LocalPool` is a pool of our own ``multiprocessing`` (spawn) processes, one pipe and
-one task per worker, so that a worker that dies (segfault, ``os._exit``, OOM kill) or hangs
+:class:`LocalPool` is a pool of our own worker processes (a fresh interpreter each,
+started with ``python -c``: nothing of this process is inherited), one socket pair and one
+task per worker, so that a worker that dies (segfault, ``os._exit``, OOM kill) or hangs
 past the timeout is killed and replaced and only its task is recorded as failed
 (``concurrent.futures.ProcessPoolExecutor`` breaks as a whole on one dead worker). Workers
 run single-threaded BLAS, ignore SIGINT and die with the parent process.
@@ -23,15 +24,18 @@ dies is handled by Dask (the task is retried elsewhere, then reported as failed)
 from __future__ import annotations
 
 import contextlib
-import multiprocessing as mp
-import multiprocessing.connection
+import multiprocessing.connection as mpc
 import os
 import signal
+import socket
+import subprocess
+import sys
 import time
 import uuid
 from dataclasses import dataclass
+from pathlib import Path
 
-from .worker import SINGLE_THREAD_ENV, Outcome, Task, local_worker_main, run_task, load_evaluator
+from .worker import SINGLE_THREAD_ENV, Outcome, Task, _death_reason, load_evaluator, run_task
 
 
 class ExecutorError(Exception):
@@ -46,11 +50,9 @@ def default_workers() -> int:
 
 
 @contextlib.contextmanager
-def _worker_environment():
-    """Single-threaded BLAS and SIGINT ignored while a worker starts (both are inherited)."""
-    saved = {k: os.environ.get(k) for k in SINGLE_THREAD_ENV}
-    os.environ.update(SINGLE_THREAD_ENV)
-    old = None
+def _sigint_ignored():
+    """SIGINT ignored while a worker starts: the ignored disposition survives fork and exec,
+    so a Ctrl-C during the worker's start-up cannot kill it either."""
     try:
         old = signal.signal(signal.SIGINT, signal.SIG_IGN)
     except ValueError:  # not the main thread
@@ -60,34 +62,25 @@ def _worker_environment():
     finally:
         if old is not None:
             signal.signal(signal.SIGINT, old)
-        for k, v in saved.items():
-            if v is None:
-                os.environ.pop(k, None)
-            else:
-                os.environ[k] = v
 
 
-def _death_reason(exitcode) -> str:
-    if exitcode is None:
-        return "worker process died"
-    if exitcode < 0:
-        try:
-            name = signal.Signals(-exitcode).name
-        except ValueError:
-            name = f"signal {-exitcode}"
-        return f"worker process died (killed by {name})"
-    return f"worker process died (exit code {exitcode})"
+_WORKER_MAIN = ("import sys; from lccopt.engine.worker import local_worker_main; "
+                "local_worker_main(*map(int, sys.argv[1:]))")
 
 
 @dataclass
 class _Slot:
     index: int
-    proc: object = None
-    conn: object = None
+    proc: subprocess.Popen | None = None
+    conn: mpc.Connection | None = None
+    pidfd: int | None = None
     ready: bool = False
     task: Task | None = None
     started: float = 0.0
     deaths_before_ready: int = 0
+
+    def waitables(self) -> list:
+        return [self.conn] + ([self.pidfd] if self.pidfd is not None else [])
 
 
 class LocalPool:
@@ -98,24 +91,38 @@ class LocalPool:
             raise ExecutorError(f"--workers must be at least 1, got {workers}")
         self.case, self.spec, self.timeout = case, spec, float(timeout)
         self.slots = int(workers)
-        self._ctx = mp.get_context("spawn")
         self._slots = [_Slot(i) for i in range(self.slots)]
         self.description = f"{self.slots} local worker process{'es' if self.slots > 1 else ''}"
 
     # -- lifecycle --------------------------------------------------------------------------
-    def start(self) -> None:
+    def start(self, wait: float = 120.0) -> None:
+        """Start the workers; return once they are ready (ExecutorError if they cannot start)."""
         for s in self._slots:
             self._spawn(s)
+        deadline = time.monotonic() + wait
+        while self.free() < self.slots and time.monotonic() < deadline:
+            for o in self.wait(0.1):  # no task yet: only "ready", "fatal" or deaths
+                pass
 
     def _spawn(self, s: _Slot) -> None:
-        parent_conn, child_conn = self._ctx.Pipe(duplex=True)
-        with _worker_environment():
-            proc = self._ctx.Process(target=local_worker_main, name=f"lccopt-worker-{s.index}",
-                                     args=(child_conn, self.case, self.spec, s.index, os.getpid()),
-                                     daemon=True)
-            proc.start()
-        child_conn.close()
-        s.proc, s.conn, s.ready, s.task = proc, parent_conn, False, None
+        parent_sock, child_sock = socket.socketpair()
+        env = {**os.environ, **SINGLE_THREAD_ENV}
+        here = str(Path(__file__).resolve().parents[2])  # lccopt importable even if not installed
+        env["PYTHONPATH"] = os.pathsep.join([here] + [p for p in [env.get("PYTHONPATH")] if p])
+        cmd = [sys.executable, "-c", _WORKER_MAIN, str(child_sock.fileno()), str(os.getpid()), str(s.index)]
+        with _sigint_ignored():
+            proc = subprocess.Popen(cmd, pass_fds=[child_sock.fileno()], env=env, stdin=subprocess.DEVNULL)
+        child_sock.close()
+        s.proc, s.ready, s.task = proc, False, None
+        s.conn = mpc.Connection(parent_sock.detach())
+        try:
+            s.pidfd = os.pidfd_open(proc.pid)
+        except (AttributeError, OSError):  # not Linux >= 5.3: death is seen as EOF on the socket
+            s.pidfd = None
+        try:
+            s.conn.send(("init", self.case, self.spec, list(sys.path)))
+        except OSError:
+            pass  # died already: wait() notices
 
     def close(self) -> None:
         for s in self._slots:
@@ -128,12 +135,12 @@ class LocalPool:
         for s in self._slots:
             if s.proc is None:
                 continue
-            s.proc.join(max(0.0, deadline - time.monotonic()))
-            if s.proc.is_alive():
+            try:
+                s.proc.wait(max(0.01, deadline - time.monotonic()))
+            except subprocess.TimeoutExpired:
                 s.proc.kill()
-                s.proc.join(5)
-            with contextlib.suppress(OSError):
-                s.conn.close()
+                s.proc.wait(5)
+            self._release(s)
             s.proc = None
 
     # -- tasks --------------------------------------------------------------------------------
@@ -165,9 +172,18 @@ class LocalPool:
     def _kill(self, s: _Slot) -> None:
         with contextlib.suppress(Exception):
             s.proc.kill()
-        s.proc.join(5)
+        with contextlib.suppress(Exception):
+            s.proc.wait(5)
+        self._release(s)
+
+    @staticmethod
+    def _release(s: _Slot) -> None:
         with contextlib.suppress(OSError):
             s.conn.close()
+        if s.pidfd is not None:
+            with contextlib.suppress(OSError):
+                os.close(s.pidfd)
+            s.pidfd = None
 
     def wait(self, timeout: float) -> list[Outcome]:
         now = time.monotonic()
@@ -175,11 +191,11 @@ class LocalPool:
         for s in self._slots:
             if s.task is not None:
                 limit = min(limit, max(0.0, s.started + self.timeout - now))
-        objs = [s.conn for s in self._slots] + [s.proc.sentinel for s in self._slots]
-        ready = set(mp.connection.wait(objs, timeout=max(0.0, limit)))
+        objs = [w for s in self._slots for w in s.waitables()]
+        ready = set(mpc.wait(objs, timeout=max(0.0, limit)))
         out: list[Outcome] = []
         for s in self._slots:
-            if s.conn in ready or s.proc.sentinel in ready:
+            if s.conn in ready or (s.pidfd is not None and s.pidfd in ready) or s.proc.poll() is not None:
                 self._drain(s, out)
         now = time.monotonic()
         for s in self._slots:
@@ -204,14 +220,20 @@ class LocalPool:
                     if s.task is not None and outcome.id == s.task.id:
                         out.append(outcome)
                         s.task = None
+                elif msg[0] == "crashed":  # the evaluation killed its (forked) process
+                    if s.task is not None:
+                        out.append(Outcome(s.task.id, error=msg[1], wall_time=time.monotonic() - s.started,
+                                           worker=f"local-{s.index}"))
+                        s.task = None
                 elif msg[0] == "fatal":
                     self.close()
                     raise ExecutorError(msg[1])
         except (EOFError, OSError):
             dead = True
-        if dead or not s.proc.is_alive():
-            s.proc.join(5)
-            reason = _death_reason(s.proc.exitcode)
+        if dead or s.proc.poll() is not None:
+            with contextlib.suppress(subprocess.TimeoutExpired):
+                s.proc.wait(5)
+            reason = _death_reason(s.proc.returncode)
             if s.task is not None:
                 out.append(Outcome(s.task.id, error=reason, wall_time=time.monotonic() - s.started,
                                    worker=f"local-{s.index}"))
@@ -221,8 +243,7 @@ class LocalPool:
                 if s.deaths_before_ready >= 3:
                     self.close()
                     raise ExecutorError(f"local worker processes die while starting: {reason}")
-            with contextlib.suppress(OSError):
-                s.conn.close()
+            self._release(s)
             self._spawn(s)
 
 

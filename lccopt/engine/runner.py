@@ -67,11 +67,12 @@ def optimise(case, workers: int | None = None, scheduler=None, runs: Path = Path
     _check_options(workers, scheduler)
     spec = evaluator_spec(evaluator)
     run_path = Path(runs) / case_obj.name
+    if run_path.exists() and not force:
+        raise _usage_error(f"{run_path} already exists: carry it on with 'lccopt resume {run_path}', "
+                           f"or start again with 'lccopt optimise {case_obj.path} --force'")
+    executor = _start_executor(case_obj, spec, workers, scheduler, problem)
     try:
         if run_path.exists():
-            if not force:
-                raise _usage_error(f"{run_path} already exists: carry it on with 'lccopt resume {run_path}', "
-                                   f"or start again with 'lccopt optimise {case_obj.path} --force'")
             old = RunDir(run_path)
             if (run_path / "lock").exists():
                 old.lock()  # refuse to delete a run another process is driving
@@ -79,19 +80,32 @@ def optimise(case, workers: int | None = None, scheduler=None, runs: Path = Path
             old.unlock()
         rd = RunDir.create(run_path, case_obj, problem, spec if isinstance(spec, str) else repr(spec))
         rd.lock()
-    except RunError as exc:
-        raise _usage_error(str(exc)) from None
+    except BaseException as exc:
+        executor.close()
+        if isinstance(exc, RunError):
+            raise _usage_error(str(exc)) from None
+        raise
     try:
         journal, events, _ = Journal.open(rd.journal_path)
         strategy, table = restore(problem, events, None)
-        engine = Engine(rd, case_obj, problem, journal, table, strategy, spec, workers, scheduler,
+        engine = Engine(rd, case_obj, problem, journal, table, strategy, executor,
                         Progress(problem.budget, stream, progress))
         engine.run()
     except (ExecutorError, JournalError) as exc:
         raise _usage_error(str(exc)) from None
     finally:
+        executor.close()
         rd.unlock()
     return rd.path
+
+
+def _start_executor(case, spec, workers, scheduler, problem):
+    try:
+        executor = make_executor(case, spec, workers, scheduler, problem.timeout)
+        executor.start()
+    except ExecutorError as exc:
+        raise _usage_error(str(exc)) from None
+    return executor
 
 
 def resume(run, workers: int | None = None, scheduler=None, case=None, allow_changed_case: bool = False,
@@ -136,9 +150,13 @@ def resume(run, workers: int | None = None, scheduler=None, case=None, allow_cha
                     + (f", best #{best['id']} value {fmt(best['value'])}" if best else "")
                     + "; nothing to do")
             return rd.path
-        engine = Engine(rd, case_obj, problem, journal, table, strategy, spec, workers, scheduler,
-                        Progress(problem.budget, stream, progress))
-        engine.run()
+        executor = _start_executor(case_obj, spec, workers, scheduler, problem)
+        try:
+            engine = Engine(rd, case_obj, problem, journal, table, strategy, executor,
+                            Progress(problem.budget, stream, progress))
+            engine.run()
+        finally:
+            executor.close()
     except (ExecutorError, JournalError) as exc:
         raise _usage_error(str(exc)) from None
     finally:
@@ -238,13 +256,12 @@ def replay(strategy, ev: dict) -> None:
 
 class Engine:
     def __init__(self, rd: RunDir, case: Case, problem: Problem, journal: Journal, table: Table,
-                 strategy, spec, workers, scheduler, progress: Progress):
+                 strategy, executor, progress: Progress):
         self.rd, self.case, self.problem = rd, case, problem
         self.journal, self.table, self.strategy = journal, table, strategy
-        self.spec = spec
         self.progress = progress
         self.meta = rd.meta()
-        self.executor = make_executor(case, spec, workers, scheduler, problem.timeout)
+        self.executor = executor
         self.strategy.budget = problem.budget
         self.ref_point = (table.reference or {}).get("point")
         self.stop = False
@@ -284,7 +301,6 @@ class Engine:
         t_start = time.monotonic()
         n_start = self.table.n_done
         try:
-            self.executor.start()
             what = ", ".join(pb.objectives) + (" (ASF, Eq. 7)" if pb.multi else "")
             p.log(f"run {self.rd.path}: case '{self.case.name}', {pb.dim} variables, minimising {what}, "
                   f"budget {pb.budget}, {self.table.n_done} done; {self.executor.description}")

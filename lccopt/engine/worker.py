@@ -16,6 +16,7 @@ import importlib
 import os
 import signal
 import socket
+import sys
 import time
 import traceback
 from dataclasses import dataclass, field
@@ -117,32 +118,91 @@ def _plain(info: dict) -> dict:
     return out
 
 
-def local_worker_main(conn, case, spec, slot: int, parent_pid: int) -> None:
-    """Loop of a local worker process: receive a Task, send back its Outcome.
+def local_worker_main(fd: int, parent_pid: int, slot: int) -> None:
+    """Loop of a local worker process (started by ``LocalPool`` with ``python -c``).
 
-    Ignores SIGINT (the parent decides what Ctrl-C means) and dies with its parent.
+    Receives ("init", case, evaluator spec, sys.path), then Tasks; sends back ("ready", pid)
+    and ("done", Outcome). Ignores SIGINT (the parent decides what Ctrl-C means) and dies
+    with its parent.
+
+    Each task runs in a child forked from this process as it stands after start-up, so
+    every evaluation starts from the same process state whatever ran before it: results
+    do not depend on the history of the worker (numerical libraries can round differently
+    with the memory layout), and a leak or a crash stays with one evaluation.
     """
+    from multiprocessing.connection import Connection
+
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     _die_with_parent(parent_pid)
+    conn = Connection(fd)
+    try:
+        _, case, spec, path = conn.recv()
+    except (EOFError, OSError):
+        return
+    for p in path:
+        if p not in sys.path:
+            sys.path.append(p)
     name = f"{socket.gethostname()}:local-{slot}:pid{os.getpid()}"
     try:
         evaluator = load_evaluator(spec)
     except Exception as exc:  # noqa: BLE001
         conn.send(("fatal", f"cannot load the evaluator {spec!r}: {type(exc).__name__}: {exc}"))
         return
+    fork = hasattr(os, "fork")
     conn.send(("ready", os.getpid()))
     while True:
+        if fork:
+            me = os.getpid()
+            pid = os.fork()
+            if pid == 0:  # the child takes one task from the pipe and answers it
+                code = 1
+                try:
+                    _die_with_parent(me)
+                    code = _serve_one(conn, case, evaluator, name)
+                finally:
+                    os._exit(code)
+            _, status = os.waitpid(pid, 0)
+            code = os.waitstatus_to_exitcode(status)
+            if code == _STOP:  # stop message, or the pipe closed
+                return
+            if code != 0:      # the evaluation killed its process: report it for the task
+                try:
+                    conn.send(("crashed", _death_reason(code)))
+                except OSError:
+                    return
+        else:
+            if _serve_one(conn, case, evaluator, name) == _STOP:
+                return
+
+
+_STOP = 213  # exit status of a task child that read the stop message (or found the pipe closed)
+
+
+def _serve_one(conn, case, evaluator, name: str) -> int:
+    try:
+        task = conn.recv()
+    except (EOFError, OSError):
+        return _STOP
+    if task is None:
+        return _STOP
+    out = run_task(case, task, evaluator, name)
+    try:
+        conn.send(("done", out))
+    except OSError:
+        return _STOP
+    return 0
+
+
+def _death_reason(exitcode) -> str:
+    if exitcode is None:
+        return "worker process died"
+    if exitcode < 0:
         try:
-            task = conn.recv()
-        except (EOFError, OSError):
-            return
-        if task is None:
-            return
-        out = run_task(case, task, evaluator, name)
-        try:
-            conn.send(("done", out))
-        except (BrokenPipeError, OSError):
-            return
+            name = signal.Signals(-exitcode).name
+        except ValueError:
+            name = f"signal {-exitcode}"
+        return f"worker process died (killed by {name})"
+    return f"worker process died (exit code {exitcode})"
 
 
 def _die_with_parent(parent_pid: int) -> None:
@@ -156,3 +216,4 @@ def _die_with_parent(parent_pid: int) -> None:
             os._exit(1)
     except Exception:  # noqa: BLE001 - not Linux: the worker exits on the broken pipe instead
         pass
+

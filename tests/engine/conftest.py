@@ -74,7 +74,10 @@ def assert_same_evaluations(a: dict, b: dict, columns=COLUMNS) -> None:
 
 def cli(*args, env: dict | None = None, cwd: Path | None = None, **kw) -> subprocess.Popen:
     e = {**os.environ, "PYTHONPATH": str(REPO), **(env or {})}
-    return subprocess.Popen([sys.executable, "-m", "lccopt.cli", *map(str, args)], env=e, cwd=cwd,
+    # What the `lccopt` console script runs (python -m lccopt.cli would make a second copy of
+    # the cli module as __main__, with its own UsageError class).
+    main = "import sys; from lccopt.cli import main; sys.exit(main())"
+    return subprocess.Popen([sys.executable, "-c", main, *map(str, args)], env=e, cwd=cwd,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, **kw)
 
 

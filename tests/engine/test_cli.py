@@ -1,0 +1,174 @@
+"""`lccopt optimise` / `lccopt resume` as subprocesses: kill -9, Ctrl-C, exit codes, messages."""
+
+from __future__ import annotations
+
+import json
+import os
+import random
+import signal
+import time
+from pathlib import Path
+
+import h5py
+import pytest
+
+from lccopt.engine.journal import read_journal
+from lccopt.engine.runner import optimise
+from lccopt.store import read_evaluation
+
+from .conftest import FAKE, REAL, REFERENCE, assert_same_evaluations, cli, cli_run, read_table, write_case
+
+
+def _children(pid: int) -> list[int]:
+    out = []
+    for d in Path("/proc").iterdir():
+        if d.name.isdigit():
+            try:
+                stat = (d / "stat").read_text()
+            except OSError:
+                continue
+            if int(stat.rsplit(")", 1)[1].split()[1]) == pid:
+                out.append(int(d.name))
+    return out
+
+
+def _alive(pid: int) -> bool:
+    try:
+        stat = (Path("/proc") / str(pid) / "stat").read_text()
+    except OSError:
+        return False
+    return stat.rsplit(")", 1)[1].split()[0] != "Z"
+
+
+def _wait_for(cond, timeout=120.0, what="condition"):
+    t0 = time.monotonic()
+    while not cond():
+        if time.monotonic() - t0 > timeout:
+            raise AssertionError(f"gave up waiting for {what}")
+        time.sleep(0.05)
+
+
+def _n_done(run: Path) -> int:
+    events, _, _ = read_journal(run / "journal.jsonl")
+    return sum(e["event"] in ("evaluated", "failed") for e in events)
+
+
+def _check_consistent(run: Path) -> None:
+    """Whatever the moment of the kill: journal readable, every file opens, no id twice."""
+    events, _, _ = read_journal(run / "journal.jsonl")
+    done = [e["id"] for e in events if e["event"] in ("evaluated", "failed")]
+    assert len(done) == len(set(done)), "an evaluation was committed twice"
+    asked = [e["id"] for e in events if e["event"] == "asked"]
+    assert asked == list(range(len(asked))), "ids asked out of order or twice"
+    if (run / "results.h5").exists():
+        with h5py.File(run / "results.h5", "r") as f:
+            assert set(f["evaluations/id"][()]) <= set(done)
+    for e in events:
+        if e["event"] == "evaluated":
+            read_evaluation(run / e["file"])
+    if (run / "state.json").exists():
+        assert json.loads((run / "state.json").read_text())["seq"] < len(events)
+
+
+def test_kill_9_at_random_moments_then_resume_equals_an_uninterrupted_run(tmp_path):
+    """Real simulator (coarse settings), real case file and HDF5, one worker, fixed seed."""
+    case = write_case(tmp_path, "k9", budget=20, initial=6, seed=4, worst=(20000.0, 3.0))
+    reference = read_table(optimise(case, workers=1, runs=tmp_path / "uninterrupted", evaluator=REAL,
+                                    progress=False))
+    assert (reference["status"] == "ok").all(), set(reference["reason"])
+    runs = tmp_path / "runs"
+    run = runs / "k9"
+    env = {"LCCOPT_EVALUATOR": REAL}
+    rng = random.Random(20240611)
+    kills = 0
+    for _ in range(5):
+        args = ["resume", run, "--workers", "1"] if run.exists() else \
+            ["optimise", case, "--workers", "1", "--runs", runs]
+        p = cli(*args, env=env)
+        time.sleep(rng.uniform(1.0, 3.0))
+        workers = _children(p.pid)
+        if p.poll() is None:
+            p.kill()  # SIGKILL to the lccopt process only: its workers must die with it
+            kills += 1
+        p.communicate()
+        _wait_for(lambda: not any(_alive(w) for w in workers), 30, "orphaned workers to exit")
+        if run.exists():
+            _check_consistent(run)
+    assert kills >= 3
+    done = cli_run("resume", run, "--workers", "1", env=env)
+    assert done.returncode == 0, done.stderr
+    final = read_table(run)
+    assert_same_evaluations(reference, final)
+    events, _, _ = read_journal(run / "journal.jsonl")
+    assert sorted(e["id"] for e in events if e["event"] in ("evaluated", "failed")) == list(range(20))
+    assert sorted(p.name for p in (run / "evals").iterdir()) == [f"{i:06d}.h5" for i in range(20)]
+
+
+def test_ctrl_c_saves_exits_130_and_resumes_to_the_same_run(tmp_path):
+    case = write_case(tmp_path, "cc", budget=12, initial=5, seed=2)
+    env = {"LCCOPT_EVALUATOR": FAKE, "LCCOPT_FAKE_DELAY": "0.3"}
+    reference = read_table(optimise(case, workers=1, runs=tmp_path / "uninterrupted", evaluator=FAKE,
+                                    progress=False))
+    runs = tmp_path / "runs"
+    run = runs / "cc"
+    # Ctrl-C in a terminal signals the whole process group, workers included.
+    p = cli("optimise", case, "--workers", "1", "--runs", runs, env=env, start_new_session=True)
+    _wait_for(lambda: run.exists() and _n_done(run) >= 3, what="3 evaluations")
+    os.killpg(p.pid, signal.SIGINT)
+    out, err = p.communicate(timeout=60)
+    assert p.returncode == 130, err
+    assert f"lccopt resume {run}" in err and "no new evaluations" in err
+    t = read_table(run)
+    assert 3 <= len(t["id"]) < 12 and set(t["status"]) == {"ok"}  # the running one finished, not failed
+
+    # Second Ctrl-C stops the running evaluation; it runs again on resume.
+    p = cli("resume", run, "--workers", "1", env=env, start_new_session=True)
+    n0 = len(t["id"])
+    _wait_for(lambda: _n_done(run) >= n0 + 2, what="2 more evaluations")
+    os.killpg(p.pid, signal.SIGINT)
+    time.sleep(0.05)
+    os.killpg(p.pid, signal.SIGINT)
+    out, err = p.communicate(timeout=60)
+    assert p.returncode == 130, err
+    assert set(read_table(run)["status"]) == {"ok"}
+
+    done = cli_run("resume", run, "--workers", "1", env=env)
+    assert done.returncode == 0, done.stderr
+    assert_same_evaluations(reference, read_table(run))
+    again = cli_run("resume", run, env=env)
+    assert again.returncode == 0 and "is finished" in again.stderr
+
+
+def test_bad_case_and_bad_runs_give_one_line_messages_and_exit_2(tmp_path):
+    noopt = tmp_path / "noopt.yaml"
+    noopt.write_text(f"extends: {REFERENCE}\nname: noopt\n")
+    r = cli_run("optimise", noopt, "--runs", tmp_path / "runs")
+    assert r.returncode == 2
+    assert r.stderr.strip().splitlines() == [f"lccopt: error: {noopt}:1: optimisation: missing section "
+                                             f"(objectives, budget, initial_points, ...); 'lccopt optimise' needs it"]
+
+    bad = write_case(tmp_path, "bad", budget=3, initial=5)
+    r = cli_run("optimise", bad, "--runs", tmp_path / "runs")
+    assert r.returncode == 2 and "initial_points: 5 initial points exceed the budget of 3" in r.stderr
+    assert len(r.stderr.strip().splitlines()) == 1
+
+    r = cli_run("resume", tmp_path / "runs" / "nothing")
+    assert r.returncode == 2 and r.stderr.strip() == f"lccopt: error: {tmp_path / 'runs' / 'nothing'}: no such run directory"
+
+    case = write_case(tmp_path, "chg", budget=4, initial=3)
+    r = cli_run("optimise", case, "--workers", "1", "--runs", tmp_path / "runs", env={"LCCOPT_EVALUATOR": FAKE})
+    assert r.returncode == 0, r.stderr
+    case.write_text(case.read_text().replace("seed: 1", "seed: 2"))
+    r = cli_run("resume", tmp_path / "runs" / "chg", env={"LCCOPT_EVALUATOR": FAKE})
+    assert r.returncode == 2
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and "changed since the run started" in lines[0] and "--allow-changed-case" in lines[0]
+
+    r = cli_run("optimise", case, "--runs", tmp_path / "runs", env={"LCCOPT_EVALUATOR": FAKE})
+    assert r.returncode == 2 and "already exists" in r.stderr
+
+    r = cli_run("optimise", case, "--workers", "0", "--runs", tmp_path / "runs2")
+    assert r.returncode == 2 and "--workers must be at least 1" in r.stderr
+
+    r = cli_run("optimise", case, "--runs", tmp_path / "runs3", env={"LCCOPT_EVALUATOR": "nosuchmodule:f"})
+    assert r.returncode == 2 and "cannot load the evaluator 'nosuchmodule:f'" in r.stderr

@@ -1,0 +1,25 @@
+"""The Dask executor on a local cluster gives the same evaluations as the local process pool."""
+
+from __future__ import annotations
+
+import pytest
+
+from lccopt.engine.runner import optimise
+from lccopt.store import read_evaluation
+
+from .conftest import FAKE, assert_same_evaluations, read_table, write_case
+
+
+def test_dask_local_cluster_same_evaluations_as_process_pool(tmp_path):
+    distributed = pytest.importorskip("distributed")
+    case = write_case(tmp_path, "dk", budget=10, initial=5, seed=3)
+    local = read_table(optimise(case, workers=1, runs=tmp_path / "local", evaluator=FAKE, progress=False))
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
+                                  dashboard_address=None) as cluster:
+        run = optimise(case, scheduler=cluster.scheduler_address, runs=tmp_path / "dask", evaluator=FAKE,
+                       progress=False)
+    dask = read_table(run)
+    assert_same_evaluations(local, dask)
+    assert all(w.startswith("tcp://") for w in dask["worker"])
+    for name in dask["file"]:  # written by the parent from the returned evaluation
+        read_evaluation(run / name)
