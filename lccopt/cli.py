@@ -101,9 +101,15 @@ def report(
     format: str = typer.Option("both", "--format", help="summary format: md, html or both"),
 ) -> None:
     """Write figures and a summary of a run into RUN/report/."""
+    from . import cli as _cli
     from .report import write_report
 
-    write_report(run, format)
+    try:
+        write_report(run, format)
+    except _cli.UsageError as exc:
+        # under 'python -m lccopt.cli' this module is __main__, another module than the
+        # lccopt.cli that report.py raises from: re-raise as the class main() catches
+        raise UsageError(str(exc)) from None
 
 
 def main(argv: list[str] | None = None) -> int:
