@@ -526,6 +526,10 @@ def _history_panel(ax, run: RunData, vals: np.ndarray, ylo: float, yhi: float, a
     ok = run.ok & np.isfinite(vals)
     ref_i = run.ref_index()
     clipped = ok & (vals > yhi)
+    unit = "" if run.multi else " " + obj_display(run.objectives[0])[1]
+    from matplotlib.ticker import MaxNLocator
+
+    ax.xaxis.set_major_locator(MaxNLocator(integer=True))
     handles = []
     for ph, (label, marker, color) in PHASE_STYLE.items():
         m = ok & (run.phase == ph) & ~clipped
@@ -569,11 +573,11 @@ def _history_panel(ax, run: RunData, vals: np.ndarray, ylo: float, yhi: float, a
     if bi is not None:
         ax.scatter([run.ids[bi]], [vals[bi]], marker="*", s=180, color=BEST_COLOR, edgecolor="k", zorder=7)
         handles.append(Line2D([], [], ls="", marker="*", markersize=12, color=BEST_COLOR, markeredgecolor="k",
-                              label=f"best: #{run.ids[bi]}, {fnum(vals[bi], 4)}"))
+                              label=f"best: #{run.ids[bi]}, {fnum(vals[bi], 4)}{unit}"))
     starts = [int(run.ids[run.restart == r].min()) for r in np.unique(run.restart) if r > 0]
     for k, i0 in enumerate(starts):
         ax.axvline(i0 - 0.5, color="k", ls="--", lw=1.0, zorder=2)
-        ax.text(i0 - 0.5, 0.95, f" restart {k + 1}", transform=ax.get_xaxis_transform(), va="top",
+        ax.text(i0 - 0.5, 0.88, f" restart {k + 1}", transform=ax.get_xaxis_transform(), va="top",
                 ha="left", fontsize=8, bbox=dict(facecolor="white", edgecolor="none", alpha=0.7, pad=1))
     if starts:
         handles.append(Line2D([], [], color="k", ls="--", lw=1.0, label="restart (fresh design)"))
@@ -595,7 +599,7 @@ def fig_search_history(run: RunData, out: Path) -> Path:
         v_ok = vals[ok]
         lo, hi = float(v_ok.min()), float(np.percentile(v_ok, 95) if ok.sum() > 10 else v_ok.max())
         pad = 0.06 * (hi - lo if hi > lo else (abs(hi) or 1.0))
-        ylo, yhi = lo - pad, hi + 2.5 * pad
+        ylo, yhi = lo - 2 * pad, hi + 2.5 * pad  # room below the data for the failure marks
     else:
         ylo, yhi = 0.0, 1.0
     zoom = None
@@ -607,7 +611,7 @@ def fig_search_history(run: RunData, out: Path) -> Path:
         top, bottom = float(bsf[n0]), float(bsf[-1])
         if np.isfinite(top) and top > bottom and (top - bottom) < 0.35 * (yhi - ylo):
             pz = 0.12 * (top - bottom)
-            zoom = (bottom - pz, top + 2.5 * pz)
+            zoom = (bottom - 2 * pz, top + 2.5 * pz)
     if zoom is None:
         fig, ax = plt.subplots(figsize=(10, 4.6))
         axes = [ax]
@@ -660,7 +664,21 @@ def fig_objective_space(run: RunData, out: Path) -> tuple[Path, str]:
     if run.multi and run.ref_point is not None:
         target = (run.ref_point[0] * sx, run.ref_point[1] * sy)
     bi = run.best_index()
-    fig, axes = plt.subplots(1, 2, figsize=(11, 5.4))
+    px = list(X[fm]) + [v for v in (rx, target[0] if target else math.nan) if np.isfinite(v)]
+    py = list(Y[fm]) + [v for v in (ry, target[1] if target else math.nan) if np.isfinite(v)]
+    if bi is not None:
+        px.append(X[bi])
+        py.append(Y[bi])
+    box = None
+    if len(set(zip(np.round(px, 12), np.round(py, 12)))) >= 2 and ok.sum() >= 2:
+        x0, x1, y0, y1 = min(px), max(px), min(py), max(py)
+        dx, dy = (x1 - x0) or abs(x1) * 0.1 or 1.0, (y1 - y0) or abs(y1) * 0.1 or 1.0
+        box = (x0 - 0.1 * dx, x1 + 0.1 * dx, y0 - 0.1 * dy, y1 + 0.1 * dy)
+        fx, fy = np.ptp(X[ok]) or 1.0, np.ptp(Y[ok]) or 1.0
+        if (box[1] - box[0]) > 0.5 * fx and (box[3] - box[2]) > 0.5 * fy:
+            box = None  # the zoom would show about what the full view shows
+    fig, axes = plt.subplots(1, 2 if box else 1, figsize=(11 if box else 7.5, 5.4), squeeze=False)
+    axes = axes[0]
 
     def draw(ax, labels: bool):
         L = (lambda t: t) if labels else (lambda t: None)  # noqa: E731
@@ -688,7 +706,7 @@ def fig_objective_space(run: RunData, out: Path) -> tuple[Path, str]:
                        label=L(f"{lab}: #{run.ids[bi]} ({fnum(X[bi], 4)} {ux}, {fnum(Y[bi], 4)} {uy})"))
         ax.set(xlabel=f"{kx} [{ux}]", ylabel=f"{ky} [{uy}]")
 
-    a0, a1 = axes
+    a0 = axes[0]
     draw(a0, True)
     a0.set_title("all evaluations")
     for vals, axis in ((X[ok], a0.xaxis), (Y[ok], a0.yaxis)):
@@ -698,22 +716,16 @@ def fig_objective_space(run: RunData, out: Path) -> tuple[Path, str]:
             axis.set_minor_locator(LogLocator(subs=np.arange(1, 10)))
             axis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
             axis.set_minor_formatter(FuncFormatter(lambda v, _: ""))
-    draw(a1, False)
-    a1.set_title("zoom: Pareto front, reference design" + (", reference point" if target else ""))
-    px = list(X[fm]) + [v for v in (rx, target[0] if target else math.nan) if np.isfinite(v)]
-    py = list(Y[fm]) + [v for v in (ry, target[1] if target else math.nan) if np.isfinite(v)]
-    if bi is not None:
-        px.append(X[bi])
-        py.append(Y[bi])
-    if px and py:
-        x0, x1, y0, y1 = min(px), max(px), min(py), max(py)
-        dx, dy = (x1 - x0) or abs(x1) * 0.1 or 1.0, (y1 - y0) or abs(y1) * 0.1 or 1.0
-        a1.set_xlim(x0 - 0.1 * dx, x1 + 0.1 * dx)
-        a1.set_ylim(y0 - 0.1 * dy, y1 + 0.1 * dy)
+    if box:
+        a1 = axes[1]
+        draw(a1, False)
+        a1.set_title("zoom: Pareto front, reference design" + (", reference point" if target else ""))
+        a1.set_xlim(box[0], box[1])
+        a1.set_ylim(box[2], box[3])
     fig.suptitle(f"Objective space of '{run.name}'" + ("" if run.multi else
                                                         f" (the run minimised {run.objectives[0]} alone)"))
-    fig.legend(*a0.get_legend_handles_labels(), loc="lower center", ncol=2, frameon=False)
-    fig.tight_layout(rect=(0, 0.15, 1, 1))
+    fig.legend(*a0.get_legend_handles_labels(), loc="lower center", ncol=2 if box else 1, frameon=False)
+    fig.tight_layout(rect=(0, 0.15 if box else 0.22, 1, 1))
     return _save(fig, out / "objective-space.png"), note
 
 
@@ -1195,7 +1207,9 @@ def build_summary(run: RunData, figs: dict, notes: dict) -> tuple[Doc, dict]:
         reasons: dict = {}
         for r in run.reason[run.status == "failed"]:
             reasons[r or "no reason given"] = reasons.get(r or "no reason given", 0) + 1
-        items.append(f"{n_failed} failed evaluation(s): " + "; ".join(
+        fids = [f"#{i}" for i in run.ids[run.status == "failed"]]
+        items.append(f"{n_failed} failed evaluation(s) ({', '.join(fids[:12])}{' …' if len(fids) > 12 else ''}): "
+                     + "; ".join(
             f"{c}× {r}" for r, c in sorted(reasons.items(), key=lambda t: -t[1])[:5]))
     wt = run.wall_time[np.isfinite(run.wall_time)]
     if len(wt):
