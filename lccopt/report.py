@@ -272,9 +272,9 @@ def load_run(path: Path) -> RunData:
         else:
             source = "journal.jsonl"
             if res is not None:
-                notes.append(f"results.h5 lags the journal (the run is going or was stopped); the table was "
-                             f"rebuilt from journal.jsonl ({len(d['ids'])} evaluations, results.h5 has "
-                             f"{len(res['ids'])})")
+                notes.append(f"results.h5 lags the journal (it is rebuilt every few seconds while a run goes, "
+                             f"and a killed run may not have rebuilt it); the table was read from the journal's "
+                             f"committed lines: {len(d['ids'])} evaluations, results.h5 had {len(res['ids'])}")
             elif res_error:
                 notes.append(res_error + "; the table was rebuilt from journal.jsonl")
     if len(d["ids"]) == 0:
