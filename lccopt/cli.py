@@ -115,7 +115,10 @@ def report(
 def main(argv: list[str] | None = None) -> int:
     """Console entry point: map errors to exit codes and one-line messages."""
     try:
-        app(args=argv, standalone_mode=False)
+        # non-standalone click returns the code of a typer.Exit instead of raising it
+        code = app(args=argv, standalone_mode=False)
+        if isinstance(code, int) and code != EXIT_OK:
+            return code
     except CaseError as exc:
         typer.echo(f"lccopt: error: {exc}", err=True)
         return EXIT_USAGE
