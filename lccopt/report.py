@@ -1150,7 +1150,36 @@ def _atomic_text(path: Path, text: str) -> None:
         raise
 
 
-def build_summary(run: RunData, figs: dict, notes: dict) -> tuple[Doc, dict]:
+def history_facts(best: tuple, ref: tuple) -> list[str]:
+    """Sentences on the histories of the best and the reference design (for 'Why it is better')."""
+    (hb, ib), (hr, ir) = best, ref
+    out = []
+    eb = None if hb is None else hb.get("sleeper_energy")
+    er = None if hr is None else hr.get("sleeper_energy")
+    if eb is not None and er is not None and len(eb) and len(er):
+        eb, er = np.asarray(eb, float), np.asarray(er, float)
+        out.append(f"Under sleeper 1, next to the interface, the ballast dissipates {fnum(eb[0], 4)} J instead of "
+                   f"{fnum(er[0], 4)} J ({pct(eb[0], er[0])}); the most loaded zone sleeper is number "
+                   f"{int(np.argmax(eb)) + 1} ({fnum(eb.max(), 4)} J) instead of number {int(np.argmax(er)) + 1} "
+                   f"({fnum(er.max(), 4)} J), and the spread max - min (E_max) is {fnum(eb.max() - eb.min(), 4)} J "
+                   f"instead of {fnum(er.max() - er.min(), 4)} J.")
+    peaks = []
+    for h, i in ((hb, ib), (hr, ir)):
+        if h is None or "contact_force" not in h or "wheel_position" not in h or "interface_entry" not in i:
+            return out
+        x, f = np.asarray(h["wheel_position"]), np.asarray(h["contact_force"])
+        m = (x >= i["interface_entry"] - 1.0) & (x <= i["interface_entry"] + 3.0)
+        if not m.any():
+            return out
+        peaks.append((float(f[m].max()), float(x[m][np.argmax(f[m])] - i["interface_entry"])))
+    (pb, xb), (pr, xr) = peaks
+    out.append(f"Around the interface (1 m before to 3 m after it) the contact force peaks at {fnum(pb / 1e3, 4)} kN "
+               f"{abs(xb):.2f} m {'after' if xb >= 0 else 'before'} the slab edge, against {fnum(pr / 1e3, 4)} kN "
+               f"{abs(xr):.2f} m {'after' if xr >= 0 else 'before'} it for the reference design.")
+    return out
+
+
+def build_summary(run: RunData, figs: dict, notes: dict, facts: list[str] | None = None) -> tuple[Doc, dict]:
     doc = Doc()
     bi, ri = run.best_index(), run.ref_index()
     n_failed = int((run.status == "failed").sum())
@@ -1260,6 +1289,8 @@ def build_summary(run: RunData, figs: dict, notes: dict) -> tuple[Doc, dict]:
     # --- why
     doc.h(2, "Why it is better")
     doc.p(_why_text(run, bi, ri, notes))
+    for fact in facts or []:
+        doc.p(fact)
     for key, cap in (("contact-force", "Wheel-rail contact force against wheel position, best and reference "
                                        "design; grey: ERS, orange: evaluation zone of the force objectives."),
                      ("sleeper-energy", "Energy dissipated in the ballast/subgrade under each sleeper of the "
@@ -1376,9 +1407,12 @@ def write_report(run: Path, format: str = "both") -> Path:
                     notes[key] = why
             else:
                 notes[key] = why or "the evaluation files hold no such histories (e.g. a test evaluator)"
+        facts = history_facts((hb, ib), (hr, ir))
+    else:
+        facts = []
     figs["sensitivity"] = fig_sensitivity(data, out)
 
-    doc, summary = build_summary(data, figs, notes)
+    doc, summary = build_summary(data, figs, notes, facts)
     wrote = []
     if fmt_ in ("md", "both"):
         _atomic_text(out / "report.md", doc.markdown())
