@@ -10,7 +10,7 @@ Commit protocol, per evaluation ``i``:
 2. the worker writes ``evals/00000i.h5`` (tmp + fsync + rename);
 3. ``evaluated`` (objectives, scalar value, wall time, worker, file) or ``failed`` (reason)
    line, then ``strategy.tell`` / ``tell_failed``;
-4. now and then: ``state.json`` (strategy state + the journal seq it reflects) and
+4. every few seconds: ``state.json`` (strategy state + the journal seq it reflects) and
    ``results.h5`` (rebuilt from the journal), both atomic.
 
 The journal lines are exactly the optimiser calls in order, so the optimiser state after
@@ -44,7 +44,8 @@ from .progress import Progress, fmt, hms
 from .rundir import RunDir, RunError, Table, eval_name, now_iso, sha256_text, write_results
 from .worker import Outcome, Task, evaluator_spec
 
-RESULTS_EVERY = 2.0  # [s] results.h5 is rebuilt at most this often while running (and at the end)
+RESULTS_EVERY = 10.0  # [s] results.h5 is rebuilt at most this often while running (and at the end)
+SNAPSHOT_EVERY = 5.0  # [s] state.json likewise; resume replays the journal lines after it
 
 
 def _usage_error(message: str) -> Exception:
@@ -269,6 +270,7 @@ class Engine:
         self._stop_logged = False
         self._saved_seq = table.seq
         self._results_at = 0.0
+        self._snapshot_at = time.monotonic()
         self.t_optimiser = 0.0     # time in ask/tell
         self.t_bookkeeping = 0.0   # journal, snapshots, results.h5, files written here
         self._old_handlers: dict = {}
@@ -310,7 +312,8 @@ class Engine:
                       f"{', '.join('#' + str(i) for i in requeue)}")
             while True:
                 submitted = 0 if self.stop else self._fill(requeue)
-                self._snapshot()
+                if time.monotonic() - self._snapshot_at > SNAPSHOT_EVERY:
+                    self._snapshot()
                 if self.executor.running == 0:
                     if self.stop or self.strategy.done:
                         break
@@ -442,6 +445,7 @@ class Engine:
         t0 = time.perf_counter()
         self.rd.save_state(self.table.seq, self.strategy.state_dict())
         self._saved_seq = self.table.seq
+        self._snapshot_at = time.monotonic()
         self.t_bookkeeping += time.perf_counter() - t0
 
     def _write_results(self) -> None:

@@ -85,7 +85,9 @@ def test_kill_9_at_random_moments_then_resume_equals_an_uninterrupted_run(tmp_pa
         args = ["resume", run, "--workers", "1"] if run.exists() else \
             ["optimise", case, "--workers", "1", "--runs", runs]
         p = cli(*args, env=env)
-        time.sleep(rng.uniform(1.0, 3.0))
+        # A random moment once the run is under way (start-up time varies with the load).
+        _wait_for(lambda: (run / "journal.jsonl").exists() or p.poll() is not None, what="the run to start")
+        time.sleep(rng.uniform(0.0, 2.0))
         workers = _children(p.pid)
         if p.poll() is None:
             p.kill()  # SIGKILL to the lccopt process only: its workers must die with it
