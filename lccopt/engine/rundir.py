@@ -362,6 +362,11 @@ def write_results(path: Path, table: Table, *, case, problem, meta: dict) -> Non
             else:
                 e.create_dataset("pareto", data=np.zeros(0, dtype=bool))
 
+            links = f.create_group("evals")  # external links: f["evals/000012/histories/contact_force"]
+            for r in rows:
+                if r["file"]:
+                    links[f"{r['id']:06d}"] = h5py.ExternalLink(r["file"], "/")
+
             g = f.create_group("best")
             best = table.best()
             if best is not None:

@@ -54,6 +54,9 @@ def test_run_directory_and_results_layout(tmp_path, capsys):
     for i in range(10):
         obj = {"F_max": t["F_max"][i], "E_max": t["E_max"][i]}
         assert t["value"][i] == pytest.approx(pb.value(obj, point), rel=1e-12)
+    with h5py.File(run / "results.h5", "r") as f:  # external links to the histories
+        np.testing.assert_array_equal(f["evals/000003/design"][()], t["x"][3])
+        assert "contact_force" in f["evals/000003/histories"]
     for i, name in enumerate(t["file"]):
         x, ev = read_evaluation(run / name)
         np.testing.assert_array_equal(x, t["x"][i])
