@@ -146,5 +146,7 @@ def main(argv: list[str] | None = None) -> int:
     return EXIT_OK
 
 
-if __name__ == "__main__":
-    sys.exit(main())
+if __name__ == "__main__":  # python -m lccopt.cli: use the package's module, not a second copy
+    from lccopt.cli import main as package_main
+
+    sys.exit(package_main())
