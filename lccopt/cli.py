@@ -23,11 +23,6 @@ class UsageError(Exception):
     """Bad input that is not a case-file problem (options, run directories); exit 2."""
 
 
-def _fail(message: str, code: int) -> None:
-    typer.echo(f"lccopt: error: {message}", err=True)
-    raise typer.Exit(code)
-
-
 @app.command()
 def check(case: Path = typer.Argument(..., help="case file (YAML)")) -> None:
     """Validate a case file without simulating."""
@@ -63,14 +58,7 @@ def optimise(
     """Run the surrogate optimisation of a case into runs/<case name>/."""
     from .engine.runner import optimise as run_optimise
 
-    try:
-        run_optimise(case, workers=workers, scheduler=scheduler, runs=runs, force=force)
-    except typer.Exit as exc:  # interrupted and saved. Typer returns Exit codes (and turns
-        # KeyboardInterrupt into Exit(130)) from app() in non-standalone mode, and main() drops
-        # that return value: leave with SystemExit, which passes through both.
-        if exc.exit_code == EXIT_INTERRUPTED:
-            sys.exit(EXIT_INTERRUPTED)
-        raise
+    run_optimise(case, workers=workers, scheduler=scheduler, runs=runs, force=force)
 
 
 @app.command()
@@ -85,14 +73,7 @@ def resume(
     """Carry on an interrupted run where it stopped."""
     from .engine.runner import resume as run_resume
 
-    try:
-        run_resume(run, workers=workers, scheduler=scheduler, case=case, allow_changed_case=allow_changed_case)
-    except typer.Exit as exc:  # interrupted and saved. Typer returns Exit codes (and turns
-        # KeyboardInterrupt into Exit(130)) from app() in non-standalone mode, and main() drops
-        # that return value: leave with SystemExit, which passes through both.
-        if exc.exit_code == EXIT_INTERRUPTED:
-            sys.exit(EXIT_INTERRUPTED)
-        raise
+    run_resume(run, workers=workers, scheduler=scheduler, case=case, allow_changed_case=allow_changed_case)
 
 
 @app.command()
@@ -101,15 +82,9 @@ def report(
     format: str = typer.Option("both", "--format", help="summary format: md, html or both"),
 ) -> None:
     """Write figures and a summary of a run into RUN/report/."""
-    from . import cli as _cli
     from .report import write_report
 
-    try:
-        write_report(run, format)
-    except _cli.UsageError as exc:
-        # under 'python -m lccopt.cli' this module is __main__, another module than the
-        # lccopt.cli that report.py raises from: re-raise as the class main() catches
-        raise UsageError(str(exc)) from None
+    write_report(run, format)
 
 
 def main(argv: list[str] | None = None) -> int:

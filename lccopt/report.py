@@ -39,6 +39,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .atomic import atomic_write_text
+
 FORMATS = ("md", "html", "both")
 OBJECTIVE_NAMES = ("F_rms", "F_max", "E_rms", "E_max")
 OBJECTIVE_DOC = {
@@ -226,7 +228,6 @@ def _lock_state(run: Path) -> str:
 
 def load_run(path: Path) -> RunData:
     """Read a run directory (finished, running or interrupted); UsageError if it is not one."""
-    import h5py
 
     from .engine.journal import JournalError, read_journal
 
@@ -1135,21 +1136,6 @@ class Doc:
                 f"</title><style>{style}</style></head><body>\n" + "\n".join(body) + "\n</body></html>\n")
 
 
-def _atomic_text(path: Path, text: str) -> None:
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name + ".", suffix=".tmp")
-    try:
-        mask = os.umask(0)
-        os.umask(mask)
-        os.chmod(tmp, 0o666 & ~mask)  # mkstemp makes 0600; give what open() would
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-
-
 def history_facts(best: tuple, ref: tuple) -> list[str]:
     """Sentences on the histories of the best and the reference design (for 'Why it is better')."""
     (hb, ib), (hr, ir) = best, ref
@@ -1223,7 +1209,7 @@ def build_summary(run: RunData, figs: dict, notes: dict, facts: list[str] | None
                 "crosses at the bottom; the green line is the best value so far; dashed lines mark restarts "
                 "(paper Figs. 6, 7, 10).")
     phase_counts = {ph: int((run.phase == ph).sum()) for ph in PHASE_STYLE if (run.phase == ph).any()}
-    items = [f"evaluations by phase: " + ", ".join(f"{PHASE_STYLE[p][0]} {c}" for p, c in phase_counts.items())]
+    items = ["evaluations by phase: " + ", ".join(f"{PHASE_STYLE[p][0]} {c}" for p, c in phase_counts.items())]
     if bi is not None:
         items.append(f"best value {fnum(run.value[bi])} at evaluation #{run.ids[bi]} ({run.phase[bi]}, restart "
                      f"{run.restart[bi]}); the best value was within 1 % of it from evaluation "
@@ -1415,13 +1401,13 @@ def write_report(run: Path, format: str = "both") -> Path:
     doc, summary = build_summary(data, figs, notes, facts)
     wrote = []
     if fmt_ in ("md", "both"):
-        _atomic_text(out / "report.md", doc.markdown())
+        atomic_write_text(out / "report.md", doc.markdown())
         wrote.append(out / "report.md")
     if fmt_ in ("html", "both"):
-        _atomic_text(out / "report.html", doc.html(f"lccopt report: {data.name}"))
+        atomic_write_text(out / "report.html", doc.html(f"lccopt report: {data.name}"))
         wrote.append(out / "report.html")
     summary["seconds"] = round(time.perf_counter() - t0, 2)
-    _atomic_text(out / "summary.json", json.dumps(summary, indent=2, allow_nan=True) + "\n")
+    atomic_write_text(out / "summary.json", json.dumps(summary, indent=2, allow_nan=True) + "\n")
     import typer
 
     bi_txt = (f"; best #{summary['best']['id']}: " + ", ".join(

@@ -8,20 +8,19 @@ file that exists is complete.
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import h5py
 import numpy as np
 
+from .atomic import atomic_path
 from .vti.response import HISTORY_DOC, OBJECTIVE_UNITS, Evaluation
 
 
 def write_evaluation(path: str | Path, evaluation: Evaluation, x, names, attrs: dict | None = None) -> Path:
     """Write one evaluation atomically (tmp + fsync + rename); return the path."""
     path = Path(path)
-    tmp = path.with_name(path.name + ".tmp")
-    with h5py.File(tmp, "w") as f:
+    with atomic_path(path) as tmp, h5py.File(tmp, "w") as f:
         d = f.create_dataset("design", data=np.asarray(x, dtype=float))
         d.attrs["names"] = list(names)
         obj = f.create_group("objectives")
@@ -37,10 +36,6 @@ def write_evaluation(path: str | Path, evaluation: Evaluation, x, names, attrs: 
         info = f.create_group("info")
         for k, v in {**evaluation.info, **(attrs or {})}.items():
             info.attrs[k] = v
-    with open(tmp, "rb") as fh:
-        os.fsync(fh.fileno())
-    os.replace(tmp, path)
-    _fsync_dir(path.parent)
     return path
 
 
@@ -52,11 +47,3 @@ def read_evaluation(path: str | Path) -> tuple[np.ndarray, Evaluation]:
         histories = {k: f["histories"][k][()] for k in f["histories"]}
         info = {k: (v.item() if hasattr(v, "item") else v) for k, v in f["info"].attrs.items()}
     return x, Evaluation(objectives, histories, info)
-
-
-def _fsync_dir(directory: Path) -> None:
-    fd = os.open(directory, os.O_RDONLY)
-    try:
-        os.fsync(fd)
-    finally:
-        os.close(fd)

@@ -30,6 +30,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..atomic import atomic_path, atomic_write_bytes, fsync_dir, normal_mode
+
 RESULTS_FORMAT = "lccopt-results"
 RESULTS_VERSION = 1
 RUN_FORMAT = "lccopt-run"
@@ -59,42 +61,6 @@ def now_iso() -> str:
     return _dt.datetime.now(_dt.timezone.utc).astimezone().isoformat(timespec="seconds")
 
 
-def fsync_dir(directory: Path) -> None:
-    fd = os.open(directory, os.O_RDONLY)
-    try:
-        os.fsync(fd)
-    finally:
-        os.close(fd)
-
-
-def _umask() -> int:
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask
-
-
-def _normal_mode(path, directory: bool = False) -> None:
-    """mkstemp/mkdtemp create 0600/0700: give files the permissions open() would."""
-    os.chmod(path, (0o777 if directory else 0o666) & ~_umask())
-
-
-def atomic_write_bytes(path: Path, data: bytes) -> None:
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name + ".", suffix=".tmp")
-    _normal_mode(tmp)
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(data)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise
-    fsync_dir(path.parent)
-
-
 def eval_name(i: int) -> str:
     return f"evals/{i:06d}.h5"
 
@@ -119,7 +85,7 @@ class RunDir:
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
         tmp = Path(tempfile.mkdtemp(dir=path.parent, prefix=f".{path.name}.creating-"))
-        _normal_mode(tmp, directory=True)
+        normal_mode(tmp, directory=True)
         try:
             (tmp / "evals").mkdir()
             resolved = case.resolved
@@ -293,93 +259,81 @@ def write_results(path: Path, table: Table, *, case, problem, meta: dict) -> Non
     rows = table.done_rows()
     n, d = len(rows), len(table.names)
     sdt = h5py.string_dtype()
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name + ".", suffix=".tmp")
-    os.close(fd)
-    _normal_mode(tmp)
-    try:
-        with h5py.File(tmp, "w") as f:
-            a = f.attrs
-            a["format"], a["format_version"] = RESULTS_FORMAT, RESULTS_VERSION
-            a["case_name"] = case.name
-            a["objectives"] = list(problem.objectives)
-            a["scalarisation"] = problem.scalarisation
-            a["rho"], a["improvement"] = problem.rho, problem.improvement
-            a["worst"] = np.array(problem.worst if problem.worst else [], dtype=float)
-            a["budget"], a["seed"] = problem.budget, problem.seed
-            a["initial_points"] = problem.initial_points
-            a["n_evaluations"], a["n_failed"] = n, table.n_failed
-            a["n_pending"] = len(table.pending_ids())
-            a["finished"] = bool(table.finished)
-            a["journal_seq"] = table.seq
-            a["created"], a["updated"] = meta.get("created", ""), now_iso()
+    with atomic_path(path) as tmp, h5py.File(tmp, "w") as f:
+        a = f.attrs
+        a["format"], a["format_version"] = RESULTS_FORMAT, RESULTS_VERSION
+        a["case_name"] = case.name
+        a["objectives"] = list(problem.objectives)
+        a["scalarisation"] = problem.scalarisation
+        a["rho"], a["improvement"] = problem.rho, problem.improvement
+        a["worst"] = np.array(problem.worst if problem.worst else [], dtype=float)
+        a["budget"], a["seed"] = problem.budget, problem.seed
+        a["initial_points"] = problem.initial_points
+        a["n_evaluations"], a["n_failed"] = n, table.n_failed
+        a["n_pending"] = len(table.pending_ids())
+        a["finished"] = bool(table.finished)
+        a["journal_seq"] = table.seq
+        a["created"], a["updated"] = meta.get("created", ""), now_iso()
 
-            g = f.create_group("case")
-            g.create_dataset("text", data=case.text, dtype=sdt)
-            g.create_dataset("resolved", data=case.resolved, dtype=sdt)
-            g.attrs["sha256"] = sha256_text(case.resolved)
-            g.attrs["file"] = meta.get("case_file", "")
+        g = f.create_group("case")
+        g.create_dataset("text", data=case.text, dtype=sdt)
+        g.create_dataset("resolved", data=case.resolved, dtype=sdt)
+        g.attrs["sha256"] = sha256_text(case.resolved)
+        g.attrs["file"] = meta.get("case_file", "")
 
-            g = f.create_group("versions")
-            for k, v in versions().items():
-                g.attrs[k] = v
-            g.attrs["run_started_with"] = json.dumps(meta.get("versions", {}))
+        g = f.create_group("versions")
+        for k, v in versions().items():
+            g.attrs[k] = v
+        g.attrs["run_started_with"] = json.dumps(meta.get("versions", {}))
 
-            g = f.create_group("reference")
-            ds = g.create_dataset("x", data=np.array(problem.reference, dtype=float))
+        g = f.create_group("reference")
+        ds = g.create_dataset("x", data=np.array(problem.reference, dtype=float))
+        ds.attrs["names"] = list(table.names)
+        ref = table.reference or {}
+        og = g.create_group("objectives")
+        for k, v in (ref.get("objectives") or {}).items():
+            og.attrs[k] = v
+        if ref.get("point") is not None:
+            g.create_dataset("point", data=np.array(ref["point"], dtype=float))
+        if problem.worst:
+            g.create_dataset("worst", data=np.array(problem.worst, dtype=float))
+
+        e = f.create_group("evaluations")
+        e.attrs["names"] = list(table.names)
+        e.create_dataset("id", data=np.array([r["id"] for r in rows], dtype=np.int64))
+        x = e.create_dataset("x", data=np.array([r["x"] for r in rows], dtype=float).reshape(n, d))
+        x.attrs["names"] = list(table.names)
+        for k in OBJECTIVE_NAMES:
+            col = e.create_dataset(k, data=np.array([float(r["objectives"].get(k, math.nan))
+                                                     for r in rows], dtype=float))
+            col.attrs["unit"] = "N" if k.startswith("F") else "J"
+        e.create_dataset("value", data=np.array([r["value"] for r in rows], dtype=float))
+        for k in ("status", "reason", "phase", "worker", "file"):
+            e.create_dataset(k, data=[str(r[k]) for r in rows], dtype=sdt)
+        e.create_dataset("restart", data=np.array([r["restart"] for r in rows], dtype=np.int64))
+        wt = e.create_dataset("wall_time", data=np.array([r["wall_time"] for r in rows], dtype=float))
+        wt.attrs["unit"] = "s"
+        F = np.array([[float(r["objectives"].get(k, math.nan)) for k in problem.objectives]
+                      for r in rows], dtype=float).reshape(n, len(problem.objectives))
+        ok = np.array([r["status"] == "ok" for r in rows], dtype=bool)
+        if n:
+            from ..optim.scalarise import pareto_mask
+
+            F[~ok] = math.nan
+            e.create_dataset("pareto", data=pareto_mask(F))
+        else:
+            e.create_dataset("pareto", data=np.zeros(0, dtype=bool))
+
+        links = f.create_group("evals")  # external links: f["evals/000012/histories/contact_force"]
+        for r in rows:
+            if r["file"]:
+                links[f"{r['id']:06d}"] = h5py.ExternalLink(r["file"], "/")
+
+        g = f.create_group("best")
+        best = table.best()
+        if best is not None:
+            g.attrs["id"], g.attrs["value"] = best["id"], best["value"]
+            ds = g.create_dataset("x", data=np.array(best["x"], dtype=float))
             ds.attrs["names"] = list(table.names)
-            ref = table.reference or {}
-            og = g.create_group("objectives")
-            for k, v in (ref.get("objectives") or {}).items():
-                og.attrs[k] = v
-            if ref.get("point") is not None:
-                g.create_dataset("point", data=np.array(ref["point"], dtype=float))
-            if problem.worst:
-                g.create_dataset("worst", data=np.array(problem.worst, dtype=float))
-
-            e = f.create_group("evaluations")
-            e.attrs["names"] = list(table.names)
-            e.create_dataset("id", data=np.array([r["id"] for r in rows], dtype=np.int64))
-            x = e.create_dataset("x", data=np.array([r["x"] for r in rows], dtype=float).reshape(n, d))
-            x.attrs["names"] = list(table.names)
-            for k in OBJECTIVE_NAMES:
-                col = e.create_dataset(k, data=np.array([float(r["objectives"].get(k, math.nan))
-                                                         for r in rows], dtype=float))
-                col.attrs["unit"] = "N" if k.startswith("F") else "J"
-            e.create_dataset("value", data=np.array([r["value"] for r in rows], dtype=float))
-            for k in ("status", "reason", "phase", "worker", "file"):
-                e.create_dataset(k, data=[str(r[k]) for r in rows], dtype=sdt)
-            e.create_dataset("restart", data=np.array([r["restart"] for r in rows], dtype=np.int64))
-            wt = e.create_dataset("wall_time", data=np.array([r["wall_time"] for r in rows], dtype=float))
-            wt.attrs["unit"] = "s"
-            F = np.array([[float(r["objectives"].get(k, math.nan)) for k in problem.objectives]
-                          for r in rows], dtype=float).reshape(n, len(problem.objectives))
-            ok = np.array([r["status"] == "ok" for r in rows], dtype=bool)
-            if n:
-                from ..optim.scalarise import pareto_mask
-
-                F[~ok] = math.nan
-                e.create_dataset("pareto", data=pareto_mask(F))
-            else:
-                e.create_dataset("pareto", data=np.zeros(0, dtype=bool))
-
-            links = f.create_group("evals")  # external links: f["evals/000012/histories/contact_force"]
-            for r in rows:
-                if r["file"]:
-                    links[f"{r['id']:06d}"] = h5py.ExternalLink(r["file"], "/")
-
-            g = f.create_group("best")
-            best = table.best()
-            if best is not None:
-                g.attrs["id"], g.attrs["value"] = best["id"], best["value"]
-                ds = g.create_dataset("x", data=np.array(best["x"], dtype=float))
-                ds.attrs["names"] = list(table.names)
-                for k, v in best["objectives"].items():
-                    g.attrs[k] = v
-        with open(tmp, "rb") as fh:
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise
-    fsync_dir(path.parent)
+            for k, v in best["objectives"].items():
+                g.attrs[k] = v

@@ -25,7 +25,6 @@ objectives fix the ASF reference point (``reference`` line) before any value is 
 
 from __future__ import annotations
 
-import math
 import shutil
 import signal
 import sys
@@ -38,7 +37,7 @@ import typer
 
 from ..case import Case, CaseError, load_case
 from ..problem import Problem
-from .executors import ExecutorError, default_workers, make_executor
+from .executors import ExecutorError, make_executor
 from .journal import Journal, JournalError
 from .progress import Progress, fmt, hms
 from .rundir import RunDir, RunError, Table, eval_name, now_iso, sha256_text, write_results

@@ -52,7 +52,6 @@ def pareto_mask(F) -> np.ndarray:
     F = np.asarray(F, dtype=float)
     if F.ndim == 1:
         F = F[:, None]
-    n = F.shape[0]
     ok = np.all(np.isfinite(F), axis=1)
     mask = ok.copy()
     idx = np.flatnonzero(ok)

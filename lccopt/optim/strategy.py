@@ -25,8 +25,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
-import tempfile
 from dataclasses import dataclass
 
 import numpy as np
@@ -490,20 +488,9 @@ class Strategy:
 
     def save(self, path) -> None:
         """Atomic write: temporary file in the same directory, fsync, rename."""
-        path = os.fspath(path)
-        text = json.dumps(self.state_dict(), allow_nan=False)
-        fd, tmp = tempfile.mkstemp(dir=os.path.dirname(os.path.abspath(path)),
-                                   prefix=os.path.basename(path) + ".", suffix=".tmp")
-        try:
-            with os.fdopen(fd, "w", encoding="utf-8") as fh:
-                fh.write(text)
-                fh.flush()
-                os.fsync(fh.fileno())
-            os.replace(tmp, path)
-        except BaseException:
-            if os.path.exists(tmp):
-                os.unlink(tmp)
-            raise
+        from ..atomic import atomic_write_text
+
+        atomic_write_text(path, json.dumps(self.state_dict(), allow_nan=False))
 
     @classmethod
     def load(cls, path) -> "Strategy":

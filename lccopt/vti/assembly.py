@@ -36,11 +36,13 @@ def hermite_gram(length) -> np.ndarray:
     return np.moveaxis(g, -1, 0) * (L / 420.0)[:, None, None]
 
 
-def hermite(xi: float, length: float) -> tuple[float, float, float, float]:
-    """Hermite shape functions at local coordinate xi in [0, L] (Eq. A.8, standard form)."""
-    s = xi / length
+def hermite(xi, length) -> np.ndarray:
+    """Hermite shape functions (Eq. A.8, standard form) at local coordinates xi in [0, L];
+    shape (..., 4) for dofs (w1, th1, w2, th2)."""
+    L = np.asarray(length, dtype=float)
+    s = np.asarray(xi, dtype=float) / L
     s2, s3 = s * s, s * s * s
-    return (1.0 - 3.0 * s2 + 2.0 * s3, length * (s - 2.0 * s2 + s3), 3.0 * s2 - 2.0 * s3, length * (s3 - s2))
+    return np.stack([1 - 3 * s2 + 2 * s3, L * (s - 2 * s2 + s3), 3 * s2 - 2 * s3, L * (s3 - s2)], axis=-1)
 
 
 class Assembler:

@@ -64,10 +64,7 @@ def contact_vectors(track: TrackLike, x) -> tuple[np.ndarray, np.ndarray, np.nda
     x = np.atleast_1d(np.asarray(x, dtype=float))
     nx = track.node_x
     e = np.clip(np.searchsorted(nx, x, side="right") - 1, 0, len(nx) - 2)
-    L = nx[e + 1] - nx[e]
-    s = (x - nx[e]) / L
-    s2, s3 = s * s, s * s * s
-    vals = np.stack([1 - 3 * s2 + 2 * s3, L * (s - 2 * s2 + s3), 3 * s2 - 2 * s3, L * (s3 - s2)], axis=1)
+    vals = hermite(x - nx[e], nx[e + 1] - nx[e])
     idx = np.stack([track.rail_w[e], track.rail_th[e], track.rail_w[e + 1], track.rail_th[e + 1]], axis=1)
     vals[idx < 0] = 0.0
     idx[idx < 0] = 0

@@ -10,7 +10,6 @@ import time
 from pathlib import Path
 
 import h5py
-import pytest
 
 from lccopt.engine.journal import read_journal
 from lccopt.engine.runner import optimise

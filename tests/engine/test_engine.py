@@ -7,7 +7,6 @@ import json
 import h5py
 import numpy as np
 import pytest
-import typer
 
 from lccopt.case import CaseError, load_case
 from lccopt.cli import UsageError
@@ -17,7 +16,7 @@ from lccopt.engine.runner import optimise, restore, resume
 from lccopt.problem import Problem
 from lccopt.store import read_evaluation
 
-from .conftest import FAKE, FAULTY, REFERENCE, assert_same_evaluations, read_table, write_case
+from .conftest import FAKE, FAULTY, REFERENCE, read_table, write_case
 
 
 def test_run_directory_and_results_layout(tmp_path, capsys):

@@ -8,7 +8,6 @@ import re
 import shutil
 
 import h5py
-import numpy as np
 import pytest
 
 from .helpers import FIGURES, lccopt, png_size, write_case

@@ -11,7 +11,6 @@ from __future__ import annotations
 import json
 
 import h5py
-import numpy as np
 import pytest
 
 from .helpers import FIGURES, lccopt, png_size, write_case
