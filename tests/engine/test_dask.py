@@ -23,3 +23,28 @@ def test_dask_local_cluster_same_evaluations_as_process_pool(tmp_path):
     assert all(w.startswith("tcp://") for w in dask["worker"])
     for name in dask["file"]:  # written by the parent from the returned evaluation
         read_evaluation(run / name)
+
+
+def test_dask_runs_the_real_simulator_like_the_process_pool(tmp_path):
+    """The real simulator on Dask workers (case pickled to them, files written by the parent)
+    gives the pool's objectives. The initial design only: its points do not depend on values,
+    and the last bits of a simulation may differ between processes (see the README)."""
+    import numpy as np
+
+    from .conftest import REAL
+
+    distributed = pytest.importorskip("distributed")
+    case = write_case(tmp_path, "dr", budget=4, initial=4, seed=5)
+    local = read_table(optimise(case, workers=1, runs=tmp_path / "local", evaluator=REAL, progress=False))
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
+                                  dashboard_address=None) as cluster:
+        run = optimise(case, scheduler=cluster.scheduler_address, runs=tmp_path / "dask", evaluator=REAL,
+                       progress=False)
+    dask = read_table(run)
+    assert list(dask["status"]) == ["ok"] * 4
+    np.testing.assert_array_equal(local["x"], dask["x"])
+    for k in ("F_rms", "F_max", "E_rms", "E_max", "value"):
+        np.testing.assert_allclose(dask[k], local[k], rtol=1e-9, err_msg=k)
+    for name in dask["file"]:
+        x, ev = read_evaluation(run / name)
+        assert len(ev.histories["contact_force"]) > 100
