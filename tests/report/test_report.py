@@ -54,7 +54,7 @@ def test_summary_best_values_equal_results_h5(run_dir):
         assert s["reference"]["objectives"][k] == ref[k]
     assert [s["best"]["x"][n] for n in names] == best_x.tolist()
 
-    from lccopt.report import fnum, pct
+    from lccopt.report.data import fnum, pct
 
     md = (run / "report" / "report.md").read_text()
     assert f"evaluation **#{best['id']}**" in md

@@ -1,0 +1,108 @@
+"""``lccopt report RUN``: figures and a summary of a run, after the paper's Figs. 6-11, Tables 5-7.
+
+Writes into ``RUN/report/``:
+
+    search-history.png     value of every evaluation by number, phase, failures, best so far,
+                           restarts (Figs. 6, 7, 10)
+    objective-space.png    all evaluations in (F_max, E_max) (the run's two first objectives for
+                           a multi-objective run), Pareto front, reference design, reference
+                           point, chosen compromise (Fig. 9); drawn for single-objective runs too
+    best-vs-reference.png  change of every objective and design variable, best vs reference
+                           (Tables 5-7 as a picture; the numbers are in the summary)
+    contact-force.png      contact force against wheel position, best and reference (ERS and
+                           evaluation zone marked)
+    sleeper-energy.png     energy dissipated under each zone sleeper, best and reference (Fig. 11)
+    track-layout.png       drawing of the entry side next to the interface, best and reference
+    sensitivity.png        each design variable against the value over all evaluations
+    report.md / report.html  the summary (HTML self-contained: figures embedded as base64)
+    summary.json           the key numbers, machine-readable
+
+Read-only on the run: results.h5 is opened read-only and read at once (the engine replaces it
+atomically); when the journal has committed more evaluations than results.h5 shows (a running
+or killed run), the evaluation table is rebuilt from the journal instead. Only the evaluation
+files of the best and the reference design are read; missing ones (failed evaluations, files of
+a fake evaluator without histories) leave a note instead of a figure.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+from ..atomic import atomic_write_text
+from .data import FIGURES, FORMATS, _usage, load_run, pct, read_history
+from .figures import (fig_best_vs_reference, fig_contact_force, fig_objective_space, fig_search_history,
+                      fig_sensitivity, fig_sleeper_energy, fig_track_layout)
+from .summary import build_summary, history_facts
+
+__all__ = ["write_report"]
+
+
+def write_report(run: Path, format: str = "both") -> Path:
+    """Write figures and the summary of run directory RUN into RUN/report/; return that directory."""
+    import time
+
+    t0 = time.perf_counter()
+    fmt_ = str(format).lower()
+    if fmt_ not in FORMATS:
+        raise _usage(f"--format must be one of {', '.join(FORMATS)}, got {format!r}")
+    data = load_run(Path(run))
+    out = data.path / "report"
+    try:
+        out.mkdir(exist_ok=True)
+    except OSError as exc:
+        raise _usage(f"cannot create {out}: {exc.strerror or exc}") from None
+    for name in FIGURES:  # figures of an earlier report that this one may not redraw
+        p = out / f"{name}.png"
+        if p.exists():
+            p.unlink()
+
+    figs: dict[str, Path] = {}
+    notes: dict[str, str] = {}
+    figs["search-history"] = fig_search_history(data, out)
+    p, note = fig_objective_space(data, out)
+    figs["objective-space"] = p
+    if note:
+        notes["objective-space"] = note
+    bi, ri = data.best_index(), data.ref_index()
+    if bi is not None:
+        figs["best-vs-reference"] = fig_best_vs_reference(data, bi, ri, out)
+        hb, ib, nb = read_history(data, bi)
+        hr, ir, nr = read_history(data, ri) if ri is not None else (None, {}, "the reference design was not "
+                                                                       "evaluated successfully")
+        why = "; ".join(n for n in (nb and f"best: {nb}", nr and f"reference: {nr}") if n)
+        for key, fn in (("contact-force", fig_contact_force), ("sleeper-energy", fig_sleeper_energy),
+                        ("track-layout", fig_track_layout)):
+            p = fn(data, (hb, ib), (hr, ir), bi, out)
+            if p is not None:
+                figs[key] = p
+                if why and key != "track-layout":
+                    notes[key] = why
+            else:
+                notes[key] = why or "the evaluation files hold no such histories (e.g. a test evaluator)"
+        facts = history_facts((hb, ib), (hr, ir))
+    else:
+        facts = []
+    figs["sensitivity"] = fig_sensitivity(data, out)
+
+    doc, summary = build_summary(data, figs, notes, facts)
+    wrote = []
+    if fmt_ in ("md", "both"):
+        atomic_write_text(out / "report.md", doc.markdown())
+        wrote.append(out / "report.md")
+    if fmt_ in ("html", "both"):
+        atomic_write_text(out / "report.html", doc.html(f"lccopt report: {data.name}"))
+        wrote.append(out / "report.html")
+    summary["seconds"] = round(time.perf_counter() - t0, 2)
+    atomic_write_text(out / "summary.json", json.dumps(summary, indent=2, allow_nan=True) + "\n")
+    import typer
+
+    bi_txt = (f"; best #{summary['best']['id']}: " + ", ".join(
+        f"{k} {pct(summary['best']['objectives'][k], data.ref_objectives.get(k, math.nan))}"
+        for k in data.objectives)) if "best" in summary else ""
+    typer.echo(f"report of '{data.name}' ({data.n}/{data.budget} evaluations, {data.state}){bi_txt}")
+    typer.echo(f"  {len(figs)} figures and {', '.join(p.name for p in wrote)} in {out} "
+               f"({summary['seconds']:.1f} s)")
+    return out
+

@@ -1,0 +1,474 @@
+"""A run directory read for the report: evaluations, reference, case, histories; number formats."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import platform
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+FORMATS = ("md", "html", "both")
+OBJECTIVE_NAMES = ("F_rms", "F_max", "E_rms", "E_max")
+OBJECTIVE_DOC = {
+    "F_rms": "rms of the wheel-rail contact force in the force zone",
+    "F_max": "range (max - min) of the wheel-rail contact force in the force zone",
+    "E_rms": "rms of the energy dissipated under the zone sleepers",
+    "E_max": "range (max - min) of the energy dissipated under the zone sleepers",
+}
+PHASE_STYLE = {  # phase -> (label, marker, colour)
+    "initial": ("initial design (Latin hypercube)", "^", "0.35"),
+    "adaptive": ("adaptive candidates (DYCORS)", "o", "tab:blue"),
+    "random": ("random candidates", "s", "tab:purple"),
+    "local": ("local search of the surrogate", "D", "tab:cyan"),
+}
+REF_COLOR, BEST_COLOR, FAIL_COLOR, FRONT_COLOR = "tab:orange", "tab:blue", "tab:red", "tab:green"
+DPI = 110
+
+FIGURES = ("search-history", "objective-space", "best-vs-reference", "contact-force", "sleeper-energy",
+           "track-layout", "sensitivity")
+
+
+
+def _usage(message: str) -> Exception:
+    from ..cli import UsageError
+
+    return UsageError(message)
+
+
+# ================================================================================ reading
+
+@dataclass
+class VarInfo:
+    name: str
+    group: str
+    integer: bool
+    lower: float
+    upper: float
+    reference: float
+    label: str       # what it is, in words
+    unit: str        # display unit
+    scale: float     # display value = SI value * scale
+
+
+@dataclass
+class RunData:
+    path: Path
+    name: str
+    objectives: list[str]
+    scalarisation: str
+    budget: int
+    names: list[str]
+    variables: list[VarInfo]
+    ids: np.ndarray
+    x: np.ndarray
+    obj: dict                      # objective name -> array over evaluations
+    value: np.ndarray
+    status: np.ndarray
+    reason: np.ndarray
+    phase: np.ndarray
+    restart: np.ndarray
+    file: np.ndarray
+    wall_time: np.ndarray
+    pareto: np.ndarray
+    ref_x: np.ndarray
+    ref_objectives: dict
+    ref_point: np.ndarray | None
+    worst: np.ndarray | None
+    rho: float | None
+    improvement: float | None
+    n_pending: int
+    finished: bool
+    state: str                     # finished | running | interrupted
+    source: str                    # results.h5 | journal.jsonl
+    case: object = None            # lccopt.case.Case when the run's case could be loaded
+    case_note: str = ""
+    notes: list[str] = field(default_factory=list)
+    created: str = ""
+    updated: str = ""
+    sessions_wall: float = math.nan
+
+    @property
+    def n(self) -> int:
+        return len(self.ids)
+
+    @property
+    def ok(self) -> np.ndarray:
+        return self.status == "ok"
+
+    @property
+    def multi(self) -> bool:
+        return len(self.objectives) > 1
+
+    def best_index(self) -> int | None:
+        ok = np.flatnonzero(self.ok & np.isfinite(self.value))
+        if not len(ok):
+            return None
+        return int(ok[np.lexsort((self.ids[ok], self.value[ok]))[0]])
+
+    def ref_index(self) -> int | None:
+        """The reference design's evaluation (always proposal 0), or one with the same x."""
+        hit = np.flatnonzero(self.ids == 0)
+        if len(hit) and np.allclose(self.x[hit[0]], self.ref_x):
+            return int(hit[0])
+        same = np.flatnonzero(np.all(np.isclose(self.x, self.ref_x[None, :]), axis=1))
+        return int(same[0]) if len(same) else None
+
+
+def _s(v) -> str:
+    return v.decode() if isinstance(v, bytes) else str(v)
+
+
+def _var_info(name: str, group: str, integer: bool, lo: float, hi: float, ref: float, count: int,
+              index: int) -> VarInfo:
+    """Display label and unit of a design variable (from its group, or its name's stem)."""
+    if not group:
+        group = {"x_r": "railpad_stiffness", "x_n": "strengthened_sleepers", "x_s": "sleeper_spans",
+                 "x_l": "type_ii_strip"}.get(name[:3].rstrip("0123456789"), "")
+    if group == "railpad_stiffness":
+        k = count - index  # x_rN nearest the interface = sleeper 1
+        return VarInfo(name, group, integer, lo, hi, ref, f"railpad stiffness, sleeper {k} from the interface",
+                       "MN/m", 1e-6)
+    if group == "strengthened_sleepers":
+        return VarInfo(name, group, integer, lo, hi, ref, "strengthened sleepers next to the interface",
+                       "sleepers", 1.0)
+    if group == "sleeper_spans":
+        k = count - index
+        what = ("slab edge to sleeper 1" if k == 1 else f"sleeper {k - 1} to sleeper {k}")
+        return VarInfo(name, group, integer, lo, hi, ref, f"span {what}", "× 0.1 m", 1.0)
+    if group == "type_ii_strip":
+        return VarInfo(name, group, integer, lo, hi, ref, "Type II strip from the entry slab edge",
+                       "× 0.1 m", 1.0)
+    return VarInfo(name, group, integer, lo, hi, ref, name, "", 1.0)
+
+
+def _load_case(run: Path, resolved_text: str | None):
+    """The run's case (resolved copy), or (None, why)."""
+    from ..case import CaseError, load_case
+
+    candidates = []
+    if (run / "case.yaml").is_file():
+        candidates.append(run / "case.yaml")
+    why = "no case.yaml in the run directory"
+    for p in candidates:
+        try:
+            return load_case(p), ""
+        except CaseError as exc:
+            why = str(exc)
+    if resolved_text:
+        # e.g. an irregularity file relative to the original case: load without it
+        import yaml
+
+        try:
+            data = yaml.safe_load(resolved_text)
+            if isinstance(data, dict) and isinstance(data.get("simulation"), dict):
+                data["simulation"].pop("irregularity", None)
+            with tempfile.TemporaryDirectory() as d:
+                p = Path(d) / "case.yaml"
+                p.write_text(yaml.safe_dump(data, sort_keys=False), encoding="utf-8")
+                return load_case(p), ""
+        except Exception as exc:  # noqa: BLE001 - a report without the case is still a report
+            why = f"{why}; {exc}"
+    return None, why
+
+
+def _lock_state(run: Path) -> str:
+    """'running' if the lock file names a live process on this host, else 'stopped'.
+
+    Passive: reads the file the engine writes its pid into; never takes the lock."""
+    try:
+        text = (run / "lock").read_text(encoding="utf-8").strip()
+    except OSError:
+        return "stopped"
+    parts = text.split()
+    if len(parts) >= 4 and parts[0] == "pid" and parts[2] == "on":
+        if parts[3] != platform.node():
+            return "running"  # another host: cannot check, believe the file
+        try:
+            os.kill(int(parts[1]), 0)
+            return "running"
+        except (ValueError, ProcessLookupError):
+            return "stopped"
+        except PermissionError:
+            return "running"
+    return "stopped"
+
+
+def load_run(path: Path) -> RunData:
+    """Read a run directory (finished, running or interrupted); UsageError if it is not one."""
+
+    from ..engine.journal import JournalError, read_journal
+
+    run = Path(path)
+    if not run.exists():
+        raise _usage(f"{run}: no such run directory")
+    if not run.is_dir():
+        raise _usage(f"{run}: not a directory (expected a run directory such as runs/<case name>)")
+    has_results = (run / "results.h5").is_file()
+    has_journal = (run / "journal.jsonl").is_file()
+    if not has_results and not has_journal:
+        raise _usage(f"{run}: not an lccopt run directory (no results.h5 or journal.jsonl)")
+
+    res = None
+    res_error = ""
+    if has_results:
+        try:
+            res = _read_results(run / "results.h5")
+        except (OSError, KeyError, ValueError) as exc:
+            res_error = f"{run / 'results.h5'} is unreadable ({exc})"
+    events: list[dict] = []
+    if has_journal:
+        try:
+            events, _, _ = read_journal(run / "journal.jsonl")
+        except (JournalError, OSError) as exc:
+            if res is None:
+                raise _usage(f"{run}: cannot read the run: {res_error or 'no results.h5'}; {exc}") from None
+    if res is None and not events:
+        raise _usage(f"{run}: cannot read the run: {res_error or 'no results.h5 and an empty journal'}")
+
+    journal_seq = events[-1]["seq"] if events else -1
+    notes = []
+    if res is not None and (not events or res["journal_seq"] >= journal_seq):
+        d, source = res, "results.h5"
+    else:
+        try:
+            d = _from_journal(run, events, res)
+        except (KeyError, TypeError, ValueError, IndexError) as exc:
+            if res is None:
+                raise _usage(f"{run}: cannot read the run: {res_error or 'no results.h5'}; "
+                             f"journal.jsonl: {type(exc).__name__}: {exc}") from None
+            d, source = res, "results.h5"
+        else:
+            source = "journal.jsonl"
+            if res is not None:
+                notes.append(f"results.h5 lags the journal (it is rebuilt every few seconds while a run goes, "
+                             f"and a killed run may not have rebuilt it); the table was read from the journal's "
+                             f"committed lines: {len(d['ids'])} evaluations, results.h5 had {len(res['ids'])}")
+            elif res_error:
+                notes.append(res_error + "; the table was rebuilt from journal.jsonl")
+    if len(d["ids"]) == 0:
+        raise _usage(f"{run}: nothing to report yet: no evaluation has finished")
+
+    case, case_note = _load_case(run, d.get("resolved"))
+    names = list(d["names"])
+    variables = []
+    if case is not None and case.names == names:
+        counts = {}
+        for v in case.variables:
+            counts[v.group] = counts.get(v.group, 0) + 1
+        seen: dict = {}
+        for v in case.variables:
+            i = seen.get(v.group, 0)
+            seen[v.group] = i + 1
+            variables.append(_var_info(v.name, v.group, v.integer, v.lower, v.upper, v.reference,
+                                       counts[v.group], i))
+    else:
+        if case is not None:
+            case_note = "the run's case.yaml has other design variables than results.h5"
+            case = None
+        stems = [n.rstrip("0123456789") for n in names]
+        for i, n in enumerate(names):
+            same = [j for j, s in enumerate(stems) if s == stems[i]]
+            variables.append(_var_info(n, "", False, math.nan, math.nan, float(d["ref_x"][i]), len(same),
+                                       same.index(i)))
+
+    lock = _lock_state(run)
+    state = "finished" if d["finished"] else ("running" if lock == "running" else "interrupted")
+    sessions = [ev.get("wall_time", 0.0) for ev in events if ev.get("event") == "session"]
+    created = d.get("created") or (events[0].get("time", "") if events else "")
+    return RunData(
+        path=run, name=d["name"] or run.name, objectives=list(d["objectives"]),
+        scalarisation=d["scalarisation"], budget=int(d["budget"]), names=names, variables=variables,
+        ids=d["ids"], x=d["x"], obj=d["obj"], value=d["value"], status=d["status"], reason=d["reason"],
+        phase=d["phase"], restart=d["restart"], file=d["file"], wall_time=d["wall_time"],
+        pareto=d["pareto"], ref_x=d["ref_x"], ref_objectives=d["ref_objectives"], ref_point=d["ref_point"],
+        worst=d["worst"], rho=d["rho"], improvement=d["improvement"], n_pending=int(d["n_pending"]),
+        finished=bool(d["finished"]), state=state, source=source, case=case, case_note=case_note,
+        notes=notes, created=created, updated=d.get("updated", ""),
+        sessions_wall=float(sum(sessions)) if sessions else math.nan)
+
+
+def _read_results(path: Path) -> dict:
+    """Everything the report needs from results.h5, read at once into memory."""
+    import h5py
+
+    with h5py.File(path, "r") as f:
+        a = f.attrs
+        e = f["evaluations"]
+        ids = e["id"][()].astype(int)
+        n = len(ids)
+        names = [_s(v) for v in e["x"].attrs.get("names", e.attrs.get("names", []))]
+        strs = {k: np.array([_s(v) for v in e[k][()]], dtype=object) if n else np.array([], dtype=object)
+                for k in ("status", "reason", "phase", "file")}
+        ref = f["reference"]
+        objectives = [_s(v) for v in a["objectives"]]
+        worst = np.asarray(a.get("worst", []), dtype=float)
+        return {
+            "name": _s(a.get("case_name", "")), "objectives": objectives,
+            "scalarisation": _s(a.get("scalarisation", "single")), "budget": int(a.get("budget", n)),
+            "names": names, "ids": ids, "x": e["x"][()].reshape(n, len(names)),
+            "obj": {k: e[k][()].astype(float) for k in OBJECTIVE_NAMES if k in e},
+            "value": e["value"][()].astype(float), **strs,
+            "restart": e["restart"][()].astype(int), "wall_time": e["wall_time"][()].astype(float),
+            "pareto": e["pareto"][()].astype(bool) if "pareto" in e else np.zeros(n, bool),
+            "ref_x": ref["x"][()].astype(float),
+            "ref_objectives": {k: float(v) for k, v in ref["objectives"].attrs.items()} if "objectives" in ref else {},
+            "ref_point": ref["point"][()].astype(float) if "point" in ref else None,
+            "worst": worst if worst.size else None, "rho": float(a.get("rho", math.nan)),
+            "improvement": float(a.get("improvement", math.nan)),
+            "n_pending": int(a.get("n_pending", 0)), "finished": bool(a.get("finished", False)),
+            "journal_seq": int(a.get("journal_seq", -1)), "created": _s(a.get("created", "")),
+            "updated": _s(a.get("updated", "")),
+            "resolved": _s(f["case/resolved"][()]) if "case/resolved" in f else None,
+        }
+
+
+def _from_journal(run: Path, events: list[dict], res: dict | None) -> dict:
+    """The same table as results.h5, rebuilt from the committed journal lines."""
+    from ..engine.rundir import Table
+    from ..optim.scalarise import pareto_mask
+
+    head = events[0] if events and events[0].get("event") == "run" else {}
+    objectives = list(head.get("objectives") or (res or {}).get("objectives") or ["F_max"])
+    budget = int(head.get("budget") or (res or {}).get("budget") or 0)
+    for ev in events:
+        if ev.get("event") == "case_changed" and ev.get("budget"):
+            budget = int(ev["budget"])
+    asked = next((ev for ev in events if ev.get("event") == "asked"), None)
+    d = len(asked["x"]) if asked else len((res or {}).get("names", []))
+    names = list((res or {}).get("names") or [])
+    if len(names) != d:
+        names = _names_from_case_yaml(run) or [f"x{i + 1}" for i in range(d)]
+    table = Table(names, objectives)
+    for ev in events:
+        table.apply(ev)
+    rows = table.done_rows()
+    n = len(rows)
+    obj = {k: np.array([float(r["objectives"].get(k, math.nan)) for r in rows], dtype=float)
+           for k in OBJECTIVE_NAMES}
+    status = np.array([r["status"] for r in rows], dtype=object)
+    F = np.column_stack([obj[k] for k in objectives]) if n else np.zeros((0, len(objectives)))
+    F = F.copy()
+    F[status != "ok"] = math.nan
+    ref = table.reference or {}
+    ref_x = np.asarray(ref.get("x") or (res or {}).get("ref_x") if (ref.get("x") or res) else
+                       (rows[0]["x"] if rows and rows[0]["id"] == 0 else [math.nan] * d), dtype=float)
+    worst = ref.get("worst") or ((res or {}).get("worst"))
+    return {
+        "name": (res or {}).get("name") or _case_name(run), "objectives": objectives,
+        "scalarisation": "asf" if len(objectives) > 1 else "single", "budget": budget, "names": names,
+        "ids": np.array([r["id"] for r in rows], dtype=int),
+        "x": np.array([r["x"] for r in rows], dtype=float).reshape(n, d), "obj": obj,
+        "value": np.array([r["value"] for r in rows], dtype=float), "status": status,
+        "reason": np.array([str(r["reason"]) for r in rows], dtype=object),
+        "phase": np.array([r["phase"] for r in rows], dtype=object),
+        "restart": np.array([r["restart"] for r in rows], dtype=int),
+        "file": np.array([r["file"] for r in rows], dtype=object),
+        "wall_time": np.array([r["wall_time"] for r in rows], dtype=float),
+        "pareto": pareto_mask(F) if n else np.zeros(0, bool),
+        "ref_x": ref_x, "ref_objectives": dict(ref.get("objectives") or {}),
+        "ref_point": np.asarray(ref["point"], float) if ref.get("point") is not None else None,
+        "worst": np.asarray(worst, float) if worst is not None else None,
+        "rho": float(ref.get("rho", math.nan) or math.nan), "improvement": float(ref.get("improvement", math.nan)
+                                                                                   or math.nan),
+        "n_pending": len(table.pending_ids()), "finished": table.finished,
+        "created": head.get("time", ""), "updated": events[-1].get("time", "") if events else "",
+        "resolved": (res or {}).get("resolved"),
+    }
+
+
+def _names_from_case_yaml(run: Path) -> list[str] | None:
+    from ..case import CaseError, load_case
+
+    try:
+        return load_case(run / "case.yaml").names
+    except (CaseError, OSError):
+        return None
+
+
+def _case_name(run: Path) -> str:
+    try:
+        return json.loads((run / "run.json").read_text(encoding="utf-8")).get("name", run.name)
+    except (OSError, ValueError):
+        return run.name
+
+
+def read_history(run: RunData, index: int | None) -> tuple[dict | None, dict, str]:
+    """(histories, info, note) of evaluation ``index`` from its file; histories None if unreadable."""
+    from ..store import read_evaluation
+
+    if index is None:
+        return None, {}, "no evaluation"
+    f = run.file[index]
+    if not f:
+        return None, {}, f"evaluation #{run.ids[index]} has no histories file"
+    p = run.path / f
+    if not p.is_file():
+        return None, {}, f"{f} is missing"
+    try:
+        _, ev = read_evaluation(p)
+    except Exception as exc:  # noqa: BLE001 - a damaged file is a note, not a crash
+        return None, {}, f"{f} is unreadable ({type(exc).__name__}: {exc})"
+    return ev.histories, ev.info, ""
+
+
+# ================================================================================ formatting
+
+def obj_unit(k: str) -> str:
+    return "N" if k.startswith("F") else "J"
+
+
+def obj_display(k: str) -> tuple[float, str]:
+    """(scale, unit) to show objective k in plots: forces in kN, energies in J."""
+    return (1e-3, "kN") if k.startswith("F") else (1.0, "J")
+
+
+def fnum(v: float, sig: int = 5) -> str:
+    if v is None or not np.isfinite(v):
+        return "–"
+    if v == 0:
+        return "0"
+    a = abs(v)
+    if 1e-3 <= a < 1e6:
+        digits = max(0, sig - 1 - int(math.floor(math.log10(a))))
+        return f"{v:,.{digits}f}".replace(",", " ")
+    return f"{v:.{sig - 1}e}"
+
+
+def pct(new: float, old: float) -> str:
+    if not (np.isfinite(new) and np.isfinite(old)) or old == 0:
+        return "–"
+    return f"{(new - old) / abs(old) * 100:+.1f} %"
+
+
+def var_value(v: VarInfo, value: float) -> str:
+    if not np.isfinite(value):
+        return "–"
+    if v.group in ("sleeper_spans", "type_ii_strip"):
+        return f"{value:g} ({value * 0.1:.1f} m)"
+    if v.integer or v.group == "strengthened_sleepers":
+        return f"{value:g}"
+    return f"{value * v.scale:.4g}"
+
+
+def var_axis_label(v: VarInfo) -> str:
+    if v.group in ("sleeper_spans", "type_ii_strip"):
+        return f"{v.name} [elements of 0.1 m]"
+    return f"{v.name} [{v.unit}]" if v.unit else v.name
+
+
+def value_label(run: RunData) -> tuple[float, str]:
+    """(scale, axis label) of the value the optimiser minimised."""
+    if run.multi:
+        return 1.0, f"ASF value (Eq. 7) of {', '.join(run.objectives)} [-]"
+    k = run.objectives[0]
+    s, u = obj_display(k)
+    return s, f"{k} [{u}]"
+
+
+# ================================================================================ figures
+

@@ -1,0 +1,566 @@
+"""The report's figures (matplotlib, Agg), after the paper's Figs. 6-11."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from .data import (BEST_COLOR, DPI, FAIL_COLOR, FRONT_COLOR, OBJECTIVE_NAMES, PHASE_STYLE, REF_COLOR, RunData,
+                   fnum, obj_display, value_label, var_axis_label, var_value)
+
+
+def _plt():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    plt.rcParams.update({"font.size": 9, "axes.titlesize": 10, "legend.fontsize": 8,
+                         "axes.grid": True, "grid.alpha": 0.3, "figure.dpi": DPI})
+    return plt
+
+
+def _save(fig, path: Path) -> Path:
+    fig.savefig(path, dpi=DPI)
+    import matplotlib.pyplot as plt
+
+    plt.close(fig)
+    return path
+
+
+def _history_panel(ax, run: RunData, vals: np.ndarray, ylo: float, yhi: float, arrows: bool = True) -> list:
+    """One panel of the search history; returns the legend handles."""
+    import matplotlib.transforms as mtransforms
+    from matplotlib.lines import Line2D
+
+    ok = run.ok & np.isfinite(vals)
+    ref_i = run.ref_index()
+    clipped = ok & (vals > yhi)
+    unit = "" if run.multi else " " + obj_display(run.objectives[0])[1]
+    from matplotlib.ticker import MaxNLocator
+
+    ax.xaxis.set_major_locator(MaxNLocator(integer=True))
+    handles = []
+    for ph, (label, marker, color) in PHASE_STYLE.items():
+        m = ok & (run.phase == ph) & ~clipped
+        if ref_i is not None:
+            m[ref_i] = False
+        if m.any():
+            ax.scatter(run.ids[m], vals[m], marker=marker, s=18, color=color, alpha=0.8, lw=0, zorder=3)
+        n_ph = int((ok & (run.phase == ph)).sum())
+        if n_ph:
+            handles.append(Line2D([], [], ls="", marker=marker, color=color, label=f"{label} ({n_ph})"))
+    other = ok & ~np.isin(run.phase, list(PHASE_STYLE)) & ~clipped
+    if other.any():
+        ax.scatter(run.ids[other], vals[other], marker="o", s=18, color="0.6", zorder=3)
+        handles.append(Line2D([], [], ls="", marker="o", color="0.6", label=f"other ({other.sum()})"))
+    if ref_i is not None and ok[ref_i] and not clipped[ref_i]:
+        ax.scatter([run.ids[ref_i]], [vals[ref_i]], marker="D", s=60, color=REF_COLOR, edgecolor="k", zorder=5)
+    if ref_i is not None and ok[ref_i]:
+        handles.append(Line2D([], [], ls="", marker="D", color=REF_COLOR, markeredgecolor="k",
+                              label=f"reference design (#{run.ids[ref_i]})"))
+    tr = mtransforms.blended_transform_factory(ax.transData, ax.transAxes)
+    if clipped.any() and arrows:
+        ax.scatter(run.ids[clipped], np.full(clipped.sum(), 0.985), marker="$\u2191$", s=40, color="0.45",
+                   transform=tr, clip_on=False, zorder=4)
+        handles.append(Line2D([], [], ls="", marker="$\u2191$", markersize=8, color="0.45",
+                              label=f"above the plotted range ({clipped.sum()})"))
+    failed = run.status == "failed"
+    if failed.any():
+        ax.scatter(run.ids[failed], np.full(failed.sum(), 0.03), marker="x", s=40, color=FAIL_COLOR,
+                   transform=tr, zorder=6, clip_on=False)
+        handles.append(Line2D([], [], ls="", marker="x", color=FAIL_COLOR,
+                              label=f"failed evaluation ({failed.sum()}), no value"))
+    order = np.argsort(run.ids)
+    v = np.where(ok, vals, np.inf)[order]
+    best = np.minimum.accumulate(v)
+    has = np.isfinite(best)
+    if has.any():
+        xs = np.append(run.ids[order][has], run.ids.max() + 0.5)
+        ax.step(xs, np.append(best[has], best[has][-1]), where="post", color=FRONT_COLOR, lw=2.2, zorder=4)
+        handles.append(Line2D([], [], color=FRONT_COLOR, lw=2.2, label="best so far"))
+    bi = run.best_index()
+    if bi is not None:
+        ax.scatter([run.ids[bi]], [vals[bi]], marker="*", s=180, color=BEST_COLOR, edgecolor="k", zorder=7)
+        handles.append(Line2D([], [], ls="", marker="*", markersize=12, color=BEST_COLOR, markeredgecolor="k",
+                              label=f"best: #{run.ids[bi]}, {fnum(vals[bi], 4)}{unit}"))
+    starts = [int(run.ids[run.restart == r].min()) for r in np.unique(run.restart) if r > 0]
+    for k, i0 in enumerate(starts):
+        ax.axvline(i0 - 0.5, color="k", ls="--", lw=1.0, zorder=2)
+        ax.text(i0 - 0.5, 0.88, f" restart {k + 1}", transform=ax.get_xaxis_transform(), va="top",
+                ha="left", fontsize=8, bbox=dict(facecolor="white", edgecolor="none", alpha=0.7, pad=1))
+    if starts:
+        handles.append(Line2D([], [], color="k", ls="--", lw=1.0, label="restart (fresh design)"))
+    if run.multi and run.ref_point is not None and ylo < 0 < yhi:
+        ax.axhline(0.0, color="0.3", lw=0.8, ls=":")
+        handles.append(Line2D([], [], color="0.3", ls=":", lw=0.8, label="0: the reference point f^r"))
+    ax.set_ylim(ylo, yhi)
+    ax.set_xlim(-1, max(int(run.ids.max()) + 1, run.budget))
+    return handles
+
+
+def _value_range(run: RunData, scale: float, below: float, above: float):
+    """Scaled values, their ok mask and y-limits: the minimum to the 95th percentile (the
+    worst values would squash the interesting end), padded by 6 % times below/above."""
+    vals = run.value * scale
+    ok = run.ok & np.isfinite(vals)
+    if not ok.any():
+        return vals, ok, 0.0, 1.0
+    v_ok = vals[ok]
+    lo, hi = float(v_ok.min()), float(np.percentile(v_ok, 95) if ok.sum() > 10 else v_ok.max())
+    pad = 0.06 * (hi - lo if hi > lo else (abs(hi) or 1.0))
+    return vals, ok, lo - below * pad, hi + above * pad
+
+
+def fig_search_history(run: RunData, out: Path) -> Path:
+    """All evaluations (top) and, when it adds detail, a zoom on the best-so-far line (bottom)."""
+    plt = _plt()
+    s, ylabel = value_label(run)
+    vals, ok, ylo, yhi = _value_range(run, s, below=2.0, above=2.5)  # room below for failure marks
+    zoom = None
+    if ok.sum() > 3:
+        order = np.argsort(run.ids)
+        bsf = np.minimum.accumulate(np.where(ok, vals, np.inf)[order])
+        later = np.flatnonzero(run.phase[order] != "initial")  # first candidate after the initial design
+        n0 = max(0, int(later[0]) - 1) if len(later) else len(bsf) - 1
+        top, bottom = float(bsf[n0]), float(bsf[-1])
+        if np.isfinite(top) and top > bottom and (top - bottom) < 0.35 * (yhi - ylo):
+            pz = 0.12 * (top - bottom)
+            zoom = (bottom - 2 * pz, top + 2.5 * pz)
+    if zoom is None:
+        fig, ax = plt.subplots(figsize=(10, 4.6))
+        axes = [ax]
+    else:
+        fig, axes = plt.subplots(2, 1, figsize=(10, 7.2), sharex=True, gridspec_kw={"height_ratios": [1.25, 1]})
+    handles = _history_panel(axes[0], run, vals, ylo, yhi)
+    axes[0].set_title(f"Search history of '{run.name}': {run.n} of {run.budget} evaluations ({run.state})")
+    axes[0].set_ylabel(ylabel)
+    if zoom is not None:
+        _history_panel(axes[1], run, vals, *zoom, arrows=False)
+        axes[1].set_ylabel(ylabel)
+        axes[1].set_title("zoom on the best so far (after the initial design)", fontsize=9)
+    axes[-1].set_xlabel("evaluation number")
+    axes[0].legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0, frameon=False)
+    fig.tight_layout()
+    return _save(fig, out / "search-history.png")
+
+
+def fig_objective_space(run: RunData, out: Path) -> tuple[Path, str]:
+    """(path, note). Multi-objective: the run's first two objectives; else F_max vs E_max.
+
+    Left: all evaluations (logarithmic axes when they span a wide range); right: a zoom on the
+    Pareto front, the reference design and the reference point."""
+    plt = _plt()
+    from matplotlib.ticker import FuncFormatter, LogLocator
+
+    if run.multi:
+        kx, ky = run.objectives[0], run.objectives[1]
+        front = run.pareto.copy()
+        note = ""
+        if len(run.objectives) > 2:
+            note = (f"The run has {len(run.objectives)} objectives; the figure shows the first two, the "
+                    f"Pareto front is over all of them.")
+    else:
+        from ..optim.scalarise import pareto_mask
+
+        kx, ky = "F_max", "E_max"
+        F = np.column_stack([run.obj[kx], run.obj[ky]])
+        F[~run.ok] = math.nan
+        front = pareto_mask(F)
+        note = (f"This run minimised {run.objectives[0]} alone; the objective-space figure shows all evaluations "
+                f"in (F_max, E_max) anyway, with the evaluations that no other beats in both (not the run's goal).")
+    sx, ux = obj_display(kx)
+    sy, uy = obj_display(ky)
+    X, Y = run.obj[kx] * sx, run.obj[ky] * sy
+    ok = run.ok & np.isfinite(X) & np.isfinite(Y)
+    fm = ok & front
+    rx, ry = run.ref_objectives.get(kx, math.nan) * sx, run.ref_objectives.get(ky, math.nan) * sy
+    target = None
+    if run.multi and run.ref_point is not None:
+        target = (run.ref_point[0] * sx, run.ref_point[1] * sy)
+    bi = run.best_index()
+    px = list(X[fm]) + [v for v in (rx, target[0] if target else math.nan) if np.isfinite(v)]
+    py = list(Y[fm]) + [v for v in (ry, target[1] if target else math.nan) if np.isfinite(v)]
+    if bi is not None:
+        px.append(X[bi])
+        py.append(Y[bi])
+    box = None
+    if len(set(zip(np.round(px, 12), np.round(py, 12)))) >= 2 and ok.sum() >= 2:
+        x0, x1, y0, y1 = min(px), max(px), min(py), max(py)
+        dx, dy = (x1 - x0) or abs(x1) * 0.1 or 1.0, (y1 - y0) or abs(y1) * 0.1 or 1.0
+        box = (x0 - 0.1 * dx, x1 + 0.1 * dx, y0 - 0.1 * dy, y1 + 0.1 * dy)
+        fx, fy = np.ptp(X[ok]) or 1.0, np.ptp(Y[ok]) or 1.0
+        if (box[1] - box[0]) > 0.5 * fx and (box[3] - box[2]) > 0.5 * fy:
+            box = None  # the zoom would show about what the full view shows
+    fig, axes = plt.subplots(1, 2 if box else 1, figsize=(11 if box else 7.5, 5.4), squeeze=False)
+    axes = axes[0]
+
+    def draw(ax, labels: bool):
+        L = (lambda t: t) if labels else (lambda t: None)  # noqa: E731
+        ax.scatter(X[ok & ~front], Y[ok & ~front], s=16, color="0.6", alpha=0.7, lw=0,
+                   label=L(f"evaluations ({(ok & ~front).sum()})"))
+        if fm.any():
+            o = np.argsort(X[fm])
+            ax.plot(X[fm][o], Y[fm][o], color=FRONT_COLOR, lw=1.0, drawstyle="steps-post", zorder=3)
+            ax.scatter(X[fm], Y[fm], s=34, color=FRONT_COLOR, edgecolor="k", lw=0.5, zorder=4,
+                       label=L(f"Pareto front of all evaluations ({fm.sum()})" if run.multi
+                               else f"non-dominated in ({kx}, {ky}) ({fm.sum()})"))
+        if np.isfinite(rx) and np.isfinite(ry):
+            ax.scatter([rx], [ry], marker="D", s=70, color=REF_COLOR, edgecolor="k", zorder=5,
+                       label=L(f"reference design ({fnum(rx, 4)} {ux}, {fnum(ry, 4)} {uy})"))
+        if target is not None:
+            imp = f"{run.improvement:.0%} better than the reference design" \
+                if run.improvement is not None and np.isfinite(run.improvement) else "target"
+            ax.scatter([target[0]], [target[1]], marker="P", s=90, color="tab:red", edgecolor="k", zorder=5,
+                       label=L(f"reference point f^r ({imp})"))
+            ax.axvline(target[0], color="tab:red", lw=0.7, ls=":", zorder=1)
+            ax.axhline(target[1], color="tab:red", lw=0.7, ls=":", zorder=1)
+        if bi is not None:
+            lab = "chosen compromise (best ASF value)" if run.multi else f"best {run.objectives[0]}"
+            ax.scatter([X[bi]], [Y[bi]], marker="*", s=260, color=BEST_COLOR, edgecolor="k", zorder=6,
+                       label=L(f"{lab}: #{run.ids[bi]} ({fnum(X[bi], 4)} {ux}, {fnum(Y[bi], 4)} {uy})"))
+        ax.set(xlabel=f"{kx} [{ux}]", ylabel=f"{ky} [{uy}]")
+
+    a0 = axes[0]
+    draw(a0, True)
+    a0.set_title("all evaluations")
+    for vals, axis in ((X[ok], a0.xaxis), (Y[ok], a0.yaxis)):
+        if len(vals) and np.all(vals > 0) and vals.max() > 4 * vals.min():
+            (a0.set_xscale if axis is a0.xaxis else a0.set_yscale)("log")
+            axis.set_major_locator(LogLocator(subs=(1.0, 2.0, 3.0, 5.0)))
+            axis.set_minor_locator(LogLocator(subs=np.arange(1, 10)))
+            axis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+            axis.set_minor_formatter(FuncFormatter(lambda v, _: ""))
+    if box:
+        a1 = axes[1]
+        draw(a1, False)
+        a1.set_title("zoom: Pareto front, reference design" + (", reference point" if target else ""))
+        a1.set_xlim(box[0], box[1])
+        a1.set_ylim(box[2], box[3])
+    fig.suptitle(f"Objective space of '{run.name}'" + ("" if run.multi else
+                                                        f" (the run minimised {run.objectives[0]} alone)"))
+    fig.legend(*a0.get_legend_handles_labels(), loc="lower center", ncol=2 if box else 1, frameon=False)
+    fig.tight_layout(rect=(0, 0.15 if box else 0.22, 1, 1))
+    return _save(fig, out / "objective-space.png"), note
+
+
+def fig_best_vs_reference(run: RunData, bi: int, ri: int | None, out: Path) -> Path:
+    """Relative change of every objective (left) and the design vector (right), best vs reference."""
+    plt = _plt()
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(9.5, 3.8), gridspec_kw={"width_ratios": [1, 1.5]})
+    names = [k for k in OBJECTIVE_NAMES if k in run.obj]
+    ch = []
+    for k in names:
+        r = run.ref_objectives.get(k, run.obj[k][ri] if ri is not None else math.nan)
+        b = run.obj[k][bi]
+        ch.append((b - r) / abs(r) * 100 if np.isfinite(b) and np.isfinite(r) and r else math.nan)
+    ch = np.array(ch)
+    colors = [("tab:green" if c < 0 else "tab:red") for c in np.nan_to_num(ch)]
+    y = np.arange(len(names))
+    a1.barh(y, np.nan_to_num(ch), color=colors)
+    a1.set_yticks(y, names)
+    for t in a1.get_yticklabels():
+        if t.get_text() in run.objectives:
+            t.set_fontweight("bold")
+    a1.invert_yaxis()
+    a1.axvline(0, color="k", lw=0.8)
+    lim = max(5.0, float(np.nanmax(np.abs(ch))) * 1.35) if np.isfinite(ch).any() else 5.0
+    a1.set_xlim(-lim, lim)
+    for yi, c in zip(y, ch):
+        if np.isfinite(c):
+            a1.text(0, yi, f" {c:+.1f} % ", va="center", ha="right" if c >= 0 else "left", fontsize=8)
+    a1.set(xlabel="change vs reference design [%]", title="objectives (bold: the run's; negative = better)")
+    a1.grid(axis="y", visible=False)
+    # design vector, as a fraction of each variable's range
+    xb, xr = run.x[bi], run.ref_x
+    lo = np.array([v.lower for v in run.variables])
+    hi = np.array([v.upper for v in run.variables])
+    if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi))):
+        lo, hi = np.nanmin(run.x, axis=0), np.nanmax(run.x, axis=0)
+    span = np.where(hi > lo, hi - lo, 1.0)
+    ub, ur = (xb - lo) / span, (xr - lo) / span
+    yy = np.arange(len(run.names))
+    a2.hlines(yy, 0, 1, color="0.85", lw=6)
+    a2.scatter(ur, yy, marker="D", s=40, color=REF_COLOR, edgecolor="k", zorder=3, label="reference design")
+    a2.scatter(ub, yy, marker="*", s=120, color=BEST_COLOR, edgecolor="k", zorder=4, label=f"best (#{run.ids[bi]})")
+    for yi, v in enumerate(run.variables):
+        a2.text(1.03, yi, f"{var_value(v, xr[yi])} → {var_value(v, xb[yi])}"
+                + (f" {v.unit}" if v.unit and v.group not in ("sleeper_spans", "type_ii_strip") else ""),
+                va="center", fontsize=7.5, transform=a2.get_yaxis_transform())
+    a2.set_yticks(yy, run.names)
+    a2.invert_yaxis()
+    a2.set_xlim(-0.05, 1.05)
+    a2.set_xticks([0, 0.5, 1], ["lower bound", "middle", "upper bound"])
+    a2.set(title="design variables within their bounds")
+    a2.grid(axis="y", visible=False)
+    a2.legend(loc="upper center", bbox_to_anchor=(0.5, -0.1), ncol=2, frameon=False)
+    fig.tight_layout()
+    fig.subplots_adjust(right=0.8)
+    return _save(fig, out / "best-vs-reference.png")
+
+
+def _zone_marks(ax, info: dict, xmax: float, label: bool = True):
+    x_a, x_b = info.get("interface_entry"), info.get("interface_exit")
+    if x_a is not None and x_b is not None:
+        ax.axvspan(x_a, min(x_b, xmax), color="0.88", zorder=0, label="ERS (level crossing)" if label else None)
+        ax.axvline(x_a, color="0.3", lw=0.9, zorder=1)
+    if "zone_start" in info and "zone_end" in info:
+        ax.axvspan(info["zone_start"], info["zone_end"], color="tab:orange", alpha=0.10, zorder=0,
+                   label="force evaluation zone" if label else None)
+
+
+def fig_contact_force(run: RunData, best: tuple, ref: tuple, bi: int, out: Path) -> Path | None:
+    (hb, ib), (hr, ir) = best, ref
+    have = [(h, i) for h, i in (best, ref) if h is not None and "wheel_position" in h and "contact_force" in h]
+    if not have:
+        return None
+    plt = _plt()
+    info = ib if hb is not None and "wheel_position" in hb else ir
+    fig, ax = plt.subplots(figsize=(9, 4.8))
+    xmax = max(float(np.max(h["wheel_position"])) for h, _ in have)
+    _zone_marks(ax, info, xmax)
+    if hr is not None and "contact_force" in hr and "wheel_position" in hr:
+        ax.plot(hr["wheel_position"], hr["contact_force"] / 1e3, color=REF_COLOR, lw=1.1,
+                label=f"reference design: F_max = {fnum(run.ref_objectives.get('F_max', math.nan) / 1e3, 4)} kN")
+    if hb is not None and "contact_force" in hb and "wheel_position" in hb:
+        ax.plot(hb["wheel_position"], hb["contact_force"] / 1e3, color=BEST_COLOR, lw=1.1,
+                label=f"best #{run.ids[bi]}: F_max = {fnum(run.obj['F_max'][bi] / 1e3, 4)} kN")
+    if "static_wheel_load" in info:
+        ax.axhline(info["static_wheel_load"] / 1e3, color="k", ls=":", lw=0.8, label="static wheel load")
+    if "interface_entry" in info:
+        ax.text(info["interface_entry"], 0.98, " interface", transform=ax.get_xaxis_transform(), va="top",
+                ha="left", fontsize=8)
+    ax.set(xlabel="wheel position along the track [m]", ylabel="wheel-rail contact force [kN]",
+           title="Contact force: best against reference design")
+    x0 = min(float(np.min(h["wheel_position"])) for h, _ in have)
+    if "zone_start" in info:  # the run-in from static equilibrium is not of interest
+        x0 = max(x0, float(info["zone_start"]) - 2.0)
+    ax.set_xlim(x0, xmax)
+    shown = [h["contact_force"][h["wheel_position"] >= x0] / 1e3 for h, _ in have]
+    lo, hi = min(float(v.min()) for v in shown), max(float(v.max()) for v in shown)
+    ax.set_ylim(lo - 0.08 * (hi - lo or 1), hi + 0.15 * (hi - lo or 1))
+    fig.legend(*ax.get_legend_handles_labels(), loc="lower center", ncol=3, frameon=False)
+    fig.tight_layout(rect=(0, 0.13, 1, 1))
+    return _save(fig, out / "contact-force.png")
+
+
+def fig_sleeper_energy(run: RunData, best: tuple, ref: tuple, bi: int, out: Path) -> Path | None:
+    """Energy per zone sleeper (profile, as the paper's Fig. 11); E_max = max - min shown as a band."""
+    (hb, _), (hr, _) = best, ref
+    eb = None if hb is None else hb.get("sleeper_energy")
+    er = None if hr is None else hr.get("sleeper_energy")
+    if eb is None and er is None:
+        return None
+    plt = _plt()
+    from matplotlib.lines import Line2D
+
+    n = max(len(e) for e in (eb, er) if e is not None)
+    fig, ax = plt.subplots(figsize=(9, 4.6))
+    handles = []
+    for e, h, color, marker, lab in ((er, hr, REF_COLOR, "D", "reference design"),
+                                     (eb, hb, BEST_COLOR, "o", f"best #{run.ids[bi]}")):
+        if e is None:
+            continue
+        e = np.asarray(e, float)
+        idx = np.arange(1, len(e) + 1)
+        st = np.asarray(h.get("sleeper_strengthened", np.zeros(len(e))), dtype=bool)[:len(e)]
+        ax.axhspan(e.min(), e.max(), color=color, alpha=0.10, lw=0)
+        ax.plot(idx, e, color=color, lw=1.4, zorder=3)
+        ax.scatter(idx[~st], e[~st], marker=marker, s=30, facecolor="white", edgecolor=color, lw=1.3, zorder=4)
+        ax.scatter(idx[st], e[st], marker=marker, s=30, facecolor=color, edgecolor=color, lw=1.3, zorder=4)
+        handles.append(Line2D([], [], color=color, marker=marker, markerfacecolor=color,
+                              label=f"{lab}: E_max = {fnum(float(e.max() - e.min()), 4)} J (band: min to max), "
+                                    f"E_rms = {fnum(float(np.sqrt(np.mean(e ** 2))), 4)} J"))
+    handles += [Line2D([], [], ls="", marker="o", color="0.3", label="strengthened sleeper (filled)"),
+                Line2D([], [], ls="", marker="o", markerfacecolor="white", color="0.3",
+                       label="standard sleeper (open)")]
+    ax.set(xlabel="sleeper number (1 = next to the interface)", ylabel="energy dissipated in the support [J]",
+           title="Energy dissipated under each sleeper of the evaluation zone (cf. paper Fig. 11)",
+           xlim=(0.5, n + 0.5))
+    ax.set_xticks(np.arange(1, n + 1))
+    fig.legend(handles=handles, loc="lower center", ncol=2, frameon=False)
+    fig.tight_layout(rect=(0, 0.12, 1, 1))
+    return _save(fig, out / "sleeper-energy.png")
+
+
+def _layout_of(run: RunData, h: dict | None, info: dict, x: np.ndarray) -> dict | None:
+    """Entry-side layout of a design: from its histories, else rebuilt from the case."""
+    keys = ("entry_sleeper_position", "entry_pad_stiffness", "entry_strengthened")
+    if h is not None and all(k in h for k in keys) and "interface_entry" in info:
+        lay = {"x": np.asarray(h["entry_sleeper_position"], float), "k": np.asarray(h["entry_pad_stiffness"], float),
+               "strong": np.asarray(h["entry_strengthened"], bool), "x_a": float(info["interface_entry"]),
+               "x_b": float(info.get("interface_exit", math.nan)), "type_ii_end": float(info.get("type_ii_end",
+                                                                                               info["interface_entry"]))}
+    elif run.case is not None:
+        try:
+            from ..vti.track import build_track
+
+            t = build_track(run.case, np.asarray(x, float))
+        except Exception:  # noqa: BLE001
+            return None
+        lay = {"x": t.entry_sleeper_x, "k": t.entry_pad_stiffness, "strong": np.asarray(t.entry_strengthened, bool),
+               "x_a": t.interface[0], "x_b": t.interface[1], "type_ii_end": t.type_ii_end}
+    else:
+        return None
+    slabs = None
+    if run.case is not None:
+        slabs = list(run.case.track["ers"]["slab_lengths"])
+    lay["slabs"] = slabs
+    return lay
+
+
+def fig_track_layout(run: RunData, best: tuple, ref: tuple, bi: int, out: Path) -> Path | None:
+    lays = [("reference design", _layout_of(run, ref[0], ref[1], run.ref_x)),
+            (f"best design #{run.ids[bi]}", _layout_of(run, best[0], best[1], run.x[bi]))]
+    lays = [(t, l) for t, l in lays if l is not None]
+    if not lays:
+        return None
+    plt = _plt()
+    import matplotlib.colors as mcolors
+    from matplotlib.patches import Patch, Rectangle
+
+    n_zone = None
+    if run.case is not None:
+        n_zone = int(run.case.evaluation["sleepers"])
+    kmin = min(float(np.min(l["k"])) for _, l in lays)
+    kmax = max(float(np.max(l["k"])) for _, l in lays)
+    v_lo = [v for v in run.variables if v.group == "railpad_stiffness"]
+    if v_lo and np.isfinite(v_lo[0].lower):
+        kmin, kmax = min(kmin, v_lo[0].lower), max(kmax, v_lo[0].upper)
+    norm = mcolors.LogNorm(vmin=kmin / 1e6, vmax=kmax / 1e6) if kmax > kmin else mcolors.Normalize(kmin / 1e6 - 1,
+                                                                                                    kmax / 1e6 + 1)
+    cmap = plt.get_cmap("viridis")
+    # x: distance from the entry slab edge (negative: ballast track)
+    n_show = n_zone or 20
+    left = -max(float(l["x_a"] - l["x"][min(n_show, len(l["x"])) - 1]) for _, l in lays) - 0.8
+    ers_len = min(float(l["x_b"] - l["x_a"]) for _, l in lays if np.isfinite(l["x_b"])) if \
+        any(np.isfinite(l["x_b"]) for _, l in lays) else 12.0
+    right = min(ers_len, max(3.0, max(l["type_ii_end"] - l["x_a"] for _, l in lays) + 1.0))
+    fig, axes = plt.subplots(len(lays), 1, figsize=(10, 1.9 * len(lays) + 1.3), sharex=True, squeeze=False)
+    for ax, (title, l) in zip(axes[:, 0], lays):
+        xs = l["x"] - l["x_a"]
+        ax.set_ylim(-1.25, 0.75)
+        ax.set_xlim(left, right)
+        ax.grid(False)
+        ax.set_yticks([])
+        for sp in ("left", "right", "top"):
+            ax.spines[sp].set_visible(False)
+        # slab(s)
+        x0 = 0.0
+        for k, L in enumerate(l["slabs"] or [ers_len]):
+            ax.add_patch(Rectangle((x0, -0.9), L - 0.02, 0.55, facecolor="0.75", edgecolor="0.3", lw=0.8))
+            x0 += L
+        ax.axvline(0.0, color="k", lw=1.0, ls="-", ymin=0.05, ymax=0.95)
+        # Type II strip
+        t2 = l["type_ii_end"] - l["x_a"]
+        if t2 > 0:
+            ax.add_patch(Rectangle((0, -0.35), t2, 0.33, facecolor="tab:purple", alpha=0.6, edgecolor="none"))
+        ax.add_patch(Rectangle((max(t2, 0), -0.35), max(right, ers_len) - max(t2, 0), 0.33, facecolor="0.55",
+                               edgecolor="none"))
+        # rail
+        ax.plot([left, right], [0.0, 0.0], color="k", lw=3, solid_capstyle="butt")
+        # sleepers with pads
+        for i, (xi, k, st) in enumerate(zip(xs, l["k"], l["strong"])):
+            if xi < left:
+                break
+            wdt = 0.30 if st else 0.22
+            ax.add_patch(Rectangle((xi - wdt / 2, -0.75 if st else -0.65), wdt, 0.55 if st else 0.45,
+                                   facecolor="tab:brown" if st else "burlywood", edgecolor="k", lw=0.5,
+                                   hatch="///" if st else None))
+            ax.add_patch(Rectangle((xi - 0.09, -0.2), 0.18, 0.17, facecolor=cmap(norm(k / 1e6)), edgecolor="k",
+                                   lw=0.4))
+            if n_zone is not None and i + 1 in (1, 5, 10, 15, 20) and i < n_zone:
+                ax.text(xi, -1.05, str(i + 1), ha="center", va="center", fontsize=7, color="0.3")
+        # spans next to the interface (the designed ones)
+        n_sp = sum(v.group == "sleeper_spans" for v in run.variables) or 3
+        pts = np.concatenate([[0.0], xs[:n_sp]])
+        for a, b in zip(pts[:-1], pts[1:]):
+            ax.annotate("", xy=(a, 0.28), xytext=(b, 0.28), arrowprops=dict(arrowstyle="<->", lw=0.7))
+            ax.text(0.5 * (a + b), 0.36, f"{abs(a - b):.1f}", ha="center", va="bottom", fontsize=7)
+        n_pad = sum(v.group == "railpad_stiffness" for v in run.variables)
+        for xi, k in zip(xs[:n_pad], l["k"][:n_pad]):  # the designed pads, in MN/m
+            ax.text(xi, 0.05, f"{k / 1e6:.0f}", ha="center", va="bottom", fontsize=6.5, color="0.15")
+        ax.text(left, 0.62, title, fontsize=9, fontweight="bold", va="center")
+        ax.text(0.05, 0.62, f"ERS →  {'Type II strip ' + format(t2, '.1f') + ' m' if t2 > 0 else 'no Type II strip'}",
+                fontsize=8, va="center")
+    axes[-1, 0].set_xlabel("distance from the entry slab edge [m] (vehicle runs left to right; "
+                           "sleeper numbers below; above: designed pads in MN/m, spans in m)")
+    sm = plt.cm.ScalarMappable(norm=norm, cmap=cmap)
+    fig.tight_layout(rect=(0, 0.09, 0.88, 1))
+    cax = fig.add_axes((0.895, 0.2, 0.015, 0.7))
+    cb = fig.colorbar(sm, cax=cax)
+    cb.set_label("railpad stiffness [MN/m]")
+    if isinstance(norm, mcolors.LogNorm):
+        from matplotlib.ticker import FixedLocator, FuncFormatter, NullLocator
+
+        ticks = [t for t in (20, 50, 100, 200, 500, 1000, 2000) if norm.vmin <= t <= norm.vmax]
+        cb.ax.yaxis.set_major_locator(FixedLocator(ticks))
+        cb.ax.yaxis.set_minor_locator(NullLocator())
+        cb.ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+    handles = [Patch(facecolor="burlywood", edgecolor="k", label="standard sleeper"),
+               Patch(facecolor="tab:brown", edgecolor="k", hatch="///", label="strengthened sleeper"),
+               Patch(facecolor="0.55", label="standard rail strip (Type I)"),
+               Patch(facecolor="tab:purple", alpha=0.6, label="Type II rail strip"),
+               Patch(facecolor="0.75", edgecolor="0.3", label="concrete slab")]
+    fig.legend(handles=handles, loc="lower center", ncol=5, frameon=False, bbox_to_anchor=(0.45, 0.0))
+    return _save(fig, out / "track-layout.png")
+
+
+def fig_sensitivity(run: RunData, out: Path) -> Path:
+    plt = _plt()
+    from matplotlib.lines import Line2D
+
+    d = len(run.names)
+    ncol = 4 if d > 4 else d
+    nrow = int(math.ceil(d / ncol))
+    fig, axes = plt.subplots(nrow, ncol, figsize=(2.6 * ncol + 0.6, 2.3 * nrow + 0.9), sharey=True, squeeze=False)
+    s, ylabel = value_label(run)
+    vals, ok, ylo, yhi = _value_range(run, s, below=1.0, above=2.0)
+    bi, ri = run.best_index(), run.ref_index()
+    failed = run.status == "failed"
+    for j, ax in enumerate(axes.ravel()):
+        if j >= d:
+            ax.set_visible(False)
+            continue
+        v = run.variables[j]
+        xs = run.x[:, j] * v.scale
+        ax.scatter(xs[ok], np.minimum(vals[ok], yhi), s=9, color="0.45", alpha=0.6, lw=0)
+        if ri is not None and ok[ri]:
+            ax.scatter([xs[ri]], [min(vals[ri], yhi)], marker="D", s=40, color=REF_COLOR, edgecolor="k", zorder=4)
+        if bi is not None:
+            ax.scatter([xs[bi]], [vals[bi]], marker="*", s=110, color=BEST_COLOR, edgecolor="k", zorder=5)
+        if failed.any():
+            import matplotlib.transforms as mtransforms
+
+            tr = mtransforms.blended_transform_factory(ax.transData, ax.transAxes)
+            ax.scatter(xs[failed], np.full(failed.sum(), 0.97), marker="x", s=18, color=FAIL_COLOR, transform=tr,
+                       clip_on=False, zorder=5)
+        if np.isfinite(v.lower) and v.upper > v.lower:
+            m = 0.04 * (v.upper - v.lower) * v.scale
+            ax.set_xlim(v.lower * v.scale - m, v.upper * v.scale + m)
+        ax.set_ylim(ylo, yhi)
+        ax.set_xlabel(var_axis_label(v), fontsize=8)
+        ax.set_title(v.label, fontsize=7.5)
+        ax.tick_params(labelsize=7)
+        if v.integer:
+            from matplotlib.ticker import MaxNLocator
+
+            ax.xaxis.set_major_locator(MaxNLocator(integer=True, nbins=6))
+    for r in range(nrow):
+        axes[r, 0].set_ylabel(ylabel if len(ylabel) < 28 else "value [-]", fontsize=8)
+    handles = [Line2D([], [], ls="", marker="o", color="0.45", label="evaluation"),
+               Line2D([], [], ls="", marker="D", color=REF_COLOR, markeredgecolor="k", label="reference design"),
+               Line2D([], [], ls="", marker="*", markersize=10, color=BEST_COLOR, markeredgecolor="k", label="best")]
+    if failed.any():
+        handles.append(Line2D([], [], ls="", marker="x", color=FAIL_COLOR, label="failed (at the top)"))
+    fig.suptitle(f"Each design variable against the {ylabel.split(' [')[0]} (values above the 95th percentile "
+                 f"drawn at the top)", fontsize=9.5)
+    fig.legend(handles=handles, loc="lower center", ncol=len(handles), frameon=False)
+    fig.tight_layout(rect=(0, 0.06, 1, 0.96))
+    return _save(fig, out / "sensitivity.png")
+
+
+# ================================================================================ summary
+

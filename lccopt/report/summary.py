@@ -1,0 +1,311 @@
+"""The report's summary: Markdown and self-contained HTML, and summary.json's numbers."""
+
+from __future__ import annotations
+
+import base64
+import datetime as _dt
+import html
+import math
+from pathlib import Path
+
+import numpy as np
+
+from .data import (OBJECTIVE_DOC, OBJECTIVE_NAMES, PHASE_STYLE, RunData, fnum, obj_display, obj_unit, pct,
+                   var_value)
+
+
+class Doc:
+    """A tiny document model rendered to Markdown and to self-contained HTML."""
+
+    def __init__(self):
+        self.blocks: list[tuple] = []
+
+    def h(self, level: int, text: str):
+        self.blocks.append(("h", level, text))
+
+    def p(self, text: str):
+        self.blocks.append(("p", text))
+
+    def ul(self, items: list[str]):
+        self.blocks.append(("ul", items))
+
+    def table(self, header: list[str], rows: list[list[str]], align: str | None = None):
+        self.blocks.append(("table", header, rows, align or "l" + "r" * (len(header) - 1)))
+
+    def fig(self, path: Path, caption: str):
+        self.blocks.append(("fig", path, caption))
+
+    def markdown(self) -> str:
+        out = []
+        for b in self.blocks:
+            if b[0] == "h":
+                out.append("#" * b[1] + " " + b[2])
+            elif b[0] == "p":
+                out.append(b[1])
+            elif b[0] == "ul":
+                out.append("\n".join(f"- {i}" for i in b[1]))
+            elif b[0] == "table":
+                _, head, rows, al = b
+                esc = lambda s: str(s).replace("|", "\\|")  # noqa: E731
+                lines = ["| " + " | ".join(esc(c) for c in head) + " |",
+                         "|" + "|".join(":---" if a == "l" else "---:" for a in al) + "|"]
+                lines += ["| " + " | ".join(esc(c) for c in r) + " |" for r in rows]
+                out.append("\n".join(lines))
+            elif b[0] == "fig":
+                out.append(f"![{b[1].stem.replace('-', ' ')}]({b[1].name})\n\n*{b[2]}*")
+        return "\n\n".join(out) + "\n"
+
+    def html(self, title: str) -> str:
+        def inline(s: str) -> str:
+            # the Markdown subset used in the texts: `code` and **bold**
+            t = html.escape(s)
+            import re
+
+            t = re.sub(r"`([^`]+)`", r"<code>\1</code>", t)
+            t = re.sub(r"\*\*([^*]+)\*\*", r"<b>\1</b>", t)
+            return t
+
+        body = []
+        for b in self.blocks:
+            if b[0] == "h":
+                body.append(f"<h{b[1]}>{inline(b[2])}</h{b[1]}>")
+            elif b[0] == "p":
+                body.append(f"<p>{inline(b[1])}</p>")
+            elif b[0] == "ul":
+                body.append("<ul>" + "".join(f"<li>{inline(i)}</li>" for i in b[1]) + "</ul>")
+            elif b[0] == "table":
+                _, head, rows, al = b
+                cls = lambda a: ' class="r"' if a == "r" else ""  # noqa: E731
+                t = ["<table><thead><tr>" + "".join(f"<th{cls(a)}>{inline(c)}</th>" for c, a in zip(head, al))
+                     + "</tr></thead><tbody>"]
+                t += ["<tr>" + "".join(f"<td{cls(a)}>{inline(c)}</td>" for c, a in zip(r, al)) + "</tr>"
+                      for r in rows]
+                body.append("".join(t) + "</tbody></table>")
+            elif b[0] == "fig":
+                data = base64.b64encode(b[1].read_bytes()).decode("ascii")
+                body.append(f'<figure><img alt="{html.escape(b[1].name)}" src="data:image/png;base64,{data}">'
+                            f"<figcaption>{inline(b[2])}</figcaption></figure>")
+        style = ("body{font-family:system-ui,-apple-system,Segoe UI,Roboto,sans-serif;max-width:1100px;"
+                 "margin:2em auto;padding:0 1em;color:#222;line-height:1.45}"
+                 "table{border-collapse:collapse;margin:0.8em 0}th,td{border:1px solid #ccc;padding:3px 8px}"
+                 "th{background:#f3f3f3}td.r,th.r{text-align:right}img{max-width:100%;height:auto}"
+                 "figure{margin:1em 0}figcaption{color:#555;font-size:0.9em}code{background:#f3f3f3;padding:0 3px}")
+        return (f"<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>{html.escape(title)}"
+                f"</title><style>{style}</style></head><body>\n" + "\n".join(body) + "\n</body></html>\n")
+
+
+def history_facts(best: tuple, ref: tuple) -> list[str]:
+    """Sentences on the histories of the best and the reference design (for 'Why it is better')."""
+    (hb, ib), (hr, ir) = best, ref
+    out = []
+    eb = None if hb is None else hb.get("sleeper_energy")
+    er = None if hr is None else hr.get("sleeper_energy")
+    if eb is not None and er is not None and len(eb) and len(er):
+        eb, er = np.asarray(eb, float), np.asarray(er, float)
+        out.append(f"Under sleeper 1, next to the interface, the ballast dissipates {fnum(eb[0], 4)} J instead of "
+                   f"{fnum(er[0], 4)} J ({pct(eb[0], er[0])}); the most loaded zone sleeper is number "
+                   f"{int(np.argmax(eb)) + 1} ({fnum(eb.max(), 4)} J) instead of number {int(np.argmax(er)) + 1} "
+                   f"({fnum(er.max(), 4)} J), and the spread max - min (E_max) is {fnum(eb.max() - eb.min(), 4)} J "
+                   f"instead of {fnum(er.max() - er.min(), 4)} J.")
+    peaks = []
+    for h, i in ((hb, ib), (hr, ir)):
+        if h is None or "contact_force" not in h or "wheel_position" not in h or "interface_entry" not in i:
+            return out
+        x, f = np.asarray(h["wheel_position"]), np.asarray(h["contact_force"])
+        m = (x >= i["interface_entry"] - 1.0) & (x <= i["interface_entry"] + 3.0)
+        if not m.any():
+            return out
+        peaks.append((float(f[m].max()), float(x[m][np.argmax(f[m])] - i["interface_entry"])))
+    (pb, xb), (pr, xr) = peaks
+    out.append(f"Around the interface (1 m before to 3 m after it) the contact force peaks at {fnum(pb / 1e3, 4)} kN "
+               f"{abs(xb):.2f} m {'after' if xb >= 0 else 'before'} the slab edge, against {fnum(pr / 1e3, 4)} kN "
+               f"{abs(xr):.2f} m {'after' if xr >= 0 else 'before'} it for the reference design.")
+    return out
+
+
+def build_summary(run: RunData, figs: dict, notes: dict, facts: list[str] | None = None) -> tuple[Doc, dict]:
+    doc = Doc()
+    bi, ri = run.best_index(), run.ref_index()
+    n_failed = int((run.status == "failed").sum())
+    restarts = sorted(int(r) for r in np.unique(run.restart) if r > 0)
+    state = {"finished": "finished",
+             "running": f"still running ({run.n_pending} evaluation(s) in flight when this was read)",
+             "interrupted": f"interrupted (carry on with `lccopt resume {run.path}`)"}[run.state]
+    doc.h(1, f"Run '{run.name}'")
+    doc.p(f"**{run.n} of {run.budget} evaluations**, {n_failed} failed, {len(restarts)} restart(s); the run is "
+          f"{state}. Read from `{run.source}` on {_dt.datetime.now().astimezone().isoformat(timespec='seconds')}.")
+    for note in run.notes:
+        doc.p(f"Note: {note}")
+
+    # --- what was searched
+    doc.h(2, "What was searched")
+    if run.multi:
+        pt = ", ".join(f"{k} = {fnum(v)} {obj_unit(k)}" for k, v in zip(run.objectives, run.ref_point)) \
+            if run.ref_point is not None else "not set yet"
+        wst = ", ".join(f"{k} = {fnum(v)} {obj_unit(k)}" for k, v in zip(run.objectives, run.worst)) \
+            if run.worst is not None else "–"
+        doc.p(f"Minimise {', '.join(f'**{k}** ({OBJECTIVE_DOC.get(k, k)})' for k in run.objectives)} together, "
+              f"scalarised by the augmented Chebyshev achievement function (paper Eq. 7, ρ = {run.rho:g}). "
+              f"Reference point f^r ({run.improvement:.0%} better than the reference design): {pt}; "
+              f"worst values: {wst}. The value is 0 on the reference point and negative beyond it.")
+    else:
+        k = run.objectives[0]
+        doc.p(f"Minimise **{k}**: {OBJECTIVE_DOC.get(k, k)} [{obj_unit(k)}].")
+    rows = []
+    for v in run.variables:
+        rng = f"{var_value(v, v.lower)} … {var_value(v, v.upper)}" if np.isfinite(v.lower) else "–"
+        rows.append([f"`{v.name}`", v.label, v.unit or "–", rng, "integer" if v.integer else "continuous",
+                     var_value(v, v.reference)])
+    doc.table(["variable", "meaning", "unit", "bounds", "kind", "reference design"], rows, "llllll")
+    if run.case is None and run.case_note:
+        doc.p(f"Note: the run's case could not be loaded ({run.case_note}); bounds are not shown.")
+
+    # --- how the search went
+    doc.h(2, "How the search went")
+    if "search-history" in figs:
+        doc.fig(figs["search-history"], "Value of every evaluation by number, by phase; failed evaluations as red "
+                "crosses at the bottom; the green line is the best value so far; dashed lines mark restarts "
+                "(paper Figs. 6, 7, 10).")
+    phase_counts = {ph: int((run.phase == ph).sum()) for ph in PHASE_STYLE if (run.phase == ph).any()}
+    items = ["evaluations by phase: " + ", ".join(f"{PHASE_STYLE[p][0]} {c}" for p, c in phase_counts.items())]
+    if bi is not None:
+        items.append(f"best value {fnum(run.value[bi])} at evaluation #{run.ids[bi]} ({run.phase[bi]}, restart "
+                     f"{run.restart[bi]}); the best value was within 1 % of it from evaluation "
+                     f"#{_first_near_best(run)} on")
+    if restarts:
+        starts = [int(run.ids[run.restart == r].min()) for r in restarts]
+        items.append("restarts (fresh initial design after the step size collapsed or evaluations kept failing) at "
+                     + ", ".join(f"#{s}" for s in starts))
+    if n_failed:
+        reasons: dict = {}
+        for r in run.reason[run.status == "failed"]:
+            reasons[r or "no reason given"] = reasons.get(r or "no reason given", 0) + 1
+        fids = [f"#{i}" for i in run.ids[run.status == "failed"]]
+        items.append(f"{n_failed} failed evaluation(s) ({', '.join(fids[:12])}{' …' if len(fids) > 12 else ''}): "
+                     + "; ".join(
+            f"{c}× {r}" for r, c in sorted(reasons.items(), key=lambda t: -t[1])[:5]))
+    wt = run.wall_time[np.isfinite(run.wall_time)]
+    if len(wt):
+        items.append(f"simulation wall time per evaluation: median {np.median(wt):.2f} s, max {wt.max():.2f} s"
+                     + (f"; run sessions took {run.sessions_wall / 60:.1f} min" if np.isfinite(run.sessions_wall)
+                        else ""))
+    doc.ul(items)
+
+    summary = {"run": str(run.path), "name": run.name, "state": run.state, "evaluations": run.n,
+               "budget": run.budget, "failed": n_failed, "restarts": len(restarts), "objectives": run.objectives,
+               "source": run.source, "figures": {k: p.name for k, p in figs.items()}, "notes": dict(notes)}
+    if bi is None:
+        doc.h(2, "Best design")
+        doc.p("No evaluation has succeeded yet: there is no best design.")
+        return doc, summary
+
+    # --- best design vs reference
+    doc.h(2, "Best design against the reference design")
+    lab = "chosen compromise (lowest ASF value)" if run.multi else f"lowest {run.objectives[0]}"
+    doc.p(f"The best design is evaluation **#{run.ids[bi]}**, the {lab}. Changes are relative to the "
+          f"reference design (evaluation #0); negative is better for every objective (paper Tables 5-7).")
+    rows = []
+    for j, v in enumerate(run.variables):
+        xr, xb = run.ref_x[j], run.x[bi, j]
+        rows.append([f"`{v.name}`", v.label, v.unit or "–", var_value(v, xr), var_value(v, xb),
+                     pct(xb, xr) if not v.integer else (f"{xb - xr:+g}" if xb != xr else "0")])
+    doc.table(["variable", "meaning", "unit", "reference", f"best #{run.ids[bi]}", "change"], rows, "lllrrr")
+    rows = []
+    for k in OBJECTIVE_NAMES:
+        if k not in run.obj:
+            continue
+        r = run.ref_objectives.get(k, run.obj[k][ri] if ri is not None else math.nan)
+        b = float(run.obj[k][bi])
+        tgt = ""
+        if run.multi and run.ref_point is not None and k in run.objectives:
+            t = run.ref_point[run.objectives.index(k)]
+            tgt = f"{fnum(t)} ({'reached' if b <= t else 'not reached'})"
+        rows.append([f"**{k}**" if k in run.objectives else k, obj_unit(k), fnum(r), fnum(b), pct(b, r)]
+                    + ([tgt] if run.multi else []))
+    doc.table(["objective", "unit", "reference", f"best #{run.ids[bi]}", "change"]
+              + (["target f^r"] if run.multi else []), rows)
+    doc.p(f"Value minimised: reference {fnum(run.value[ri]) if ri is not None else '–'}, best "
+          f"{fnum(run.value[bi])}.")
+    if "best-vs-reference" in figs:
+        doc.fig(figs["best-vs-reference"], "Change of every objective (left) and where the design variables sit "
+                "within their bounds (right), best against reference.")
+
+    # --- why
+    doc.h(2, "Why it is better")
+    doc.p(_why_text(run, bi, ri, notes))
+    for fact in facts or []:
+        doc.p(fact)
+    for key, cap in (("contact-force", "Wheel-rail contact force against wheel position, best and reference "
+                                       "design; grey: ERS, orange: evaluation zone of the force objectives."),
+                     ("sleeper-energy", "Energy dissipated in the ballast/subgrade under each sleeper of the "
+                                        "evaluation zone, sleeper 1 next to the interface (paper Fig. 11)."),
+                     ("track-layout", "The designed track next to the interface: sleepers (standard or "
+                                      "strengthened), railpad stiffness by colour, spans next to the slab, "
+                                      "the Type II strip and the slab edge; reference above, best below.")):
+        if key in figs:
+            doc.fig(figs[key], cap)
+        elif key in notes:
+            doc.p(f"No {key.replace('-', ' ')} figure: {notes[key]}.")
+
+    # --- objective space and sensitivity
+    doc.h(2, "Objective space")
+    if "objective-space" in figs:
+        doc.fig(figs["objective-space"], "All evaluations in objective space with the Pareto front, the reference "
+                "design, the reference point and the chosen compromise (paper Fig. 9).")
+    if notes.get("objective-space"):
+        doc.p(notes["objective-space"])
+    doc.h(2, "Sensitivity at a glance")
+    if "sensitivity" in figs:
+        doc.fig(figs["sensitivity"], "Each design variable against the value minimised, over all evaluations "
+                "(one panel per variable; the star is the best design, the diamond the reference).")
+    doc.h(2, "Files")
+    doc.ul([f"results table: `{run.path / 'results.h5'}`; commit log: `{run.path / 'journal.jsonl'}`",
+            f"histories of the best design: `{run.path / run.file[bi]}`" if run.file[bi] else
+            "the best design has no histories file",
+            f"histories of the reference design: `{run.path / run.file[ri]}`" if ri is not None and run.file[ri]
+            else "the reference design has no histories file"])
+
+    summary["best"] = {"id": int(run.ids[bi]), "value": float(run.value[bi]),
+                       "x": {n: float(v) for n, v in zip(run.names, run.x[bi])},
+                       "objectives": {k: float(run.obj[k][bi]) for k in run.obj},
+                       "phase": str(run.phase[bi]), "restart": int(run.restart[bi])}
+    summary["reference"] = {"id": int(run.ids[ri]) if ri is not None else None,
+                            "x": {n: float(v) for n, v in zip(run.names, run.ref_x)},
+                            "objectives": {k: float(v) for k, v in run.ref_objectives.items()}}
+    summary["change_percent"] = {k: (float(run.obj[k][bi]) - r) / abs(r) * 100
+                                 for k, r in run.ref_objectives.items() if k in run.obj and r}
+    return doc, summary
+
+
+def _first_near_best(run: RunData) -> int:
+    ok = run.ok & np.isfinite(run.value)
+    order = np.argsort(run.ids)
+    v = np.where(ok, run.value, np.inf)[order]
+    bsf = np.minimum.accumulate(v)
+    b = bsf[-1]
+    tol = 0.01 * abs(b) if b != 0 else 1e-12
+    return int(run.ids[order][np.flatnonzero(bsf <= b + tol)[0]])
+
+
+def _why_text(run: RunData, bi: int, ri: int | None, notes: dict) -> str:
+    parts = []
+    for k in run.objectives:
+        r, b = run.ref_objectives.get(k, math.nan), float(run.obj[k][bi])
+        if np.isfinite(r) and r:
+            s, u = obj_display(k)
+            word = "falls" if b < r else "rises"
+            parts.append(f"{k} {word} from {fnum(r * s, 4)} to {fnum(b * s, 4)} {u} ({pct(b, r)})")
+    text = "Against the reference design, " + "; ".join(parts) + "." if parts else ""
+    diffs = []
+    for j, v in enumerate(run.variables):
+        xr, xb = run.ref_x[j], run.x[bi, j]
+        if not np.isclose(xr, xb):
+            diffs.append(f"{v.label} {var_value(v, xr)} → {var_value(v, xb)}"
+                         + (f" {v.unit}" if v.unit and v.group not in ("sleeper_spans", "type_ii_strip") else ""))
+    if diffs:
+        text += " The design differs in: " + "; ".join(diffs) + "."
+    else:
+        text += " The best design is the reference design."
+    return text.strip()
+
+
