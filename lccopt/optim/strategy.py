@@ -68,8 +68,8 @@ def _default_settings(space: DesignSpace) -> dict:
         "succ_tol": 3,                     # successes in a row that double sigma
         "improvement_tol": 1e-3,           # success: f < f_best - tol * |f_best|
         "max_failed_row": max(d, 5),       # failed evaluations in a row that force a restart
-        "capping": True,
-        "force_int_move": True,            # selected integers move >= 1 unit (else pySOT-like)                   # median-cap values before fitting
+        "capping": True,                   # median-cap values before fitting
+        "force_int_move": True,            # selected integers move >= 1 unit (else pySOT-like)
         "dist_tol": 1e-3,                  # duplicate radius (unit box, times sqrt(d_cont))
     }
 
@@ -525,13 +525,26 @@ class _Context:
 
     def is_taken(self, C: np.ndarray) -> np.ndarray:
         """Same integer values and continuous part within tol of a used point."""
-        if len(self.taken) == 0 or len(C) == 0:
+        nt = len(self.taken)
+        if nt == 0 or len(C) == 0:
             return np.zeros(len(C), dtype=bool)
-        same = np.ones((len(C), len(self.taken)), dtype=bool)
         if self.int.any():
-            same &= cdist(C[:, self.int], self.taken[:, self.int], "chebyshev") == 0
-        if self.cont.any():
-            Cu = self.space.to_unit(C)[:, self.cont]
-            Tu = self.space.to_unit(self.taken)[:, self.cont]
-            same &= cdist(Cu, Tu) < self.tol
-        return same.any(axis=1)
+            # Group rows by their integer part (exact float equality; + 0.0 makes -0.0 equal
+            # to 0.0, as a comparison would) instead of comparing every pair.
+            ints = np.vstack([self.taken[:, self.int], C[:, self.int]]) + 0.0
+            key = np.unique(ints, axis=0, return_inverse=True)[1].ravel()
+            kt, kc = key[:nt], key[nt:]
+            match = np.isin(kc, kt)
+        else:
+            kt, kc = np.zeros(nt, dtype=int), np.zeros(len(C), dtype=int)
+            match = np.ones(len(C), dtype=bool)
+        if not self.cont.any() or not match.any():
+            return match
+        out = np.zeros(len(C), dtype=bool)
+        Cu = self.space.to_unit(C[match])[:, self.cont]
+        Tu = self.space.to_unit(self.taken)[:, self.cont]
+        ci, kcm = np.flatnonzero(match), kc[match]
+        for k in np.unique(kcm):  # continuous part within tol of a used point with the same integers
+            rows = kcm == k
+            out[ci[rows]] = (cdist(Cu[rows], Tu[kt == k]) < self.tol).any(axis=1)
+        return out

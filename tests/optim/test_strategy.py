@@ -238,3 +238,29 @@ def test_save_is_atomic_and_leaves_no_temp(tmp_path):
     s.save(tmp_path / "st.json")
     assert [f.name for f in tmp_path.iterdir()] == ["st.json"]
     assert Strategy.load(tmp_path / "st.json").n_asked == 2
+
+
+@pytest.mark.parametrize("name", ["ackley8", "gear"])
+def test_is_taken_matches_pairwise_comparison(name):
+    """The grouped duplicate check equals the all-pairs definition (ints equal, cont within tol)."""
+    from scipy.spatial.distance import cdist
+
+    p = problems.get(name)
+    s = Strategy(p.space, budget=200, seed=3)
+    while s.n_told < 60:
+        for pr in s.ask(1):
+            s.tell(pr.id, p(pr.x))
+    ctx = s._prepare()
+    rng = np.random.default_rng(0)
+    near = ctx.taken[rng.integers(len(ctx.taken), size=40)].copy()
+    if s._cont.any():
+        near[:20, s._cont] += 1e-9  # within tol: taken
+        near[20:, s._cont] += 50.0  # outside tol: free unless the integers match another point
+    near[:, s._int] = np.where(near[:, s._int] == 0, -0.0, near[:, s._int])  # -0.0 equals 0.0
+    C = np.vstack([near, s._perturb(ctx.best, 300, s.sigma), s._uniform(50)])
+    same = cdist(C[:, s._int], ctx.taken[:, s._int], "chebyshev") == 0
+    if s._cont.any():
+        Cu, Tu = (p.space.to_unit(A)[:, s._cont] for A in (C, ctx.taken))
+        same &= cdist(Cu, Tu) < ctx.tol
+    assert np.array_equal(ctx.is_taken(C), same.any(axis=1))
+    assert ctx.is_taken(C[:20]).all()
