@@ -5,8 +5,8 @@ Metric Stochastic Response Surface (Regis & Shoemaker) with DYCORS perturbations
 * Step A: the given points, then an integer-aware Latin hypercube (``sampling``).
 * Step C: a cubic RBF with linear tail (``rbf``) on the evaluated points of the current
   restart, in the unit box, fitted to median-capped values (values above the median are
-  replaced by the median, as in Regis & Shoemaker and pySOT: one huge value would
-  otherwise flatten the surrogate everywhere else).
+  replaced by the median, as in Regis & Shoemaker; pySOT 0.3.3 as benchmarked does not cap):
+  one huge value would otherwise flatten the surrogate everywhere else.
 * Steps D-E: candidates (DYCORS perturbations of the best point, uniform points, and a
   local mixed-integer search of the surrogate), scored by the merit of Eq. (11) with the
   weight cycling through 0.3, 0.5, 0.8, 0.95; the best-scoring candidate is proposed.
