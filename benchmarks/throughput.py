@@ -15,6 +15,11 @@ reads the engine's own accounting from the journal's ``session`` line:
 
 from __future__ import annotations
 
+import os
+
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")  # as the lccopt command does (lccopt/cli.py)
+
 import argparse
 import json
 import tempfile

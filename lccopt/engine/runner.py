@@ -264,6 +264,7 @@ class Engine:
         self.executor = executor
         self.strategy.budget = problem.budget
         self.ref_point = (table.reference or {}).get("point")
+        self._ahead: int | None = None   # id asked ahead, waiting for a free worker
         self.stop = False
         self.abort = False
         self._stop_logged = False
@@ -359,30 +360,47 @@ class Engine:
         self._summary(wall)
 
     def _fill(self, requeue: list[int]) -> int:
+        """Give every free worker a point; then, with all workers busy, propose the next point
+        already, so that the next worker to finish gets it at once (the ask runs while the
+        simulations do). Points asked but not yet running are pending in the journal: a
+        resume runs them first, in order, and only then asks again, as the run would have."""
         n = 0
         while self.executor.free() > 0:
             if requeue:
                 self._submit(self.table.rows[requeue.pop(0)])
-                n += 1
-                continue
-            if self.problem.multi and self.ref_point is None and self.strategy.n_asked >= 1:
-                break  # the reference design runs alone: it fixes the reference point
-            if self.strategy.done:
-                break
-            t0 = time.perf_counter()
-            props = self.strategy.ask(1)
-            t1 = time.perf_counter()
-            self.t_optimiser += t1 - t0
-            if not props:
-                break
-            pr = props[0]
-            ev = self.journal.append("asked", id=int(pr.id), x=[float(v) for v in pr.x], phase=pr.phase,
-                                     restart=int(pr.restart))
-            self.table.apply(ev)
-            self.t_bookkeeping += time.perf_counter() - t1
-            self._submit(self.table.rows[pr.id])
+            elif self._ahead is not None:
+                self._submit(self.table.rows[self._ahead])
+                self._ahead = None
+            else:
+                row = self._ask()
+                if row is None:
+                    break
+                self._submit(row)
             n += 1
+        if self.executor.free() == 0 and not requeue and self._ahead is None:
+            row = self._ask()
+            if row is not None:
+                self._ahead = row["id"]
         return n
+
+    def _ask(self) -> dict | None:
+        """One proposal from the optimiser, committed to the journal; None if there is none now."""
+        if self.problem.multi and self.ref_point is None and self.strategy.n_asked >= 1:
+            return None  # the reference design runs alone: it fixes the reference point
+        if self.strategy.done:
+            return None
+        t0 = time.perf_counter()
+        props = self.strategy.ask(1)
+        t1 = time.perf_counter()
+        self.t_optimiser += t1 - t0
+        if not props:
+            return None
+        pr = props[0]
+        ev = self.journal.append("asked", id=int(pr.id), x=[float(v) for v in pr.x], phase=pr.phase,
+                                 restart=int(pr.restart))
+        self.table.apply(ev)
+        self.t_bookkeeping += time.perf_counter() - t1
+        return self.table.rows[pr.id]
 
     def _submit(self, row: dict) -> None:
         out = str(self.rd.path / eval_name(row["id"])) if self.executor.kind == "local" else None
