@@ -20,29 +20,7 @@ FAKE = "tests.engine.fakesim:evaluate"
 FAULTY = "tests.engine.fakesim:faulty"
 REAL = "lccopt.vti.simulate:evaluate"
 
-# A short, coarse simulation: same model, ~0.1-0.2 s per evaluation instead of ~1 s.
-CHEAP_SIMULATION = """\
-simulation:
-  time_step: 1.0e-3
-  element_length: 0.1
-  far_element_length: 0.1
-  run_in: 3.0
-  run_out: 1.0
-"""
-
-
-def write_case(directory: Path, name: str = "t", objectives=("F_max", "E_max"), budget: int = 12,
-               initial: int = 5, seed: int = 1, timeout: float = 60.0, worst=(60000.0, 5.0),
-               cheap: bool = True, extra: str = "") -> Path:
-    lines = [f"extends: {REFERENCE}", f"name: {name}", "optimisation:",
-             f"  objectives: [{', '.join(objectives)}]", f"  budget: {budget}",
-             f"  initial_points: {initial}", f"  seed: {seed}", f"  timeout: {timeout}"]
-    if len(objectives) > 1:
-        lines += ["  asf:", f"    worst: [{', '.join(str(w) for w in worst)}]"]
-    text = "\n".join(lines) + "\n" + (CHEAP_SIMULATION if cheap else "") + extra
-    path = Path(directory) / f"{name}.yaml"
-    path.write_text(text, encoding="utf-8")
-    return path
+from tests.conftest import CHEAP_SIMULATION, write_case  # noqa: E402,F401 (shared with tests/report)
 
 
 COLUMNS = ("id", "x", "F_rms", "F_max", "E_rms", "E_max", "value", "status", "reason", "phase",

@@ -14,27 +14,7 @@ FIGURES = ("search-history", "objective-space", "best-vs-reference", "contact-fo
            "track-layout", "sensitivity")
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 
-# The reference case on a coarse mesh with a short run-in: ~0.3 s per simulation.
-CHEAP = """\
-simulation:
-  time_step: 1.0e-3
-  element_length: 0.1
-  far_element_length: 0.1
-  run_in: 3.0
-  run_out: 1.0
-"""
-
-
-def write_case(directory: Path, name: str, objectives=("F_max", "E_max"), budget: int = 12,
-               initial: int = 5, seed: int = 1) -> Path:
-    lines = [f"extends: {REFERENCE}", f"name: {name}", "optimisation:",
-             f"  objectives: [{', '.join(objectives)}]", f"  budget: {budget}",
-             f"  initial_points: {initial}", f"  seed: {seed}", "  timeout: 120"]
-    if len(objectives) > 1:
-        lines += ["  asf:", "    worst: [60000.0, 5.0]"]
-    path = Path(directory) / f"{name}.yaml"
-    path.write_text("\n".join(lines) + "\n" + CHEAP, encoding="utf-8")
-    return path
+from tests.conftest import write_case  # noqa: E402,F401 (the cheap reference case, shared)
 
 
 def lccopt(*args, env: dict | None = None, timeout: float = 600) -> subprocess.CompletedProcess:
