@@ -531,8 +531,22 @@ def _read_with_base(path: Path, text: str, seen: set) -> tuple[dict, dict]:
         base_text = base_path.read_text(encoding="utf-8")
     except OSError as exc:
         raise CaseError(f"{where}: extends: cannot read {base_path}: {exc.strerror or exc}") from None
+    except UnicodeDecodeError as exc:
+        raise CaseError(f"{where}: extends: {base_path} is not UTF-8 text (byte {exc.start})") from None
     base_raw, base_lines = _read_with_base(base_path, base_text, seen | {base_path})
     return _merge(base_raw, raw), {**base_lines, **lines}
+
+
+# A case name is one path component of the run directory: never ".", "..", empty or hidden.
+SAFE_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,63}")
+
+
+def text_line(path: Path, offset: int) -> int:
+    """1-based line number of a byte offset in a file (for messages about undecodable bytes)."""
+    try:
+        return path.read_bytes()[:offset].count(b"\n") + 1
+    except OSError:
+        return 1
 
 
 def load_case(path: str | Path) -> Case:
@@ -543,6 +557,10 @@ def load_case(path: str | Path) -> Case:
         text = path.read_text(encoding="utf-8")
     except OSError as exc:
         raise CaseError(f"{file}:0: <file>: cannot read: {exc.strerror or exc}") from None
+    except UnicodeDecodeError as exc:
+        line = text_line(path, exc.start)
+        raise CaseError(f"{file}:{line}: <file>: not UTF-8 text (byte {exc.start}); "
+                        f"save the case file as UTF-8") from None
     raw, lines = _read_with_base(path, text, set())
     data = _check(raw, SCHEMA, (), lines, file)
 
@@ -553,8 +571,9 @@ def load_case(path: str | Path) -> Case:
             line = lines.get(where)
         return CaseError(f"{line or file + ':1'}: {_dotted(at)}: {msg}")
 
-    if not re.fullmatch(r"[A-Za-z0-9_.-]+", data["name"]):
-        raise err(("name",), "use letters, digits, '.', '-' and '_' only (it names the run directory)")
+    if not SAFE_NAME.fullmatch(data["name"]):
+        raise err(("name",), "1-64 letters, digits, '.', '-' and '_', starting with a letter or digit "
+                             "(it names the run directory)")
     le = data["simulation"]["element_length"]
     if not _is_multiple(ELEMENT_UNIT, le):
         raise err(("simulation", "element_length"), f"must divide 0.1 m exactly, got {le:g}")

@@ -1,6 +1,7 @@
 """The ``lccopt`` command line: thin wrappers that parse options and call one module each.
 
-Exit codes: 0 done, 1 internal error, 2 bad usage or case file, 130 interrupted.
+Exit codes: 0 done, 1 internal error, 2 bad usage, case file, run directory or environment
+(disk full, read-only), 130 interrupted (any stopping signal), 141 output pipe closed.
 """
 
 from __future__ import annotations
@@ -20,15 +21,12 @@ from typing import Optional
 import typer
 
 from .case import CaseError
+from .errors import UsageError, describe_os_error
 
-EXIT_OK, EXIT_INTERNAL, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
+EXIT_OK, EXIT_INTERNAL, EXIT_USAGE, EXIT_INTERRUPTED, EXIT_PIPE = 0, 1, 2, 130, 141
 
 app = typer.Typer(add_completion=False, no_args_is_help=True, pretty_exceptions_enable=False,
                   help="Optimise railway level crossings and their transition zones.")
-
-
-class UsageError(Exception):
-    """Bad input that is not a case-file problem (options, run directories); exit 2."""
 
 
 @app.command()
@@ -97,36 +95,58 @@ def report(
 
 def main(argv: list[str] | None = None) -> int:
     """Console entry point: map errors to exit codes and one-line messages."""
+    import click
+
     try:
         # non-standalone click returns the code of a typer.Exit instead of raising it
         code = app(args=argv, standalone_mode=False)
         if isinstance(code, int) and code != EXIT_OK:
             return code
-    except CaseError as exc:
-        typer.echo(f"lccopt: error: {exc}", err=True)
-        return EXIT_USAGE
-    except UsageError as exc:
-        typer.echo(f"lccopt: error: {exc}", err=True)
-        return EXIT_USAGE
+    except (CaseError, UsageError) as exc:
+        return _fail(f"lccopt: error: {exc}", EXIT_USAGE)
     except typer.Exit as exc:
         return exc.exit_code
-    except KeyboardInterrupt:
-        typer.echo("lccopt: interrupted", err=True)
-        return EXIT_INTERRUPTED
-    except Exception as exc:
-        # click's usage errors (typer may vendor click): print the usage line, exit 2
-        if type(exc).__name__ == "Abort":
-            typer.echo("lccopt: interrupted", err=True)
-            return EXIT_INTERRUPTED
-        if hasattr(exc, "show") and hasattr(exc, "exit_code"):
+    except (KeyboardInterrupt, click.exceptions.Abort):
+        return _fail("lccopt: interrupted", EXIT_INTERRUPTED)
+    except click.exceptions.ClickException as exc:  # usage errors: usage line + message, exit 2
+        try:
             exc.show()
-            return EXIT_USAGE
+        except OSError:
+            _silence_stdio()
+        return EXIT_USAGE
+    except BrokenPipeError:  # the reader went away (| head): stop quietly, as SIGPIPE would
+        _silence_stdio()
+        return EXIT_PIPE
+    except OSError as exc:  # the environment refused: read-only, missing, full, not a file ...
+        return _fail(f"lccopt: error: {describe_os_error(exc)}", EXIT_USAGE)
+    except Exception as exc:
         import traceback
 
-        traceback.print_exc()
-        typer.echo(f"lccopt: internal error: {exc}", err=True)
-        return EXIT_INTERNAL
+        try:
+            traceback.print_exc()
+        except OSError:
+            pass
+        return _fail(f"lccopt: internal error: {exc}", EXIT_INTERNAL)
     return EXIT_OK
+
+
+def _fail(message: str, code: int) -> int:
+    """Print one line to stderr (if anyone is still reading it) and return the exit code."""
+    try:
+        typer.echo(message, err=True)
+    except OSError:  # stderr closed or a broken pipe: the exit code still tells
+        _silence_stdio()
+    return code
+
+
+def _silence_stdio() -> None:
+    """Point stdout/stderr at /dev/null so that the interpreter's final flush cannot fail."""
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    for fd in (1, 2):
+        try:
+            os.dup2(devnull, fd)
+        except OSError:
+            pass
 
 
 if __name__ == "__main__":  # python -m lccopt.cli: use the package's module, not a second copy

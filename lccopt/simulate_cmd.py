@@ -14,7 +14,7 @@ from .vti.response import OBJECTIVE_UNITS, Evaluation
 
 
 def run_simulate(case_path: Path, design: str | None, out: Path | None, plots: bool) -> Evaluation:
-    from .cli import UsageError
+    from .errors import UsageError
 
     case = load_case(case_path)
     try:

@@ -35,7 +35,7 @@ import uuid
 from dataclasses import dataclass
 from pathlib import Path
 
-from .worker import SINGLE_THREAD_ENV, Outcome, Task, _death_reason, load_evaluator, run_task
+from .worker import SINGLE_THREAD_ENV, STOP_SIGNALS, Outcome, Task, _death_reason, load_evaluator, run_task
 
 
 class ExecutorError(Exception):
@@ -49,19 +49,11 @@ def default_workers() -> int:
         return max(1, os.cpu_count() or 1)
 
 
-@contextlib.contextmanager
-def _sigint_ignored():
-    """SIGINT ignored while a worker starts: the ignored disposition survives fork and exec,
-    so a Ctrl-C during the worker's start-up cannot kill it either."""
-    try:
-        old = signal.signal(signal.SIGINT, signal.SIG_IGN)
-    except ValueError:  # not the main thread
-        old = None
-    try:
-        yield
-    finally:
-        if old is not None:
-            signal.signal(signal.SIGINT, old)
+def _ignore_stop_signals() -> None:
+    """Run in the worker between fork and exec: the ignored disposition survives exec, so
+    Ctrl-C or SIGTERM to the process group during the worker's start-up cannot kill it."""
+    for sig in STOP_SIGNALS:
+        signal.signal(sig, signal.SIG_IGN)
 
 
 _WORKER_MAIN = ("import sys; from lccopt.engine.worker import local_worker_main; "
@@ -110,8 +102,8 @@ class LocalPool:
         here = str(Path(__file__).resolve().parents[2])  # lccopt importable even if not installed
         env["PYTHONPATH"] = os.pathsep.join([here] + [p for p in [env.get("PYTHONPATH")] if p])
         cmd = [sys.executable, "-c", _WORKER_MAIN, str(child_sock.fileno()), str(os.getpid()), str(s.index)]
-        with _sigint_ignored():
-            proc = subprocess.Popen(cmd, pass_fds=[child_sock.fileno()], env=env, stdin=subprocess.DEVNULL)
+        proc = subprocess.Popen(cmd, pass_fds=[child_sock.fileno()], env=env, stdin=subprocess.DEVNULL,
+                                preexec_fn=_ignore_stop_signals)
         child_sock.close()
         s.proc, s.ready, s.task = proc, False, None
         s.conn = mpc.Connection(parent_sock.detach())

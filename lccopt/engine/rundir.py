@@ -130,16 +130,37 @@ class RunDir:
 
     def meta(self) -> dict:
         try:
-            return json.loads(self.meta_path.read_text(encoding="utf-8"))
+            meta = json.loads(self.meta_path.read_text(encoding="utf-8"))
         except (OSError, ValueError) as exc:
             raise RunError(f"{self.meta_path}: unreadable ({exc})") from None
+        if not isinstance(meta, dict) or meta.get("format") != RUN_FORMAT:
+            raise RunError(f"{self.meta_path}: not an lccopt run description")
+        return meta
+
+    def locked_by_other(self) -> bool:
+        """True while another process holds the run's lock (flock: immune to PID reuse)."""
+        try:
+            fh = open(self.path / "lock", "rb")
+        except OSError:
+            return False
+        try:
+            fcntl.flock(fh.fileno(), fcntl.LOCK_SH | fcntl.LOCK_NB)
+        except OSError:
+            return True
+        finally:
+            fh.close()  # closing drops a lock we got
+        return False
 
     def write_meta(self, meta: dict) -> None:
         atomic_write_bytes(self.meta_path, (json.dumps(meta, indent=2) + "\n").encode())
 
     # -- lock -------------------------------------------------------------------------------
     def lock(self) -> None:
-        fh = open(self.path / "lock", "a+")
+        try:
+            fh = open(self.path / "lock", "a+")
+        except OSError as exc:
+            raise RunError(f"{self.path / 'lock'}: cannot open the run's lock file ({exc.strerror or exc}); "
+                           f"lccopt needs to write in the run directory") from None
         try:
             fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError:
@@ -175,16 +196,18 @@ class RunDir:
         except (OSError, ValueError):
             return None
 
-    def clean(self, keep_evals: set[str]) -> list[str]:
-        """Remove temporary files and evaluation files without a journal line; return them."""
+    def clean(self, pending: set[str]) -> list[str]:
+        """Remove temporary files and the unfinished files of pending evaluations; return them.
+
+        Only files lccopt itself would write again: an evaluation file the journal does not
+        account for is never removed (it may be the only copy of a result)."""
         gone = []
         for d in (self.path, self.evals_path):
             if not d.is_dir():
                 continue
             for f in d.iterdir():
                 rel = f.relative_to(self.path).as_posix()
-                orphan = d == self.evals_path and f.suffix == ".h5" and rel not in keep_evals
-                if f.is_file() and (f.name.endswith(".tmp") or orphan):
+                if f.is_file() and not f.is_symlink() and (f.name.endswith(".tmp") or rel in pending):
                     f.unlink()
                     gone.append(rel)
         return gone

@@ -35,10 +35,11 @@ from pathlib import Path
 import numpy as np
 import typer
 
-from ..case import Case, CaseError, load_case
+from ..case import SAFE_NAME, Case, CaseError, load_case
+from ..errors import EnvironmentFault, UsageError, describe_os_error, environment_errno
 from ..problem import Problem
 from .executors import ExecutorError, make_executor
-from .journal import Journal, JournalError
+from .journal import Journal, JournalError, read_journal
 from .progress import Progress, fmt, hms
 from .rundir import RunDir, RunError, Table, eval_name, now_iso, sha256_text, write_results
 from .worker import Outcome, Task, evaluator_spec
@@ -48,9 +49,12 @@ SNAPSHOT_EVERY = 5.0  # [s] state.json likewise; resume replays the journal line
 
 
 def _usage_error(message: str) -> Exception:
-    from ..cli import UsageError
-
     return UsageError(message)
+
+
+def _fault(exc: BaseException, rd: RunDir) -> EnvironmentFault:
+    return EnvironmentFault(f"{describe_os_error(exc)}; the run stopped with nothing lost (evaluations "
+                            f"in flight stay pending): fix the cause, then 'lccopt resume {rd.path}'")
 
 
 # ------------------------------------------------------------------------------ public API
@@ -67,9 +71,13 @@ def optimise(case, workers: int | None = None, scheduler=None, runs: Path = Path
     _check_options(workers, scheduler)
     spec = evaluator_spec(evaluator)
     run_path = Path(runs) / case_obj.name
-    if run_path.exists() and not force:
-        raise _usage_error(f"{run_path} already exists: carry it on with 'lccopt resume {run_path}', "
-                           f"or start again with 'lccopt optimise {case_obj.path} --force'")
+    if not SAFE_NAME.fullmatch(case_obj.name):  # load_case checks it too: never '.', '..' or a path
+        raise _usage_error(f"case name {case_obj.name!r} cannot name a run directory")
+    if run_path.exists() or run_path.is_symlink():
+        if not force:
+            raise _usage_error(f"{run_path} already exists: carry it on with 'lccopt resume {run_path}', "
+                               f"or start again with 'lccopt optimise {case_obj.path} --force'")
+        _check_replaceable(run_path, Path(runs))
     executor = _start_executor(case_obj, spec, workers, scheduler, problem)
     try:
         if run_path.exists():
@@ -99,6 +107,22 @@ def optimise(case, workers: int | None = None, scheduler=None, runs: Path = Path
     return rd.path
 
 
+def _check_replaceable(run_path: Path, runs: Path) -> None:
+    """``--force`` removes only an lccopt run directory that sits directly inside ``--runs``."""
+    from .rundir import RUN_FORMAT
+
+    if run_path.is_symlink() or not run_path.is_dir() or run_path.resolve().parent != runs.resolve():
+        raise _usage_error(f"{run_path} is not a run directory inside {runs}; --force only replaces "
+                           f"lccopt run directories: move or remove it yourself")
+    try:
+        meta = RunDir(run_path).meta()
+    except RunError:
+        meta = None
+    if not isinstance(meta, dict) or meta.get("format") != RUN_FORMAT:
+        raise _usage_error(f"{run_path} is not an lccopt run directory (no readable run.json of lccopt); "
+                           f"--force only replaces run directories: move or remove it yourself")
+
+
 def _start_executor(case, spec, workers, scheduler, problem):
     try:
         executor = make_executor(case, spec, workers, scheduler, problem.timeout)
@@ -120,6 +144,14 @@ def resume(run, workers: int | None = None, scheduler=None, case=None, allow_cha
         raise _usage_error(str(exc)) from None
     try:
         meta = rd.meta()
+        if not isinstance(meta, dict):
+            raise RunError(f"{rd.meta_path}: not an lccopt run description")
+        events, _, _ = read_journal(rd.journal_path)
+        if not events or events[0].get("event") != "run":
+            n = len(list(rd.evals_path.glob("*.h5"))) if rd.evals_path.is_dir() else 0
+            raise RunError(f"{rd.journal_path} is empty or does not start with the run's first line: "
+                           f"this run cannot be carried on safely ({n} evaluation file(s) kept as they "
+                           f"are); restore the journal, or start a new run under another name")
         journal, events, torn = Journal.open(rd.journal_path)
         if torn:
             out.log("dropped a torn last line of the journal (the run was killed while writing it)")
@@ -137,11 +169,12 @@ def resume(run, workers: int | None = None, scheduler=None, case=None, allow_cha
             rd.write_meta(meta)
         strategy, table = restore(problem, events, rd.load_state())
         spec = evaluator_spec(evaluator if evaluator is not None else _saved_evaluator(meta))
-        removed = rd.clean(keep_evals=table.files())
+        removed = rd.clean(pending={eval_name(i) for i in table.pending_ids()})
         if removed:
             out.log(f"removed {len(removed)} temporary or unfinished file(s): {', '.join(removed[:5])}"
                     f"{' ...' if len(removed) > 5 else ''}")
-        if strategy.done and not table.pending_ids():
+        lost = _lost_files(rd, table)
+        if strategy.done and not table.pending_ids() and not lost:
             if not table.finished:
                 table.apply(journal.append("finished", time=now_iso(), evaluations=table.n_done))
             write_results(rd.results_path, table, case=case_obj, problem=problem, meta=meta)
@@ -154,14 +187,32 @@ def resume(run, workers: int | None = None, scheduler=None, case=None, allow_cha
         try:
             engine = Engine(rd, case_obj, problem, journal, table, strategy, executor,
                             Progress(problem.budget, stream, progress))
+            engine.restore_files(lost, out)
             engine.run()
         finally:
             executor.close()
-    except (ExecutorError, JournalError) as exc:
+    except (ExecutorError, JournalError, RunError) as exc:
         raise _usage_error(str(exc)) from None
     finally:
         rd.unlock()
     return rd.path
+
+
+def _lost_files(rd: RunDir, table: Table) -> list[int]:
+    """Ids of evaluations whose file the journal names but which is missing or unreadable."""
+    import h5py
+
+    lost = []
+    for i, r in sorted(table.rows.items()):
+        if r["status"] != "ok" or not r["file"]:
+            continue
+        try:
+            with h5py.File(rd.path / r["file"], "r") as f:
+                if "objectives" not in f or "histories" not in f:
+                    raise ValueError("incomplete")
+        except (OSError, ValueError, RuntimeError):
+            lost.append(i)
+    return lost
 
 
 def _saved_evaluator(meta: dict):
@@ -218,7 +269,12 @@ def restore(problem: Problem, events: list[dict], snapshot: dict | None):
 
     table = Table(list(problem.names), list(problem.objectives))
     for ev in events:
-        table.apply(ev)
+        try:
+            table.apply(ev)
+        except (KeyError, TypeError, ValueError, IndexError) as exc:
+            raise JournalError(f"journal line {ev.get('seq', '?') + 1 if isinstance(ev.get('seq'), int) else '?'}"
+                               f" is not a valid event ({type(exc).__name__}: {exc}); the journal was "
+                               f"changed by something other than lccopt") from None
     strategy, start = None, 0
     if snapshot is not None and 0 <= int(snapshot["seq"]) < len(events):
         try:
@@ -274,6 +330,8 @@ class Engine:
         self.t_optimiser = 0.0     # time in ask/tell
         self.t_bookkeeping = 0.0   # journal, snapshots, results.h5, files written here
         self._old_handlers: dict = {}
+        self._restore: list[int] = []          # ids whose lost evals/ file is simulated again
+        self._restoring: set[int] = set()
 
     # -- signals ---------------------------------------------------------------------------------
     def _on_signal(self, signum, frame) -> None:
@@ -285,7 +343,9 @@ class Engine:
     def _install_signals(self) -> None:
         if threading.current_thread() is not threading.main_thread():
             return
-        for sig in (signal.SIGINT, signal.SIGTERM):
+        # SIGTERM/SIGHUP (Slurm, systemd, timeout, a closed terminal) stop at once like a second
+        # Ctrl-C; the workers ignore them, so an evaluation is never reported as killed by them
+        for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
             self._old_handlers[sig] = signal.signal(sig, self._on_signal)
 
     def _restore_signals(self) -> None:
@@ -293,8 +353,23 @@ class Engine:
             signal.signal(sig, h)
         self._old_handlers.clear()
 
+    def restore_files(self, ids: list[int], out: Progress) -> None:
+        """Simulate again the evaluations whose file was deleted or damaged (no budget spent)."""
+        if ids:
+            out.log(f"{len(ids)} evaluation file(s) missing or unreadable, simulating them again: "
+                    f"{', '.join('#' + str(i) for i in ids[:8])}{' ...' if len(ids) > 8 else ''}")
+        self._restore = list(ids)
+
     # -- main ---------------------------------------------------------------------------------------
     def run(self) -> None:
+        try:
+            self._run()
+        except (OSError, RuntimeError) as exc:  # h5py reports a full disk as either
+            if environment_errno(exc) is None:
+                raise
+            raise _fault(exc, self.rd) from None
+
+    def _run(self) -> None:
         p, pb = self.progress, self.problem
         if pb.multi and 0 in self.table.rows and self.table.rows[0]["status"] == "failed" \
                 and self.table.reference is None:
@@ -315,7 +390,7 @@ class Engine:
                 if time.monotonic() - self._snapshot_at > SNAPSHOT_EVERY:
                     self._snapshot()
                 if self.executor.running == 0:
-                    if self.stop or self.strategy.done:
+                    if self.stop or (self.strategy.done and not self._restore):
                         break
                     if submitted == 0 and self.executor.free() > 0:
                         break  # nothing left to propose and nothing in flight
@@ -340,9 +415,9 @@ class Engine:
             self.executor.close()
             self._restore_signals()
             p.close()
-            self._snapshot()
             wall = time.monotonic() - t_start
             try:
+                self._snapshot()
                 self.table.apply(self.journal.append(
                     "session", time=now_iso(), wall_time=wall, evaluations=self.table.n_done - n_start,
                     optimiser_time=self.t_optimiser, bookkeeping_time=self.t_bookkeeping,
@@ -366,7 +441,11 @@ class Engine:
         resume runs them first, in order, and only then asks again, as the run would have."""
         n = 0
         while self.executor.free() > 0:
-            if requeue:
+            if self._restore:
+                i = self._restore.pop(0)
+                self._restoring.add(i)
+                self._submit(self.table.rows[i])
+            elif requeue:
                 self._submit(self.table.rows[requeue.pop(0)])
             elif self._ahead is not None:
                 self._submit(self.table.rows[self._ahead])
@@ -403,13 +482,24 @@ class Engine:
         return self.table.rows[pr.id]
 
     def _submit(self, row: dict) -> None:
-        out = str(self.rd.path / eval_name(row["id"])) if self.executor.kind == "local" else None
+        out = None
+        if self.executor.kind == "local":
+            self.rd.evals_path.mkdir(exist_ok=True)  # deleted under the run: make it again
+            out = str(self.rd.path / eval_name(row["id"]))
         self.executor.submit(Task(row["id"], list(row["x"]), row["phase"], row["restart"], out))
 
     def _record(self, o: Outcome) -> None:
+        if o.fault is not None:  # the machine refused a write: stop, the evaluation stays pending
+            raise EnvironmentFault(f"{o.fault}; the run stopped with nothing lost (evaluations in flight "
+                                   f"stay pending): fix the cause, then 'lccopt resume {self.rd.path}'")
+        if o.id in self._restoring:
+            self._restored(o)
+            return
         row = self.table.rows.get(o.id)
         if row is None or row["status"] != "pending":
             return
+        if self.stop and o.error is not None and o.error.startswith("worker process died (killed by"):
+            return  # stopped along with lccopt by a signal: pending, runs again on resume
         t0 = time.perf_counter()
         pb, j = self.problem, self.journal
         error = o.error
@@ -451,6 +541,25 @@ class Engine:
         self.progress.update(self.table, self.executor.running, last=row)
         if error is not None and pb.multi and o.id == 0 and self.table.reference is None:
             raise self._reference_failed(error)
+
+    def _restored(self, o: Outcome) -> None:
+        self._restoring.discard(o.id)
+        row = self.table.rows[o.id]
+        if o.error is None and o.evaluation is not None:
+            from ..store import write_evaluation
+
+            write_evaluation(self.rd.path / eval_name(o.id), o.evaluation, row["x"], self.case.names,
+                             attrs={"id": o.id, "phase": row["phase"], "restart": row["restart"],
+                                    "worker": o.worker, "wall_time": o.wall_time})
+        if o.error is not None:
+            self.progress.log(f"could not simulate #{o.id} again ({o.error}); its file stays missing")
+            return
+        same = all(abs(o.objectives[k] - v) <= 1e-9 * max(1.0, abs(v))
+                   for k, v in row["objectives"].items() if k in o.objectives)
+        self.table.apply(self.journal.append("restored", id=o.id, file=eval_name(o.id), same=same))
+        if not same:
+            self.progress.log(f"#{o.id} simulated again gives other objectives than the journal's "
+                              f"(another machine or library version?); the journal's values are kept")
 
     def _reference_failed(self, reason: str) -> CaseError:
         return CaseError(f"{self.case.path}: the reference design (evaluation #0) failed: {reason}; a "

@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 from typing import Any, Callable
 
 DEFAULT_EVALUATOR = "lccopt.vti.simulate:evaluate"
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)  # the parent handles these
 ENV_EVALUATOR = "LCCOPT_EVALUATOR"
 
 # Set in every local worker before numpy is imported: N workers use N cores.
@@ -73,6 +74,7 @@ class Outcome:
     evaluation: Any = None        # the whole Evaluation when the worker did not write the file
     file_written: bool = False
     error: str | None = None
+    fault: str | None = None      # the machine refused to store the result (disk full, ...)
     wall_time: float = float("nan")
     worker: str = ""
 
@@ -102,7 +104,12 @@ def run_task(case, task: Task, evaluator: Callable, worker: str) -> Outcome:
                                     "worker": worker, "wall_time": wall})
             out.file_written = True
         except Exception as exc:  # noqa: BLE001
-            out.objectives, out.error = None, f"could not write {task.out_path}: {exc}"
+            from ..errors import describe_os_error, environment_errno
+
+            if environment_errno(exc) is not None:  # not the design's fault: the run must stop
+                out.objectives, out.fault = None, f"cannot write {task.out_path}: {describe_os_error(exc)}"
+            else:
+                out.objectives, out.error = None, f"could not write {task.out_path}: {exc}"
     else:
         out.evaluation = ev
     return out
@@ -122,8 +129,9 @@ def local_worker_main(fd: int, parent_pid: int, slot: int) -> None:
     """Loop of a local worker process (started by ``LocalPool`` with ``python -c``).
 
     Receives ("init", case, evaluator spec, sys.path), then Tasks; sends back ("ready", pid)
-    and ("done", Outcome). Ignores SIGINT (the parent decides what Ctrl-C means) and dies
-    with its parent.
+    and ("done", Outcome). Ignores SIGINT, SIGTERM and SIGHUP (sent to the whole process group
+    by Ctrl-C, Slurm, systemd or a closed terminal: the parent decides what they mean, and an
+    evaluation stopped with the run stays pending) and dies with its parent.
 
     Each task runs in a child forked from this process as it stands after start-up, so
     every evaluation starts from the same process state whatever ran before it: results
@@ -132,7 +140,8 @@ def local_worker_main(fd: int, parent_pid: int, slot: int) -> None:
     """
     from multiprocessing.connection import Connection
 
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    for sig in STOP_SIGNALS:
+        signal.signal(sig, signal.SIG_IGN)
     _die_with_parent(parent_pid)
     conn = Connection(fd)
     try:

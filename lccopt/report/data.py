@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
-import platform
 import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -35,7 +33,7 @@ FIGURES = ("search-history", "objective-space", "best-vs-reference", "contact-fo
 
 
 def _usage(message: str) -> Exception:
-    from ..cli import UsageError
+    from ..errors import UsageError
 
     return UsageError(message)
 
@@ -177,25 +175,11 @@ def _load_case(run: Path, resolved_text: str | None):
 
 
 def _lock_state(run: Path) -> str:
-    """'running' if the lock file names a live process on this host, else 'stopped'.
+    """'running' while a process holds the run's flock, else 'stopped' (a PID in the file
+    could have been reused by another program; the kernel's lock cannot lie)."""
+    from ..engine.rundir import RunDir
 
-    Passive: reads the file the engine writes its pid into; never takes the lock."""
-    try:
-        text = (run / "lock").read_text(encoding="utf-8").strip()
-    except OSError:
-        return "stopped"
-    parts = text.split()
-    if len(parts) >= 4 and parts[0] == "pid" and parts[2] == "on":
-        if parts[3] != platform.node():
-            return "running"  # another host: cannot check, believe the file
-        try:
-            os.kill(int(parts[1]), 0)
-            return "running"
-        except (ValueError, ProcessLookupError):
-            return "stopped"
-        except PermissionError:
-            return "running"
-    return "stopped"
+    return "running" if RunDir(run).locked_by_other() else "stopped"
 
 
 def load_run(path: Path) -> RunData:
