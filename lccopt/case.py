@@ -208,6 +208,9 @@ SCHEMA = Section({
     "name": Str("case name, also the run directory name (letters, digits, - and _)"),
     "description": Str("free text", required=False, default=""),
     "vehicle": Section({
+        "model": Str("paper: Eq. (A.3) as printed (bogie on two primary suspensions, the second "
+                     "wheelset a fixed point); quarter-car: one primary suspension per wheel",
+                     ("paper", "quarter-car"), default="paper", required=False),
         "speed": Num("running speed", "m/s", gt=0, le=150.0),
         "carbody_mass": Num("carbody mass carried by one wheel", "kg", gt=0),
         "bogie_mass": Num("bogie mass carried by one wheel", "kg", gt=0),
@@ -219,7 +222,7 @@ SCHEMA = Section({
         "hertz_constant": Num("Hertz contact constant G", "m/N^(2/3)", gt=0),
         "hertz_load": Num("wheel load P used to linearise the Hertz spring", "N", gt=0),
         "gravity": Num("gravitational acceleration", "m/s^2", gt=0, default=9.81, required=False),
-    }, "quarter car on one rail"),
+    }, "the 3-dof vehicle on one rail (carbody, bogie, wheelset)"),
     "track": Section({
         "rail": Section({
             "youngs_modulus": Num("rail Young's modulus", "Pa", gt=0),

@@ -95,8 +95,7 @@ def report(
 
 def main(argv: list[str] | None = None) -> int:
     """Console entry point: map errors to exit codes and one-line messages."""
-    import click
-
+    usage_errors, aborts = _click_exception_types()
     try:
         # non-standalone click returns the code of a typer.Exit instead of raising it
         code = app(args=argv, standalone_mode=False)
@@ -106,9 +105,9 @@ def main(argv: list[str] | None = None) -> int:
         return _fail(f"lccopt: error: {exc}", EXIT_USAGE)
     except typer.Exit as exc:
         return exc.exit_code
-    except (KeyboardInterrupt, click.exceptions.Abort):
+    except (KeyboardInterrupt, *aborts):
         return _fail("lccopt: interrupted", EXIT_INTERRUPTED)
-    except click.exceptions.ClickException as exc:  # usage errors: usage line + message, exit 2
+    except usage_errors as exc:  # usage errors: usage line + message, exit 2
         try:
             exc.show()
         except OSError:
@@ -128,6 +127,22 @@ def main(argv: list[str] | None = None) -> int:
             pass
         return _fail(f"lccopt: internal error: {exc}", EXIT_INTERNAL)
     return EXIT_OK
+
+
+def _click_exception_types() -> tuple[tuple, tuple]:
+    """(usage error classes, abort classes) of the click typer runs on: recent typer vendors
+    click (typer.TyperException is the base of its ClickException), older typer uses click."""
+    usage, aborts = [], [typer.Abort]
+    if hasattr(typer, "TyperException"):
+        usage.append(typer.TyperException)
+    try:
+        import click
+
+        usage.append(click.ClickException)
+        aborts.append(click.exceptions.Abort)
+    except ImportError:
+        pass
+    return tuple(usage), tuple(aborts)
 
 
 def _fail(message: str, code: int) -> int:

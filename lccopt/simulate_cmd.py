@@ -32,7 +32,7 @@ def run_simulate(case_path: Path, design: str | None, out: Path | None, plots: b
     info = ev.info
     typer.echo(f"case '{case.name}' ({case_path}), design "
                + ", ".join(f"{n}={v:g}" for n, v in zip(case.names, x)))
-    typer.echo(f"static wheel load {info['static_wheel_load'] / 1e3:.2f} kN (this vehicle's weight); "
+    typer.echo(f"static wheel load {info['static_wheel_load'] / 1e3:.2f} kN (on a rigid rail); "
                f"Hertz spring linearised at P = {info['hertz_load'] / 1e3:.1f} kN: "
                f"k_w = {info['contact_stiffness'] / 1e9:.3f} GN/m")
     typer.echo(f"{info['n_dofs']} track dofs, {info['n_steps']} steps of {info['time_step'] * 1e3:g} ms, "

@@ -244,6 +244,8 @@ def build_summary(run: RunData, figs: dict, notes: dict, facts: list[str] | None
                                       "the Type II strip and the slab edge; reference above, best below.")):
         if key in figs:
             doc.fig(figs[key], cap)
+            if key in notes:  # drawn from what was there (e.g. the reference only)
+                doc.p(f"Note: {notes[key]}.")
         elif key in notes:
             doc.p(f"No {key.replace('-', ' ')} figure: {notes[key]}.")
 
