@@ -414,6 +414,15 @@ class Variable:
     reference: float
     unit: str
 
+    @property
+    def display(self) -> tuple[str, float]:
+        """(unit, scale) shown to people: pad stiffness in MN/m, counts as they are."""
+        return ("MN/m", 1e-6) if self.unit == "N/m" else ("", 1.0)
+
+    def show(self, value: float) -> str:
+        unit, scale = self.display
+        return f"{self.name}={value * scale:.6g}" + (f" {unit}" if unit else "")
+
 
 @dataclass(frozen=True)
 class Case:
@@ -699,9 +708,22 @@ def _check_accuracy(data: dict, err) -> None:
 
 
 def parse_design(text: str, case: Case) -> np.ndarray:
-    """Parse ``--design 214e6,155e6,...`` into a checked design vector (raises ValueError)."""
+    """Parse ``--design 214,155,50,5,6,7,3,0`` (pads in MN/m, the rest as counted) into a
+    checked design vector in SI units (raises ValueError)."""
     try:
         x = [float(t) for t in text.replace(" ", "").split(",") if t]
     except ValueError:
-        raise ValueError(f"--design: expected comma-separated numbers, got {text!r}") from None
+        raise ValueError(f"expected comma-separated numbers, got {text!r}") from None
+    if len(x) == len(case.variables):
+        for xi, v in zip(x, case.variables):
+            unit, scale = v.display
+            u = f" {unit}" if unit else ""
+            if not np.isfinite(xi) or not v.lower * scale <= xi <= v.upper * scale:
+                raise ValueError(f"{v.name} = {xi:g}{u} is outside [{v.lower * scale:g}, {v.upper * scale:g}]{u}")
+        x = [xi / v.display[1] for xi, v in zip(x, case.variables)]
     return case.check_design(x)
+
+
+def format_design(case: Case, x) -> str:
+    """``x_r1=214 MN/m, ..., x_n=5, ...``: the design in the units people use."""
+    return ", ".join(v.show(xi) for v, xi in zip(case.variables, x))

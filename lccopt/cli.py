@@ -6,6 +6,7 @@ Exit codes: 0 done, 1 internal error, 2 bad usage, case file, run directory or e
 
 from __future__ import annotations
 
+import enum
 import os
 import sys
 
@@ -25,8 +26,32 @@ from .errors import UsageError, describe_os_error
 
 EXIT_OK, EXIT_INTERNAL, EXIT_USAGE, EXIT_INTERRUPTED, EXIT_PIPE = 0, 1, 2, 130, 141
 
-app = typer.Typer(add_completion=False, no_args_is_help=True, pretty_exceptions_enable=False,
-                  help="Optimise railway level crossings and their transition zones.")
+app = typer.Typer(no_args_is_help=True, pretty_exceptions_enable=False,
+                  help="Optimise railway level crossings and their transition zones.\n\n"
+                       "Objectives (paper Sec. 2.2.2), over the evaluation zone next to the interface: "
+                       "F_rms and F_max, the rms and the max - min of the wheel-rail contact force (kN); "
+                       "E_rms and E_max, the rms and the max - min over the zone sleepers of the energy "
+                       "dissipated in the ballast under each (J).")
+
+
+class Format(str, enum.Enum):
+    md = "md"
+    html = "html"
+    both = "both"
+
+
+def _version(value: bool) -> None:
+    if value:
+        from . import __version__
+
+        typer.echo(f"lccopt {__version__}")
+        raise typer.Exit()
+
+
+@app.callback()
+def _main_options(version: bool = typer.Option(False, "--version", callback=_version, is_eager=True,
+                                                help="print the version and exit")) -> None:
+    """Optimise railway level crossings and their transition zones."""
 
 
 @app.command()
@@ -42,15 +67,18 @@ def check(case: Path = typer.Argument(..., help="case file (YAML)")) -> None:
 @app.command()
 def simulate(
     case: Path = typer.Argument(..., help="case file (YAML)"),
-    design: Optional[str] = typer.Option(None, help="design vector x, comma-separated in SI units "
+    design: Optional[str] = typer.Option(None, help="design x in the case's order, comma-separated: "
+                                         "pad stiffness x_r1..x_rN in MN/m, then x_n, the spans x_s1.. in "
+                                         "0.1 m elements, x_l in 0.1 m elements; e.g. 214,155,50,5,6,7,3,0 "
                                          "(default: the case's reference design)"),
     out: Optional[Path] = typer.Option(None, help="output directory (default: runs/<case name>-simulate)"),
-    plots: bool = typer.Option(True, help="draw PNG plots"),
+    no_plots: bool = typer.Option(False, "--no-plots", help="skip the PNG plots"),
+    force: bool = typer.Option(False, "--force", help="replace a simulation already in the output directory"),
 ) -> None:
-    """Simulate one design: print F_rms, F_max, E_rms, E_max; write HDF5 and plots."""
+    """Simulate one design: print F_rms, F_max (kN), E_rms, E_max (J); write HDF5 and plots."""
     from .simulate_cmd import run_simulate
 
-    run_simulate(case, design, out, plots)
+    run_simulate(case, design, out, not no_plots, force)
 
 
 @app.command()
@@ -59,7 +87,8 @@ def optimise(
     workers: Optional[int] = typer.Option(None, help="local worker processes (default: number of cores)"),
     scheduler: Optional[str] = typer.Option(None, help="Dask scheduler address, e.g. tcp://host:8786"),
     runs: Path = typer.Option(Path("runs"), help="directory that holds run directories"),
-    force: bool = typer.Option(False, help="replace an existing run directory of the same name"),
+    force: bool = typer.Option(False, "--force", help="replace an existing lccopt run directory of the "
+                               "same name inside --runs"),
 ) -> None:
     """Run the surrogate optimisation of a case into runs/<case name>/."""
     from .engine.runner import optimise as run_optimise
@@ -74,7 +103,8 @@ def resume(
     scheduler: Optional[str] = typer.Option(None, help="Dask scheduler address, e.g. tcp://host:8786"),
     case: Optional[Path] = typer.Option(None, help="the case file to check against (default: the one "
                                         "the run was started from)"),
-    allow_changed_case: bool = typer.Option(False, help="resume even if the case file changed"),
+    allow_changed_case: bool = typer.Option(False, "--allow-changed-case",
+                                            help="resume even if the case file changed"),
 ) -> None:
     """Carry on an interrupted run where it stopped."""
     from .engine.runner import resume as run_resume
@@ -85,12 +115,12 @@ def resume(
 @app.command()
 def report(
     run: Path = typer.Argument(..., help="run directory, e.g. runs/moo"),
-    format: str = typer.Option("both", "--format", help="summary format: md, html or both"),
+    format: Format = typer.Option(Format.both, "--format", help="summary format"),
 ) -> None:
     """Write figures and a summary of a run into RUN/report/."""
     from .report import write_report
 
-    write_report(run, format)
+    write_report(run, format.value)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -107,12 +137,8 @@ def main(argv: list[str] | None = None) -> int:
         return exc.exit_code
     except (KeyboardInterrupt, *aborts):
         return _fail("lccopt: interrupted", EXIT_INTERRUPTED)
-    except usage_errors as exc:  # usage errors: usage line + message, exit 2
-        try:
-            exc.show()
-        except OSError:
-            _silence_stdio()
-        return EXIT_USAGE
+    except usage_errors as exc:  # usage errors: one line naming the command, exit 2
+        return _fail(_usage_line(exc), EXIT_USAGE)
     except BrokenPipeError:  # the reader went away (| head): stop quietly, as SIGPIPE would
         _silence_stdio()
         return EXIT_PIPE
@@ -143,6 +169,15 @@ def _click_exception_types() -> tuple[tuple, tuple]:
     except ImportError:
         pass
     return tuple(usage), tuple(aborts)
+
+
+def _usage_line(exc: Exception) -> str:
+    """click's usage error as one line: `lccopt report: error: ... (see lccopt report --help)`."""
+    ctx = getattr(exc, "ctx", None)
+    command = "lccopt" + (f" {ctx.info_name}" if ctx is not None and ctx.parent is not None else "")
+    message = exc.format_message() if hasattr(exc, "format_message") else str(exc)
+    message = " ".join(message.replace("Value error, ", "").split())
+    return f"{command}: error: {message} (see {command} --help)"
 
 
 def _fail(message: str, code: int) -> int:

@@ -8,12 +8,21 @@ from pathlib import Path
 import numpy as np
 import typer
 
-from .case import load_case, parse_design
+from .case import format_design, load_case, parse_design
 from .store import write_evaluation
 from .vti.response import OBJECTIVE_UNITS, Evaluation
 
 
-def run_simulate(case_path: Path, design: str | None, out: Path | None, plots: bool) -> Evaluation:
+OBJECTIVE_MEANING = {  # paper Sec. 2.2.2
+    "F_rms": "rms of the wheel-rail contact force in the force zone",
+    "F_max": "max - min of the contact force in the force zone",
+    "E_rms": "rms of the energy dissipated under the zone sleepers",
+    "E_max": "max - min of that energy over the zone sleepers",
+}
+
+
+def run_simulate(case_path: Path, design: str | None, out: Path | None, plots: bool,
+                 force: bool = False) -> Evaluation:
     from .errors import UsageError
 
     case = load_case(case_path)
@@ -22,6 +31,9 @@ def run_simulate(case_path: Path, design: str | None, out: Path | None, plots: b
     except ValueError as exc:
         raise UsageError(f"--design: {exc}") from None
     out = out or Path("runs") / f"{case.name}-simulate"
+    if (out / "simulation.h5").exists() and not force:
+        raise UsageError(f"{out} already holds a simulation: choose another --out, or add --force "
+                         f"to replace it")
     out.mkdir(parents=True, exist_ok=True)
 
     from .vti.simulate import evaluate
@@ -30,15 +42,15 @@ def run_simulate(case_path: Path, design: str | None, out: Path | None, plots: b
     ev = evaluate(case, x)
     wall = time.perf_counter() - t0
     info = ev.info
-    typer.echo(f"case '{case.name}' ({case_path}), design "
-               + ", ".join(f"{n}={v:g}" for n, v in zip(case.names, x)))
+    typer.echo(f"case '{case.name}' ({case_path}), design {format_design(case, x)}")
     typer.echo(f"static wheel load {info['static_wheel_load'] / 1e3:.2f} kN (on a rigid rail); "
                f"Hertz spring linearised at P = {info['hertz_load'] / 1e3:.1f} kN: "
                f"k_w = {info['contact_stiffness'] / 1e9:.3f} GN/m")
     typer.echo(f"{info['n_dofs']} track dofs, {info['n_steps']} steps of {info['time_step'] * 1e3:g} ms, "
                f"wheel from {info['x_start']:.1f} m to {info['x_end']:.1f} m, {wall:.2f} s")
     for k, v in ev.objectives.items():
-        typer.echo(f"  {k:<6} = {v:12.6g} {OBJECTIVE_UNITS[k]}")
+        shown, unit = (v / 1e3, "kN") if OBJECTIVE_UNITS[k] == "N" else (v, OBJECTIVE_UNITS[k])
+        typer.echo(f"  {k:<6} = {shown:10.5g} {unit:<2}  {OBJECTIVE_MEANING[k]}")
     if info["contact_loss_steps"]:
         typer.echo(f"WARNING: contact lost (force <= 0) in {info['contact_loss_steps']} steps, first at "
                    f"{info['contact_loss_first_position']:.2f} m; the linear contact spring pulled the wheel",
@@ -57,55 +69,72 @@ def plot_evaluation(ev: Evaluation, case, out: Path) -> list[Path]:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.patches import Patch
+
+    from .report.data import OKABE_ITO, TYPE_II_COLOR, ZONE_COLOR
+    from .report.figures import range_bracket, sleeper_ticks, speed_text
 
     h, info = ev.histories, ev.info
     x = h["wheel_position"]
     x_a, x_b = info["interface_entry"], info["interface_exit"]
+    speed = speed_text(info, case)
     paths = []
 
     def mark(ax):
         ax.axvspan(x_a, min(x_b, x.max()), color="0.85", label="ERS (level crossing)")
-        ax.axvspan(info["zone_start"], info["zone_end"], color="tab:orange", alpha=0.12,
+        ax.axvspan(info["zone_start"], info["zone_end"], color=ZONE_COLOR, alpha=0.18,
                    label="force evaluation zone")
         if info["type_ii_end"] > x_a:
-            ax.axvspan(x_a, info["type_ii_end"], color="tab:purple", alpha=0.15, label="Type II strip")
+            ax.axvspan(x_a, info["type_ii_end"], color=TYPE_II_COLOR, alpha=0.2, label="Type II strip")
 
-    fig, ax = plt.subplots(figsize=(9, 4.4))
+    fig, ax = plt.subplots(figsize=(9, 4.6))
     mark(ax)
-    ax.plot(x, h["contact_force"] / 1e3, lw=0.9, color="tab:blue", label="contact force")
+    f = h["contact_force"] / 1e3
+    ax.plot(x, f, lw=0.9, color=OKABE_ITO["blue"], label="contact force")
+    zone = (x >= info["zone_start"]) & (x <= info["zone_end"])
+    lo, hi = float(f[zone].min()), float(f[zone].max())
+    ax.hlines([lo, hi], info["zone_start"], info["zone_end"], color=OKABE_ITO["blue"], lw=0.7, ls="--")
+    range_bracket(ax, 0, lo, hi, OKABE_ITO["blue"], "F_max")
     ax.axhline(info["static_wheel_load"] / 1e3, color="k", ls=":", lw=0.8, label="static wheel load")
+    sleeper_ticks(ax, h["entry_sleeper_position"], "0.3", 0, "sleepers")
     ax.set(xlabel="wheel position along the track [m]", ylabel="wheel-rail contact force [kN]",
-           title=f"case {case.name}: F_max = {ev.objectives['F_max'] / 1e3:.2f} kN, "
-                 f"F_rms = {ev.objectives['F_rms'] / 1e3:.2f} kN")
-    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=5, fontsize=8, frameon=False)
-    fig.tight_layout()
+           title=f"case {case.name}" + (f" at {speed}" if speed else "")
+                 + f": F_max = {ev.objectives['F_max'] / 1e3:.2f} kN (max - min in the zone), "
+                 f"F_rms = {ev.objectives['F_rms'] / 1e3:.2f} kN", xlim=(x.min(), x.max()))
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.14), ncol=3, fontsize=8, frameon=False)
+    fig.tight_layout(rect=(0, 0, 0.96, 1))
     paths.append(out / "contact_force.png")
     fig.savefig(paths[-1], dpi=120)
     plt.close(fig)
 
-    fig, ax = plt.subplots(figsize=(9, 4))
+    fig, ax = plt.subplots(figsize=(9, 4.4))
     e = h["sleeper_energy"]
     n = np.arange(1, len(e) + 1)
-    colors = np.where(h["sleeper_strengthened"] > 0, "tab:red", "tab:green")
-    ax.bar(n, e, color=colors)
-    ax.bar([0], [0], color="tab:red", label="strengthened sleeper")
-    ax.bar([0], [0], color="tab:green", label="standard sleeper")
+    strengthened = h["sleeper_strengthened"] > 0
+    # strengthened sleepers differ in colour and hatching, so the two read apart without colour
+    ax.bar(n[~strengthened], e[~strengthened], color=OKABE_ITO["sky"], edgecolor="k", lw=0.5)
+    ax.bar(n[strengthened], e[strengthened], color=OKABE_ITO["vermillion"], edgecolor="k", lw=0.5, hatch="///")
+    ax.hlines([e.min(), e.max()], 0.3, len(e) + 0.7, color="k", lw=0.7, ls="--")
+    range_bracket(ax, 0, float(e.min()), float(e.max()), "k", "E_max")
     ax.set(xlabel="sleeper number (1 = next to the interface)", ylabel="energy dissipated in support [J]",
-           title=f"E_max = {ev.objectives['E_max']:.4f} J, E_rms = {ev.objectives['E_rms']:.4f} J",
+           title=f"E_max = {ev.objectives['E_max']:.4f} J (max - min), E_rms = {ev.objectives['E_rms']:.4f} J",
            xticks=n, xlim=(0.3, len(e) + 0.7))
-    ax.legend(fontsize=8)
-    fig.tight_layout()
+    ax.legend(handles=[Patch(facecolor=OKABE_ITO["vermillion"], edgecolor="k", hatch="///",
+                             label="strengthened sleeper"),
+                       Patch(facecolor=OKABE_ITO["sky"], edgecolor="k", label="standard sleeper")],
+              loc="upper center", bbox_to_anchor=(0.5, -0.14), ncol=2, fontsize=8, frameon=False)
+    fig.tight_layout(rect=(0, 0, 0.96, 1))
     paths.append(out / "sleeper_energy.png")
     fig.savefig(paths[-1], dpi=120)
     plt.close(fig)
 
     fig, ax = plt.subplots(figsize=(9, 4.4))
     mark(ax)
-    ax.plot(x, h["wheel_displacement"] * 1e3, lw=0.9, label="wheel")
-    ax.plot(x, h["rail_displacement"] * 1e3, lw=0.9, label="rail under the wheel")
+    ax.plot(x, h["wheel_displacement"] * 1e3, lw=0.9, color=OKABE_ITO["blue"], label="wheel")
+    ax.plot(x, h["rail_displacement"] * 1e3, lw=0.9, color=OKABE_ITO["vermillion"], label="rail under the wheel")
     ax.invert_yaxis()
     ax.set(xlabel="wheel position along the track [m]", ylabel="displacement, downward [mm]",
-           title="wheel and rail displacement")
+           title="wheel and rail displacement" + (f" at {speed}" if speed else ""))
     ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=5, fontsize=8, frameon=False)
     fig.tight_layout()
     paths.append(out / "displacement.png")

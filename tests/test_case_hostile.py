@@ -3,6 +3,8 @@ through the installed command as a user (or an attacker) runs it."""
 
 from __future__ import annotations
 
+import re
+
 import pytest
 
 from tests.conftest import REFERENCE
@@ -63,10 +65,18 @@ def test_a_hostile_case_file_gets_one_line_and_exit_2(tmp_path, run_cli, kind):
 
 
 def test_a_time_step_just_fine_enough_passes(tmp_path, run_cli):
-    """The limit is the one the message states, not a guess: just below it is accepted."""
+    """The limit is the one the message states, not a guess: just below it is accepted,
+    just above it refused with the same limit."""
     case = tmp_path / "case.yaml"
-    case.write_text(f"extends: {R}\nname: t\nsimulation:\n  time_step: 1.0e-3\n")
-    assert run_cli("check", case).returncode == 0
-    case.write_text(f"extends: {R}\nname: t\nsimulation:\n  time_step: 1.1e-3\n")
+    case.write_text(f"extends: {R}\nname: t\nsimulation:\n  time_step: 0.05\n")
     r = run_cli("check", case)
-    assert r.returncode == 2 and "time_step <= 0.00103 s" in r.stderr
+    found = re.search(r"time_step <= ([0-9.e-]+) s", r.stderr)
+    assert r.returncode == 2 and found, r.stderr
+    limit = float(found.group(1))
+    case.write_text(f"extends: {R}\nname: t\nsimulation:\n  time_step: {limit * 0.99:.6g}\n"
+                    f"  element_length: 0.1\n")
+    assert run_cli("check", case).returncode == 0
+    case.write_text(f"extends: {R}\nname: t\nsimulation:\n  time_step: {limit * 1.02:.6g}\n"
+                    f"  element_length: 0.1\n")
+    r = run_cli("check", case)
+    assert r.returncode == 2 and f"time_step <= {found.group(1)} s" in r.stderr

@@ -18,7 +18,47 @@ def fmt(v) -> str:
     return "-" if v is None or (isinstance(v, float) and not math.isfinite(v)) else f"{v:.6g}"
 
 
+def objective_text(k: str, v) -> str:
+    """An objective in engineering units: forces in kN, energies in J."""
+    if v is None or not math.isfinite(v):
+        return f"{k} -"
+    return f"{k} {v / 1e3:.3g} kN" if k.startswith("F") else f"{k} {v:.3g} J"
+
+
+def best_text(table, short: bool = False) -> str:
+    """The best design so far: its objectives and their change against the reference design
+    (SHORT: without the evaluation number, for a terminal line)."""
+    best = table.best()
+    if best is None:
+        return "best -"
+    ref = (table.reference or {}).get("objectives")
+    if ref is None and 0 in table.rows and table.rows[0]["status"] == "ok":
+        ref = table.rows[0]["objectives"]
+    parts = []
+    for k in table.objectives:
+        v, r = best["objectives"].get(k), (ref or {}).get(k)
+        rel = ""
+        if r and v is not None and math.isfinite(v):
+            rel = f" {(v - r) / r:+.0%}" if short else f" ({(v - r) / r:+.0%})"
+        parts.append(objective_text(k, v) + rel)
+    return ("best " if short else f"best #{best['id']}: ") + ", ".join(parts)
+
+
+BAR = 5  # characters of the progress bar on a terminal
+
+
+def fit(text: str, width: int) -> str:
+    """TEXT cut to WIDTH characters with an ellipsis (rich would otherwise squeeze the times)."""
+    return text if len(text) <= width else text[:max(0, width - 1)] + "…"
+
+
 class Progress:
+    """Evaluations, elapsed time, ETA and the best design so far.
+
+    On a terminal a rich live line that fits the terminal's width (its text column is cut
+    with an ellipsis rather than wrapped, so a redraw never leaves stale lines); in a log
+    file or pipe one plain line per finished evaluation."""
+
     def __init__(self, budget: int, stream=None, enabled: bool = True):
         self.stream = stream or sys.stderr
         self.budget = budget
@@ -26,13 +66,33 @@ class Progress:
         self.tty = enabled and hasattr(self.stream, "isatty") and self.stream.isatty()
         self.t0 = time.monotonic()
         self.done0: int | None = None   # evaluations already done when this session started
-        self._drawn = False
+        self._live = None
+        self._task = None
+
+    def _start(self, done: int) -> None:
+        from rich.console import Console
+        from rich.progress import (BarColumn, MofNCompleteColumn, Progress as RichProgress,
+                                   TextColumn, TimeElapsedColumn, TimeRemainingColumn)
+        from rich.table import Column
+
+        console = Console(file=self.stream, highlight=False)
+        fixed = Column(no_wrap=True)
+        self._live = RichProgress(
+            BarColumn(bar_width=BAR), MofNCompleteColumn(table_column=fixed),
+            TimeElapsedColumn(table_column=fixed), TextColumn("ETA", table_column=fixed),
+            TimeRemainingColumn(table_column=fixed),
+            TextColumn("{task.description}", table_column=Column(no_wrap=True, overflow="ellipsis")),
+            console=console, transient=False, auto_refresh=False)
+        # what the columns before the description take: bar, n/budget, two times, "ETA", gaps
+        self._text_width = console.width - (BAR + 2 * len(str(self.budget)) + 1 + 7 + 3 + 7 + 5) - 1
+        self._task = self._live.add_task("", total=self.budget, completed=done)
+        self._live.start()
 
     def log(self, message: str) -> None:
-        """A message on its own line (clears a drawn progress line first)."""
-        if self._drawn:
-            self.stream.write("\r\033[K")
-            self._drawn = False
+        """A message on its own line (above the live progress line on a terminal)."""
+        if self._live is not None:
+            self._live.console.print(f"lccopt: {message}", markup=False, soft_wrap=True)
+            return
         self.stream.write(f"lccopt: {message}\n")
         self.stream.flush()
 
@@ -42,27 +102,27 @@ class Progress:
         done, failed = table.n_done, table.n_failed
         if self.done0 is None:
             self.done0 = done
+        tail = f"  failed {failed}" if failed else ""
+        if self.tty:
+            if self._live is None:
+                self._start(done)
+            self._live.update(self._task, completed=done,
+                              description=fit(best_text(table, short=True) + tail, self._text_width))
+            self._live.refresh()
+            return
         elapsed = time.monotonic() - self.t0
         new = done - self.done0
-        left = (self.budget - done) * elapsed / new if new > 0 else math.nan
-        best = table.best()
-        best_s = f"best {fmt(best['value'])} (#{best['id']})" if best else "best -"
+        left = f"  left ~{hms((self.budget - done) * elapsed / new)}" if new > 0 else ""
         width = len(str(self.budget))
-        head = f"[{done:>{width}}/{self.budget}] {best_s}  failed {failed}  running {running}  " \
-               f"elapsed {hms(elapsed)}  left ~{hms(left)}"
-        if self.tty:
-            frac = min(1.0, done / max(1, self.budget))
-            bar = "#" * int(20 * frac) + "-" * (20 - int(20 * frac))
-            self.stream.write(f"\r\033[K{bar} {head}")
-            self._drawn = True
-        elif last is not None:
-            what = (f"#{last['id']} {last['phase']} value {fmt(last['value'])}" if last["status"] == "ok"
+        head = f"[{done:>{width}}/{self.budget}] {hms(elapsed)}{left}  {best_text(table)}"
+        if last is not None:
+            what = (f"#{last['id']} {last['phase']} ok" if last["status"] == "ok"
                     else f"#{last['id']} {last['phase']} FAILED: {last['reason']}")
-            self.stream.write(f"lccopt: {head}  | {what}\n")
+            self.stream.write(f"lccopt: {head}{tail}  | {what}\n")
         self.stream.flush()
 
     def close(self) -> None:
-        if self._drawn:
-            self.stream.write("\n")
-            self.stream.flush()
-            self._drawn = False
+        if self._live is not None:
+            self._live.refresh()
+            self._live.stop()
+            self._live = None

@@ -35,12 +35,12 @@ from pathlib import Path
 import numpy as np
 import typer
 
-from ..case import SAFE_NAME, Case, CaseError, load_case
+from ..case import SAFE_NAME, Case, CaseError, format_design, load_case
 from ..errors import EnvironmentFault, UsageError, describe_os_error, environment_errno
 from ..problem import Problem
 from .executors import ExecutorError, make_executor
 from .journal import Journal, JournalError, read_journal
-from .progress import Progress, fmt, hms
+from .progress import Progress, fmt, hms, objective_text
 from .rundir import RunDir, RunError, Table, eval_name, now_iso, sha256_text, write_results
 from .worker import Outcome, Task, evaluator_spec
 
@@ -590,11 +590,13 @@ class Engine:
         if best is not None:
             lines.append(f"best #{best['id']} ({best['phase']}, restart {best['restart']}): value "
                          f"{fmt(best['value'])}")
-            lines.append("  x: " + ", ".join(f"{n}={v:.6g}" for n, v in zip(pb.names, best["x"])))
+            lines.append("  x: " + format_design(self.case, best["x"]))
+            if not ref and 0 in t.rows and t.rows[0]["status"] == "ok":
+                ref = t.rows[0]["objectives"]
             for k in pb.objectives:
                 v, r = best["objectives"].get(k), ref.get(k)
-                rel = f" ({(v - r) / r:+.1%} vs reference design {r:.6g})" if r else ""
-                lines.append(f"  {k} = {v:.6g}{rel}")
+                rel = f" ({(v - r) / r:+.1%} vs reference design {objective_text(k, r).split(' ', 1)[1]})" if r else ""
+                lines.append(f"  {objective_text(k, v)}{rel}")
         lines.append(f"results: {self.rd.results_path}")
         sys.stdout.write("\n".join(lines) + "\n")
         sys.stdout.flush()

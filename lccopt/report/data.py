@@ -18,13 +18,19 @@ OBJECTIVE_DOC = {
     "E_rms": "rms of the energy dissipated under the zone sleepers",
     "E_max": "range (max - min) of the energy dissipated under the zone sleepers",
 }
+# Okabe & Ito's colour-blind-safe palette (Color Universal Design, 2008): every pair stays
+# distinguishable under the common colour-vision deficiencies.
+OKABE_ITO = {"orange": "#E69F00", "sky": "#56B4E9", "green": "#009E73", "yellow": "#F0E442",
+             "blue": "#0072B2", "vermillion": "#D55E00", "purple": "#CC79A7", "grey": "#999999"}
 PHASE_STYLE = {  # phase -> (label, marker, colour)
     "initial": ("initial design (Latin hypercube)", "^", "0.35"),
-    "adaptive": ("adaptive candidates (DYCORS)", "o", "tab:blue"),
-    "random": ("random candidates", "s", "tab:purple"),
-    "local": ("local search of the surrogate", "D", "tab:cyan"),
+    "adaptive": ("adaptive candidates (DYCORS)", "o", OKABE_ITO["blue"]),
+    "random": ("random candidates", "s", OKABE_ITO["purple"]),
+    "local": ("local search of the surrogate", "D", OKABE_ITO["sky"]),
 }
-REF_COLOR, BEST_COLOR, FAIL_COLOR, FRONT_COLOR = "tab:orange", "tab:blue", "tab:red", "tab:green"
+REF_COLOR, BEST_COLOR, FAIL_COLOR, FRONT_COLOR = (OKABE_ITO["orange"], OKABE_ITO["blue"],
+                                                  OKABE_ITO["vermillion"], OKABE_ITO["green"])
+ZONE_COLOR, TYPE_II_COLOR = OKABE_ITO["yellow"], OKABE_ITO["purple"]
 DPI = 110
 
 FIGURES = ("search-history", "objective-space", "best-vs-reference", "contact-force", "sleeper-energy",

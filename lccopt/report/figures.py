@@ -7,7 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .data import (BEST_COLOR, DPI, FAIL_COLOR, FRONT_COLOR, OBJECTIVE_NAMES, PHASE_STYLE, REF_COLOR, RunData,
+from .data import (BEST_COLOR, DPI, FAIL_COLOR, FRONT_COLOR, OBJECTIVE_NAMES, OKABE_ITO, PHASE_STYLE,
+                   REF_COLOR, TYPE_II_COLOR, ZONE_COLOR, RunData,
                    fnum, obj_display, value_label, var_axis_label, var_value)
 
 
@@ -147,13 +148,27 @@ def fig_search_history(run: RunData, out: Path) -> Path:
     return _save(fig, out / "search-history.png")
 
 
+def log_ticks(lo: float, hi: float, at_least: int = 5) -> list[float]:
+    """Labelled ticks for a logarithmic axis over [LO, HI]: 1-2-5, else 1-2-3-5, else every
+    mantissa per decade, the first of these that puts AT_LEAST ticks in the range (matplotlib's
+    own locator leaves a range inside one decade, e.g. 0.3-1.8 kN, nearly unlabelled)."""
+    decades = range(int(np.floor(np.log10(lo))) - 1, int(np.ceil(np.log10(hi))) + 1)
+    pad_lo, pad_hi = lo / 1.15, hi * 1.15   # matplotlib's margins show a little beyond the data
+    ticks: list[float] = []
+    for mantissas in ((1, 2, 5), (1, 2, 3, 5), (1, 2, 3, 4, 5, 6, 7, 8, 9)):
+        ticks = [float(f"{m}e{d}") for d in decades for m in mantissas if pad_lo <= m * 10.0 ** d <= pad_hi]
+        if len(ticks) >= at_least:
+            break
+    return ticks
+
+
 def fig_objective_space(run: RunData, out: Path) -> tuple[Path, str]:
     """(path, note). Multi-objective: the run's first two objectives; else F_max vs E_max.
 
     Left: all evaluations (logarithmic axes when they span a wide range); right: a zoom on the
     Pareto front, the reference design and the reference point."""
     plt = _plt()
-    from matplotlib.ticker import FuncFormatter, LogLocator
+    from matplotlib.ticker import FixedLocator, FuncFormatter, LogLocator
 
     if run.multi:
         kx, ky = run.objectives[0], run.objectives[1]
@@ -213,10 +228,10 @@ def fig_objective_space(run: RunData, out: Path) -> tuple[Path, str]:
         if target is not None:
             imp = f"{run.improvement:.0%} better than the reference design" \
                 if run.improvement is not None and np.isfinite(run.improvement) else "target"
-            ax.scatter([target[0]], [target[1]], marker="P", s=90, color="tab:red", edgecolor="k", zorder=5,
+            ax.scatter([target[0]], [target[1]], marker="P", s=90, color=OKABE_ITO["vermillion"], edgecolor="k", zorder=5,
                        label=L(f"reference point f^r ({imp})"))
-            ax.axvline(target[0], color="tab:red", lw=0.7, ls=":", zorder=1)
-            ax.axhline(target[1], color="tab:red", lw=0.7, ls=":", zorder=1)
+            ax.axvline(target[0], color=OKABE_ITO["vermillion"], lw=0.7, ls=":", zorder=1)
+            ax.axhline(target[1], color=OKABE_ITO["vermillion"], lw=0.7, ls=":", zorder=1)
         if bi is not None:
             lab = "chosen compromise (best ASF value)" if run.multi else f"best {run.objectives[0]}"
             ax.scatter([X[bi]], [Y[bi]], marker="*", s=260, color=BEST_COLOR, edgecolor="k", zorder=6,
@@ -229,7 +244,7 @@ def fig_objective_space(run: RunData, out: Path) -> tuple[Path, str]:
     for vals, axis in ((X[ok], a0.xaxis), (Y[ok], a0.yaxis)):
         if len(vals) and np.all(vals > 0) and vals.max() > 4 * vals.min():
             (a0.set_xscale if axis is a0.xaxis else a0.set_yscale)("log")
-            axis.set_major_locator(LogLocator(subs=(1.0, 2.0, 3.0, 5.0)))
+            axis.set_major_locator(FixedLocator(log_ticks(float(vals.min()), float(vals.max()))))
             axis.set_minor_locator(LogLocator(subs=np.arange(1, 10)))
             axis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
             axis.set_minor_formatter(FuncFormatter(lambda v, _: ""))
@@ -257,7 +272,7 @@ def fig_best_vs_reference(run: RunData, bi: int, ri: int | None, out: Path) -> P
         b = run.obj[k][bi]
         ch.append((b - r) / abs(r) * 100 if np.isfinite(b) and np.isfinite(r) and r else math.nan)
     ch = np.array(ch)
-    colors = [("tab:green" if c < 0 else "tab:red") for c in np.nan_to_num(ch)]
+    colors = [(OKABE_ITO["blue"] if c < 0 else OKABE_ITO["vermillion"]) for c in np.nan_to_num(ch)]
     y = np.arange(len(names))
     a1.barh(y, np.nan_to_num(ch), color=colors)
     a1.set_yticks(y, names)
@@ -307,42 +322,85 @@ def _zone_marks(ax, info: dict, xmax: float, label: bool = True):
         ax.axvspan(x_a, min(x_b, xmax), color="0.88", zorder=0, label="ERS (level crossing)" if label else None)
         ax.axvline(x_a, color="0.3", lw=0.9, zorder=1)
     if "zone_start" in info and "zone_end" in info:
-        ax.axvspan(info["zone_start"], info["zone_end"], color="tab:orange", alpha=0.10, zorder=0,
+        ax.axvspan(info["zone_start"], info["zone_end"], color=ZONE_COLOR, alpha=0.18, zorder=0,
                    label="force evaluation zone" if label else None)
 
 
+def speed_text(info: dict, case=None) -> str:
+    """'140 km/h' from an evaluation's info (or the case, for files written before it was kept)."""
+    v = info.get("speed")
+    if v is None and case is not None:
+        v = case.data["vehicle"]["speed"]
+    return "" if v is None else f"{float(v) * 3.6:.0f} km/h"
+
+
+def range_bracket(ax, column: int, lo: float, hi: float, color: str, text: str) -> None:
+    """A vertical double arrow from LO to HI in the right margin of AX (COLUMN 0, 1, ...) with
+    TEXT beside it: what a max - min objective measures, clear of the curves."""
+    x = 1.012 + 0.045 * column
+    ax.annotate("", xy=(x, hi), xytext=(x, lo), xycoords=("axes fraction", "data"),
+                textcoords=("axes fraction", "data"), annotation_clip=False,
+                arrowprops=dict(arrowstyle="<->", color=color, lw=1.4, shrinkA=0, shrinkB=0))
+    ax.text(x + 0.004, 0.5 * (lo + hi), text, color=color, ha="left", va="center", fontsize=8, rotation=90,
+            transform=ax.get_yaxis_transform(), clip_on=False)
+
+
+def sleeper_ticks(ax, positions, color: str, row: int, label: str | None) -> None:
+    """Short marks at the foot of the axes at each sleeper position (ROW 0, 1: stacked)."""
+    positions = np.asarray(positions, float)
+    if positions.size:
+        ax.vlines(positions, 0.012 + 0.035 * row, 0.042 + 0.035 * row, transform=ax.get_xaxis_transform(),
+                  color=color, lw=1.2, zorder=5, label=label)
+
+
 def fig_contact_force(run: RunData, best: tuple, ref: tuple, bi: int, out: Path) -> Path | None:
+    """Contact force along the track for the best and the reference design, with the force zone,
+    the sleepers of each design, and F_max drawn as the max - min range it is."""
     (hb, ib), (hr, ir) = best, ref
     have = [(h, i) for h, i in (best, ref) if h is not None and "wheel_position" in h and "contact_force" in h]
     if not have:
         return None
     plt = _plt()
     info = ib if hb is not None and "wheel_position" in hb else ir
-    fig, ax = plt.subplots(figsize=(9, 4.8))
+    fig, ax = plt.subplots(figsize=(9, 5.0))
     xmax = max(float(np.max(h["wheel_position"])) for h, _ in have)
     _zone_marks(ax, info, xmax)
+    x0 = min(float(np.min(h["wheel_position"])) for h, _ in have)
+    if "zone_start" in info:  # the run-in from static equilibrium is not of interest
+        x0 = max(x0, float(info["zone_start"]) - 2.0)
+    zone = (info.get("zone_start", x0), info.get("zone_end", xmax))
+    curves = []
     if hr is not None and "contact_force" in hr and "wheel_position" in hr:
-        ax.plot(hr["wheel_position"], hr["contact_force"] / 1e3, color=REF_COLOR, lw=1.1,
-                label=f"reference design: F_max = {fnum(run.ref_objectives.get('F_max', math.nan) / 1e3, 4)} kN")
+        curves.append((hr, REF_COLOR, "reference design", run.ref_objectives.get("F_max", math.nan), 0))
     if hb is not None and "contact_force" in hb and "wheel_position" in hb:
-        ax.plot(hb["wheel_position"], hb["contact_force"] / 1e3, color=BEST_COLOR, lw=1.1,
-                label=f"best #{run.ids[bi]}: F_max = {fnum(run.obj['F_max'][bi] / 1e3, 4)} kN")
+        curves.append((hb, BEST_COLOR, f"best #{run.ids[bi]}", run.obj["F_max"][bi], 1))
+    for h, color, lab, fmax, row in curves:
+        xw, f = h["wheel_position"], h["contact_force"] / 1e3
+        ax.plot(xw, f, color=color, lw=1.1, label=f"{lab}: F_max = {fnum(fmax / 1e3, 4)} kN (max - min in the zone)")
+        in_zone = (xw >= zone[0]) & (xw <= zone[1])
+        if in_zone.any():
+            lo, hi = float(f[in_zone].min()), float(f[in_zone].max())
+            ax.hlines([lo, hi], zone[0], zone[1], color=color, lw=0.7, ls="--", zorder=2)
+            range_bracket(ax, row, lo, hi, color, "F_max")
+        positions = h.get("sleeper_position", h.get("entry_sleeper_position"))
+        if positions is not None:
+            positions = np.asarray(positions, float)
+            sleeper_ticks(ax, positions[(positions >= x0) & (positions <= xmax)], color, row,
+                          f"sleepers of the {lab.split(':')[0]}")
     if "static_wheel_load" in info:
         ax.axhline(info["static_wheel_load"] / 1e3, color="k", ls=":", lw=0.8, label="static wheel load")
     if "interface_entry" in info:
         ax.text(info["interface_entry"], 0.98, " interface", transform=ax.get_xaxis_transform(), va="top",
                 ha="left", fontsize=8)
+    speed = speed_text(info, run.case)
     ax.set(xlabel="wheel position along the track [m]", ylabel="wheel-rail contact force [kN]",
-           title="Contact force: best against reference design")
-    x0 = min(float(np.min(h["wheel_position"])) for h, _ in have)
-    if "zone_start" in info:  # the run-in from static equilibrium is not of interest
-        x0 = max(x0, float(info["zone_start"]) - 2.0)
+           title="Contact force: best against reference design" + (f", vehicle at {speed}" if speed else ""))
     ax.set_xlim(x0, xmax)
     shown = [h["contact_force"][h["wheel_position"] >= x0] / 1e3 for h, _ in have]
     lo, hi = min(float(v.min()) for v in shown), max(float(v.max()) for v in shown)
-    ax.set_ylim(lo - 0.08 * (hi - lo or 1), hi + 0.15 * (hi - lo or 1))
-    fig.legend(*ax.get_legend_handles_labels(), loc="lower center", ncol=3, frameon=False)
-    fig.tight_layout(rect=(0, 0.13, 1, 1))
+    ax.set_ylim(lo - 0.15 * (hi - lo or 1), hi + 0.15 * (hi - lo or 1))
+    fig.legend(*ax.get_legend_handles_labels(), loc="lower center", ncol=2, frameon=False)
+    fig.tight_layout(rect=(0, 0.2, 0.95, 1))
     return _save(fig, out / "contact-force.png")
 
 
@@ -359,19 +417,22 @@ def fig_sleeper_energy(run: RunData, best: tuple, ref: tuple, bi: int, out: Path
     n = max(len(e) for e in (eb, er) if e is not None)
     fig, ax = plt.subplots(figsize=(9, 4.6))
     handles = []
-    for e, h, color, marker, lab in ((er, hr, REF_COLOR, "D", "reference design"),
-                                     (eb, hb, BEST_COLOR, "o", f"best #{run.ids[bi]}")):
+    for e, h, color, marker, lab, row in ((er, hr, REF_COLOR, "D", "reference design", 0),
+                                          (eb, hb, BEST_COLOR, "o", f"best #{run.ids[bi]}", 1)):
         if e is None:
             continue
         e = np.asarray(e, float)
         idx = np.arange(1, len(e) + 1)
         st = np.asarray(h.get("sleeper_strengthened", np.zeros(len(e))), dtype=bool)[:len(e)]
-        ax.axhspan(e.min(), e.max(), color=color, alpha=0.10, lw=0)
+        # E_max as the max - min range it is: dashed bounds and a bracket in the design's colour
+        # (two translucent bands on top of each other could not be told apart)
+        ax.hlines([e.min(), e.max()], 0.5, n + 0.5, color=color, lw=0.8, ls="--", zorder=2)
+        range_bracket(ax, row, float(e.min()), float(e.max()), color, "E_max")
         ax.plot(idx, e, color=color, lw=1.4, zorder=3)
         ax.scatter(idx[~st], e[~st], marker=marker, s=30, facecolor="white", edgecolor=color, lw=1.3, zorder=4)
         ax.scatter(idx[st], e[st], marker=marker, s=30, facecolor=color, edgecolor=color, lw=1.3, zorder=4)
         handles.append(Line2D([], [], color=color, marker=marker, markerfacecolor=color,
-                              label=f"{lab}: E_max = {fnum(float(e.max() - e.min()), 4)} J (band: min to max), "
+                              label=f"{lab}: E_max = {fnum(float(e.max() - e.min()), 4)} J (max - min, dashed), "
                                     f"E_rms = {fnum(float(np.sqrt(np.mean(e ** 2))), 4)} J"))
     handles += [Line2D([], [], ls="", marker="o", color="0.3", label="strengthened sleeper (filled)"),
                 Line2D([], [], ls="", marker="o", markerfacecolor="white", color="0.3",
@@ -381,7 +442,7 @@ def fig_sleeper_energy(run: RunData, best: tuple, ref: tuple, bi: int, out: Path
            xlim=(0.5, n + 0.5))
     ax.set_xticks(np.arange(1, n + 1))
     fig.legend(handles=handles, loc="lower center", ncol=2, frameon=False)
-    fig.tight_layout(rect=(0, 0.12, 1, 1))
+    fig.tight_layout(rect=(0, 0.12, 0.95, 1))
     return _save(fig, out / "sleeper-energy.png")
 
 
@@ -456,7 +517,7 @@ def fig_track_layout(run: RunData, best: tuple, ref: tuple, bi: int, out: Path) 
         # Type II strip
         t2 = l["type_ii_end"] - l["x_a"]
         if t2 > 0:
-            ax.add_patch(Rectangle((0, -0.35), t2, 0.33, facecolor="tab:purple", alpha=0.6, edgecolor="none"))
+            ax.add_patch(Rectangle((0, -0.35), t2, 0.33, facecolor=TYPE_II_COLOR, alpha=0.6, edgecolor="none"))
         ax.add_patch(Rectangle((max(t2, 0), -0.35), max(right, ers_len) - max(t2, 0), 0.33, facecolor="0.55",
                                edgecolor="none"))
         # rail
@@ -502,7 +563,7 @@ def fig_track_layout(run: RunData, best: tuple, ref: tuple, bi: int, out: Path) 
     handles = [Patch(facecolor="burlywood", edgecolor="k", label="standard sleeper"),
                Patch(facecolor="tab:brown", edgecolor="k", hatch="///", label="strengthened sleeper"),
                Patch(facecolor="0.55", label="standard rail strip (Type I)"),
-               Patch(facecolor="tab:purple", alpha=0.6, label="Type II rail strip"),
+               Patch(facecolor=TYPE_II_COLOR, alpha=0.6, label="Type II rail strip"),
                Patch(facecolor="0.75", edgecolor="0.3", label="concrete slab")]
     fig.legend(handles=handles, loc="lower center", ncol=5, frameon=False, bbox_to_anchor=(0.45, 0.0))
     return _save(fig, out / "track-layout.png")

@@ -50,6 +50,7 @@ def evaluate(case: Case, x) -> Evaluation:
     objectives = objectives_from(h.contact_force[in_zone], energy)
     loss = h.contact_force <= 0.0
     info = {
+        "speed": vehicle.speed,
         "static_wheel_load": vehicle.static_wheel_load,
         "hertz_load": vehicle.hertz_load,
         "contact_stiffness": vehicle.contact_stiffness,

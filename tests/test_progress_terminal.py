@@ -1,0 +1,55 @@
+"""What a user sees on an 80-column terminal: the progress line fits, is redrawn in place and
+shows the best design's objectives in kN/J with the change against the reference."""
+
+from __future__ import annotations
+
+import fcntl
+import os
+import pty
+import re
+import struct
+import subprocess
+import termios
+import time
+
+from tests.conftest import lccopt_command, write_case
+
+ANSI = re.compile(r"\x1b\[[0-9;?]*[A-Za-z]")
+
+
+def run_in_terminal(args, cwd, columns=80, timeout=300) -> str:
+    master, slave = pty.openpty()
+    fcntl.ioctl(slave, termios.TIOCSWINSZ, struct.pack("HHHH", 24, columns, 0, 0))
+    env = {k: v for k, v in os.environ.items() if k not in ("COLUMNS", "LINES")}
+    env.update(TERM="xterm-256color", MPLBACKEND="Agg")
+    proc = subprocess.Popen(lccopt_command() + [str(a) for a in args], cwd=cwd, env=env,
+                            stdin=slave, stdout=slave, stderr=slave, close_fds=True)
+    os.close(slave)
+    chunks, deadline = [], time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        try:
+            data = os.read(master, 65536)
+        except OSError:  # EIO: the child closed the terminal
+            break
+        if not data:
+            break
+        chunks.append(data)
+    proc.wait(timeout=30)
+    os.close(master)
+    assert proc.returncode == 0, b"".join(chunks).decode(errors="replace")
+    return b"".join(chunks).decode("utf-8", errors="replace")
+
+
+def test_progress_fits_80_columns_and_names_objectives_in_engineering_units(tmp_path):
+    case = write_case(tmp_path, name="tty", budget=8, initial=4)
+    out = run_in_terminal(["optimise", case, "--workers", "1", "--runs", tmp_path / "runs"], tmp_path)
+    text = ANSI.sub("", out)
+    screen_lines = [seg for line in text.split("\n") for seg in line.split("\r")]
+    progress = [s for s in screen_lines if re.search(r"\b\d/8\b", s)]
+    assert len(progress) >= 8, text           # redrawn in place: one segment per evaluation
+    too_wide = [s for s in progress if len(s.rstrip()) > 80]
+    assert not too_wide, too_wide
+    assert "8/8" in progress[-1] and "-:--:--" not in progress[-1], progress[-1]   # an ETA once known
+    assert re.search(r"F_max [0-9.]+ kN [+-]\d+%", progress[-1]), progress[-1]
+    # the full best-design line is in the summary printed at the end
+    assert re.search(r"F_max [0-9.]+ kN", text) and re.search(r"E_max [0-9.]+ J", text), text
