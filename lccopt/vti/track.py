@@ -263,7 +263,8 @@ def build_track(case: Case, x: np.ndarray) -> TrackModel:
 @dataclass
 class WinklerBeam:
     """A uniform rail on a continuous Winkler foundation, pinned at both ends: the track of the
-    closed-form solutions (Timoshenko; docs in tests/vti/test_theory.py) used to validate the elements and the integrator."""
+    closed-form solutions (tests/vti/test_theory.py) that validate the elements and the
+    integrator."""
     node_x: np.ndarray
     rail_w: np.ndarray
     rail_th: np.ndarray
