@@ -618,7 +618,7 @@ def load_case(path: str | Path) -> Case:
     try:
         text = path.read_text(encoding="utf-8")
     except OSError as exc:
-        raise CaseError(f"{file}:0: <file>: cannot read: {exc.strerror or exc}") from None
+        raise CaseError(f"{file}: cannot read: {exc.strerror or exc}") from None
     except UnicodeDecodeError as exc:
         line = text_line(path, exc.start)
         raise CaseError(f"{file}:{line}: <file>: not UTF-8 text (byte {exc.start}); "
