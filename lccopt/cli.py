@@ -116,11 +116,12 @@ def resume(
 def report(
     run: Path = typer.Argument(..., help="run directory, e.g. runs/moo"),
     format: Format = typer.Option(Format.both, "--format", help="summary format"),
+    out: Optional[Path] = typer.Option(None, "--out", help="output directory (default: RUN/report)"),
 ) -> None:
-    """Write figures and a summary of a run into RUN/report/."""
+    """Write figures and a summary of a run into RUN/report/ (or --out)."""
     from .report import write_report
 
-    write_report(run, format.value)
+    write_report(run, format.value, out)
 
 
 def main(argv: list[str] | None = None) -> int:

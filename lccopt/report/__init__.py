@@ -1,6 +1,6 @@
 """``lccopt report RUN``: figures and a summary of a run, after the paper's Figs. 6-11, Tables 5-7.
 
-Writes into ``RUN/report/``:
+Writes into ``RUN/report/`` (or ``--out DIR``):
 
     search-history.png     value of every evaluation by number, phase, failures, best so far,
                            restarts (Figs. 6, 7, 10)
@@ -39,8 +39,9 @@ from .summary import build_summary, history_facts
 __all__ = ["write_report"]
 
 
-def write_report(run: Path, format: str = "both") -> Path:
-    """Write figures and the summary of run directory RUN into RUN/report/; return that directory."""
+def write_report(run: Path, format: str = "both", out: Path | None = None) -> Path:
+    """Write figures and the summary of run directory RUN into OUT (default RUN/report/);
+    return that directory."""
     import time
 
     t0 = time.perf_counter()
@@ -48,15 +49,19 @@ def write_report(run: Path, format: str = "both") -> Path:
     if fmt_ not in FORMATS:
         raise _usage(f"--format must be one of {', '.join(FORMATS)}, got {format!r}")
     data = load_run(Path(run))
-    out = data.path / "report"
+    own = data.path / "report"
+    out = own if out is None else Path(out)
     try:
-        out.mkdir(exist_ok=True)
+        out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise _usage(f"cannot create {out}: {exc.strerror or exc}") from None
-    for name in FIGURES:  # figures of an earlier report that this one may not redraw
-        p = out / f"{name}.png"
-        if p.exists():
-            p.unlink()
+    if out.resolve() == own.resolve():
+        # figures of an earlier report that this one may not redraw; only ever inside the run
+        # directory: a user's --out folder is written to, never cleaned
+        for name in FIGURES:
+            p = out / f"{name}.png"
+            if p.exists():
+                p.unlink()
 
     figs: dict[str, Path] = {}
     notes: dict[str, str] = {}

@@ -96,6 +96,24 @@ def test_format_option_picks_the_summary(run_dir, tmp_path):
     assert proc.stderr.strip().count("\n") == 0 and "--format" in proc.stderr
 
 
+def test_out_writes_elsewhere_and_never_cleans_a_users_folder(run_dir, tmp_path):
+    """--out DIR: the report goes there, RUN/report stays as it was, and files of the user's
+    folder (even ones named like lccopt's figures) are left alone."""
+    run, _ = run_dir
+    copy = tmp_path / "copy"
+    shutil.copytree(run, copy, ignore=shutil.ignore_patterns("report"))
+    mine = tmp_path / "mine" / "deeper"
+    mine.mkdir(parents=True)
+    (mine / "sensitivity.png").write_bytes(b"a user's own file")
+    (mine / "notes.txt").write_text("keep me")
+    proc = lccopt("report", copy, "--out", mine / "report", "--format", "html")
+    assert proc.returncode == 0, proc.stderr
+    assert (mine / "report" / "report.html").is_file() and (mine / "report" / "contact-force.png").is_file()
+    assert not (copy / "report").exists()
+    assert (mine / "sensitivity.png").read_bytes() == b"a user's own file"
+    assert (mine / "notes.txt").read_text() == "keep me"
+
+
 def test_interrupted_run_is_reported_from_the_journal(run_dir, tmp_path):
     """results.h5 gone (killed before its first rebuild) and the journal cut mid-run with a torn
     last line: the report rebuilds the table from the committed journal lines."""
