@@ -12,8 +12,7 @@ factorised once (banded Cholesky) and each step solves it for two right-hand sid
 applies Sherman-Morrison. The solution is the same as solving the coupled system outright,
 to round-off.
 
-Time histories are recorded per step; the quiet far field is flushed to exact zeros now
-and then, because denormal floats make banded solves about ten times slower.
+Time histories are recorded per step.
 """
 
 from __future__ import annotations
@@ -28,15 +27,6 @@ from scipy.sparse.linalg import spsolve
 
 from .assembly import hermite, to_upper_banded
 
-try:  # the C kernel behind ``csr @ vector``, without scipy's per-call dispatch (~10 µs)
-    from scipy.sparse._sparsetools import csr_matvec as _csr_matvec
-except ImportError:  # pragma: no cover - older/newer scipy layouts
-    def _csr_matvec(n_row, n_col, indptr, indices, data, x, y):
-        y += sp.csr_matrix((data, indices, indptr), shape=(n_row, n_col)) @ x
-
-FLUSH_EVERY = 200         # steps between flushes of tiny values
-FLUSH_BELOW = 1e-150      # |value| below this is set to 0 (displacements are ~1e-3 m)
-
 
 class TrackLike(Protocol):
     M: sp.spmatrix
@@ -45,16 +35,6 @@ class TrackLike(Protocol):
     node_x: np.ndarray      # rail node positions, increasing [m]
     rail_w: np.ndarray      # dof of rail deflection per node (-1: fixed)
     rail_th: np.ndarray     # dof of rail rotation per node
-
-
-@dataclass
-class Contact:
-    """Wheel-rail contact: a linear Hertz spring between wheel and rail.
-
-    With ``vehicle`` None the wheel is replaced by a constant downward ``force`` (moving load).
-    """
-    stiffness: float = 0.0
-    force: float = 0.0
 
 
 def contact_vectors(track: TrackLike, x) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -150,7 +130,6 @@ def integrate(track: TrackLike, dt: float, speed: float, x_start: float, n_steps
         np.add.at(f, idx, load * vals)
         u0 = spsolve(K.tocsc(), f)
         z = np.zeros(3)
-    u0[np.abs(u0) < FLUSH_BELOW] = 0.0
     v0 = np.zeros(n)
     acc0 = np.zeros(n)
     zd = np.zeros(3)
@@ -182,7 +161,6 @@ def integrate(track: TrackLike, dt: float, speed: float, x_start: float, n_steps
     Y = np.zeros((4, n))
     X[0], X[1], X[2] = u0, v0, acc0
     R = np.array([[-a1, -1.0, 0.0, a1], [-a0, -a2, -1.0, a0]])  # -> [v_next; a_next]
-    rhs = np.zeros(n)
     w = np.zeros(n)
     # A_t⁻¹N = vals · (A_t⁻¹ e_j for the element's 4 dofs): columns solved when the wheel
     # enters an element; the next element shares a node, so that costs two columns, not a
@@ -194,6 +172,8 @@ def integrate(track: TrackLike, dt: float, speed: float, x_start: float, n_steps
     position = x_start + speed * time
     elem, idx_all, vals_all = contact_vectors(track, position)
     new_elem = np.r_[True, True, elem[2:] != elem[1:-1]]   # step 1 always fills the columns
+    shift = np.r_[False, False, elem[2:] == elem[1:-1] + 1]
+    r_all = np.array([r_of(p) for p in position]) if irregularity is not None else np.zeros(steps)
     force = np.zeros(steps)
     rail_disp = np.zeros(steps)
     veh = np.zeros((steps, 3))
@@ -207,52 +187,68 @@ def integrate(track: TrackLike, dt: float, speed: float, x_start: float, n_steps
     rec_u[0] = u0[record_dofs]
     rec_v[0] = v0[record_dofs]
 
+    if coupled:
+        # vehicle: z0 = Binv (Mv (a0 z + a2 zd + zdd) + Cv (a1 z + zd) + fv) + kw r Binv e3 as one
+        # 3x9 product of the state s = [z, zd, zdd]; the update of s as one 9x12 product
+        Q = np.hstack([Binv @ (a0 * Mv + a1 * Cv), Binv @ (a2 * Mv + Cv), Binv @ Mv])
+        q0 = Binv @ fv
+        kb = kw * binv_col
+        I3, O3 = np.eye(3), np.zeros((3, 3))
+        Rv = np.block([[O3, O3, O3, I3],
+                       [-a1 * I3, -I3, O3, a1 * I3],
+                       [-a0 * I3, -a2 * I3, -I3, a0 * I3]])
+        s = np.concatenate([z, zd, zdd, np.zeros(3)])   # last three: z_next
+        s_new = np.empty(12)
+        kappa_ = kappa
+        kw_ = kw
+
+    dpbtrs = lapack.dpbtrs
+    dot = np.dot
+    xflat = X[:3].reshape(-1)
+    yflat = Y[:3].reshape(-1)
     for k in range(1, steps):
-        # right-hand side of the track from the state at step k-1
-        rhs.fill(0.0)
-        _csr_matvec(n, 3 * n, W.indptr, W.indices, W.data, X[:3].reshape(-1), rhs)
+        # right-hand side of the track from the state at step k-1 (public sparse product)
+        rhs = W @ xflat
         idx, vals = idx_all[k], vals_all[k]
         if new_elem[k]:
-            if k > 1 and elem[k] == elem[k - 1] + 1:
+            if shift[k]:
                 cols[:2] = cols[2:]
                 cols[2:] = inverse_columns(chol, idx[2:])
             else:
                 cols[:] = inverse_columns(chol, idx)
-        r = r_of(position[k])
-        y, info = lapack.dpbtrs(chol, rhs, lower=0)
-        np.dot(vals, cols, out=w)
-        g1 = float(vals @ y[idx])
-        g2 = float(vals @ w[idx])
+        y, info = dpbtrs(chol, rhs, lower=0, overwrite_b=1)
+        dot(vals, cols, out=w)
+        g1 = dot(vals, y[idx])
+        g2 = dot(vals, w[idx])
         if coupled:
-            rv = Mv @ (a0 * z + a2 * zd + zdd) + Cv @ (a1 * z + zd) + fv
-            z0 = Binv @ rv + (kw * r) * binv_col
-            c0 = kw * (z0[2] - r)
-            nt = g1 + c0 * g2                      # Nᵀ A_t⁻¹ b
-            delta = nt / (1.0 + kappa * g2)        # Nᵀ u_next
-            coef = c0 - kappa * delta
+            r = r_all[k]
+            z0 = dot(Q, s[:9]) + q0 + r * kb
+            c0 = kw_ * (z0[2] - r)
+            delta = (g1 + c0 * g2) / (1.0 + kappa_ * g2)   # Nᵀ u_next
+            coef = c0 - kappa_ * delta
+            s[9:] = z0 + delta * kb
+            dot(Rv, s, out=s_new[:9])
+            s[:9] = s_new[:9]
+            force[k] = kw_ * (s[2] - delta - r)
+            veh[k] = s[:3]
         else:
             coef = load
             delta = g1 + load * g2
-        np.multiply(w, coef, out=X[3])
+            force[k] = load
+        # u_next = y + coef w; [v_next; a_next] = R [u; v; a; u_next]
+        X[3] = w
+        X[3] *= coef
         X[3] += y
-        np.dot(R, X, out=Y[1:3])
+        dot(R, X, out=Y[1:3])
         Y[0] = X[3]
         X, Y = Y, X
-        if coupled:
-            z_new = z0 + (kw * delta) * binv_col
-            zd_new = -zd + a1 * (z_new - z)
-            zdd = -zdd - a2 * zd + a0 * (z_new - z)
-            z, zd = z_new, zd_new
-            force[k] = kw * (z[2] - delta - r)
-        else:
-            force[k] = load
+        xflat, yflat = yflat, xflat
         rail_disp[k] = delta
-        veh[k] = z
         rec_u[k] = X[0, record_dofs]
         rec_v[k] = X[1, record_dofs]
-        if k % FLUSH_EVERY == 0:
-            X[:3][np.abs(X[:3]) < FLUSH_BELOW] = 0.0
         if on_step is not None:
+            if coupled:
+                z, zd, zdd = s[:3].copy(), s[3:6].copy(), s[6:9].copy()
             on_step(k, X[0], X[1], X[2], z, zd, zdd, idx, vals, force[k])
 
     return History(time, position, force, rail_disp, veh, rec_u, rec_v)
