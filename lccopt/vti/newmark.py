@@ -22,7 +22,7 @@ from typing import Callable, Protocol
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.linalg import lapack
+from scipy.linalg import blas, lapack
 from scipy.sparse.linalg import spsolve
 
 from .assembly import hermite, to_upper_banded
@@ -64,6 +64,19 @@ def inverse_columns(chol: np.ndarray, dofs: np.ndarray) -> np.ndarray:
     unit[dofs, np.arange(len(dofs))] = 1.0
     sol, info = lapack.dpbtrs(chol, unit, lower=0, overwrite_b=1)
     return sol.T
+
+
+def forward_columns(chol: np.ndarray, dofs, out: np.ndarray) -> None:
+    """Rows U⁻ᵀe_j into ``out`` (shape (len(dofs), n)), A = UᵀU factorised by ``dpbtrf``.
+
+    Uᵀ is lower triangular, so U⁻ᵀe_j is zero before j and the solve starts at row j: the
+    nearer j is to the end of the numbering, the cheaper (exact, no truncation)."""
+    kd = chol.shape[0] - 1
+    for row, j in zip(out, dofs):
+        row[:j] = 0.0
+        e = np.zeros(len(row) - j)
+        e[0] = 1.0
+        row[j:] = blas.dtbsv(kd, chol[:, j:], e, trans=1, overwrite_x=1)
 
 
 @dataclass
@@ -153,20 +166,25 @@ def integrate(track: TrackLike, dt: float, speed: float, x_start: float, n_steps
     chol, info = lapack.dpbtrf(ab, lower=0, overwrite_ab=1)
     if info != 0:
         raise np.linalg.LinAlgError(f"effective track matrix is not positive definite (dpbtrf info={info})")
-    # rhs of the track from [u; v; a]: M(a0 u + a2 v + a) + C(a1 u + v), one sparse product
-    W = sp.hstack([a0 * M + a1 * C, a2 * M + C, M]).tocsr()
-
-    # state rows: u, v, a, u_next (so that one small matrix product updates them)
-    X = np.zeros((4, n))
-    Y = np.zeros((4, n))
-    X[0], X[1], X[2] = u0, v0, acc0
-    R = np.array([[-a1, -1.0, 0.0, a1], [-a0, -a2, -1.0, a0]])  # -> [v_next; a_next]
-    w = np.zeros(n)
-    # A_t⁻¹N = vals · (A_t⁻¹ e_j for the element's 4 dofs): columns solved when the wheel
-    # enters an element; the next element shares a node, so that costs two columns, not a
-    # second banded solve every step.
-    cols = np.empty((4, n))
-
+    # The track state is kept as p = a0 u + a2 v + a, q = a1 u + v and u, so that the right-hand
+    # side M(a0 u + a2 v + a) + C(a1 u + v) is one sparse product [M C] [p; q], and Newmark's
+    # updates of v and a become (with a1 a2 = 2 a0) q' = 2 a1 u' - q, p' = 4 a0 u' - a2 q - p.
+    # v = q - a1 u and a = p - a0 u - a2 v are formed only where they are recorded.
+    MC = sp.hstack([M, C]).tocsr()
+    S = np.zeros((3, n))                # rows p, q, u
+    S_next = np.zeros((3, n))
+    S[0] = a0 * u0 + a2 * v0 + acc0
+    S[1] = a1 * u0 + v0
+    S[2] = u0
+    R = np.array([[-1.0, -a2, 4.0 * a0], [0.0, -1.0, 2.0 * a1]])   # [p; q; u'] -> [p'; q']
+    s_vec = np.zeros(n)
+    # With A_t = UᵀU: z = U⁻ᵀ b, s = U⁻ᵀ N, then Nᵀu = sᵀ(z + c s) and u = U⁻¹(z + c s) for a
+    # contact force c (Sherman-Morrison in factored form). s = vals · (U⁻ᵀe_j for the
+    # element's 4 dofs): rows solved when the wheel enters an element, from row j on only;
+    # the next element shares a node, so that costs two rows. Per step: one forward and one
+    # backward banded triangular solve, i.e. one banded solve pair.
+    scols = np.zeros((4, n), order="C")
+    chol = np.asfortranarray(chol)
     steps = n_steps + 1
     time = dt * np.arange(steps)
     position = x_start + speed * time
@@ -202,24 +220,22 @@ def integrate(track: TrackLike, dt: float, speed: float, x_start: float, n_steps
         kappa_ = kappa
         kw_ = kw
 
-    dpbtrs = lapack.dpbtrs
+    tbsv = blas.dtbsv
     dot = np.dot
-    xflat = X[:3].reshape(-1)
-    yflat = Y[:3].reshape(-1)
     for k in range(1, steps):
         # right-hand side of the track from the state at step k-1 (public sparse product)
-        rhs = W @ xflat
+        rhs = MC @ S[:2].reshape(-1)
         idx, vals = idx_all[k], vals_all[k]
         if new_elem[k]:
             if shift[k]:
-                cols[:2] = cols[2:]
-                cols[2:] = inverse_columns(chol, idx[2:])
+                scols[:2] = scols[2:]
+                forward_columns(chol, idx[2:], scols[2:])
             else:
-                cols[:] = inverse_columns(chol, idx)
-        y, info = dpbtrs(chol, rhs, lower=0, overwrite_b=1)
-        dot(vals, cols, out=w)
-        g1 = dot(vals, y[idx])
-        g2 = dot(vals, w[idx])
+                forward_columns(chol, idx, scols)
+        y = tbsv(kd, chol, rhs, trans=1, overwrite_x=1)          # z = U⁻ᵀ rhs
+        dot(vals, scols, out=s_vec)
+        g1 = dot(s_vec, y)
+        g2 = dot(s_vec, s_vec)
         if coupled:
             r = r_all[k]
             z0 = dot(Q, s[:9]) + q0 + r * kb
@@ -235,20 +251,22 @@ def integrate(track: TrackLike, dt: float, speed: float, x_start: float, n_steps
             coef = load
             delta = g1 + load * g2
             force[k] = load
-        # u_next = y + coef w; [v_next; a_next] = R [u; v; a; u_next]
-        X[3] = w
-        X[3] *= coef
-        X[3] += y
-        dot(R, X, out=Y[1:3])
-        Y[0] = X[3]
-        X, Y = Y, X
-        xflat, yflat = yflat, xflat
+        # u' = U⁻¹(z + coef s); then p', q' from p, q, u'
+        s_vec *= coef
+        y += s_vec
+        S[2] = tbsv(kd, chol, y, overwrite_x=1)
+        dot(R, S, out=S_next[:2])
+        S_next[2] = S[2]
+        S, S_next = S_next, S
         rail_disp[k] = delta
-        rec_u[k] = X[0, record_dofs]
-        rec_v[k] = X[1, record_dofs]
+        rec_u[k] = S[2, record_dofs]
+        rec_v[k] = S[1, record_dofs] - a1 * rec_u[k]
         if on_step is not None:
+            u = S[2]
+            v = S[1] - a1 * u
+            acc = S[0] - a0 * u - a2 * v
             if coupled:
                 z, zd, zdd = s[:3].copy(), s[3:6].copy(), s[6:9].copy()
-            on_step(k, X[0], X[1], X[2], z, zd, zdd, idx, vals, force[k])
+            on_step(k, u, v, acc, z, zd, zdd, idx, vals, force[k])
 
     return History(time, position, force, rail_disp, veh, rec_u, rec_v)
