@@ -11,9 +11,10 @@ element, and the rest: Python and small products); and the time of the straightf
 factorise it with SuperLU every step), measured over a slice of the run and scaled to the full
 number of steps. The straightforward and the current integrator are checked to agree.
 
-    python benchmarks/simulate.py [--repeat 7] [--naive-steps 300] [--flush]
+    python benchmarks/simulate.py [--repeat 7] [--naive-steps 300] [--flush] [--scaling]
 
 --flush also times the old method without its periodic flush of tiny values (denormals).
+--scaling times the current method for longer entry tracks and other time steps.
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(var, "1")   # one core: set before numpy loads BLAS
 
 import argparse
+import copy
 import statistics
 import time
 
@@ -122,6 +124,7 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=7)
     ap.add_argument("--naive-steps", type=int, default=300)
     ap.add_argument("--flush", action="store_true", help="also time the old method without its flush")
+    ap.add_argument("--scaling", action="store_true", help="time against track length and time step")
     args = ap.parse_args()
     case = load_case(args.case)
     old_case = case.with_simulation(**REFERENCE_SETTINGS)
@@ -172,6 +175,27 @@ def main() -> None:
         newmark_reference.FLUSH_EVERY, newmark_reference.FLUSH_BELOW = saved
         print(f"old method with its flush of tiny values: median {statistics.median(flushed):.3f} s, "
               f"without: {statistics.median(unflushed):.3f} s")
+
+    if args.scaling:
+        print("cost against track length (entry length; the rest as the case) and time step:")
+        variants = [("entry_length", L) for L in (100.0, 200.0, 400.0)] + \
+                   [("time_step", dt_) for dt_ in (2.5e-4, 5e-4, 1e-3)]
+        for key, value in variants:
+            c = copy.deepcopy(case)
+            if key == "entry_length":
+                c.data["track"]["layout"]["entry_length"] = value
+            else:
+                c = c.with_simulation(time_step=value)
+            ev_v = evaluate(c, x)
+            ts = []
+            for _ in range(args.repeat):
+                t0 = time.perf_counter()
+                evaluate(c, x)
+                ts.append(time.perf_counter() - t0)
+            t = statistics.median(ts)
+            print(f"  {key} = {value:g}: {ev_v.info['n_dofs']} dofs, {ev_v.info['n_steps']} steps: "
+                  f"median {t:.3f} s, {t / ev_v.info['n_steps'] * 1e6:.0f} µs/step, "
+                  f"{t / ev_v.info['n_steps'] / ev_v.info['n_dofs'] * 1e9:.0f} ns/step/dof")
 
     if args.naive_steps:
         track = build_track(case, x)

@@ -48,7 +48,7 @@ def evaluate(case: Case, x, *, legacy: bool = False) -> Evaluation:
 
     run = integrate_reference if legacy else integrate
     h = run(track, dt, vehicle.speed, x_start, n_steps, vehicle=vehicle,
-                  irregularity=irregularity, record_dofs=zone_dofs)
+            irregularity=irregularity, record_dofs=zone_dofs)
 
     v_mid = 0.5 * (h.dof_velocity[1:] + h.dof_velocity[:-1])
     energy = dt * track.entry_support_damping[:n_zone] * np.sum(v_mid ** 2, axis=0)
