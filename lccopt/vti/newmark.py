@@ -7,12 +7,17 @@ The coupled system of Eq. (3) is
 
 with A = K + 4/dt² M + 2/dt C for track (t) and vehicle (v), N the Hermite vector of the
 wheel position and r the rail irregularity (dip positive). Eliminating the 3 vehicle dofs
-leaves the constant banded track matrix A_t plus one moving rank-one term, so A_t is
-factorised once (banded Cholesky) and each step solves it for two right-hand sides and
-applies Sherman-Morrison. The solution is the same as solving the coupled system outright,
-to round-off.
+leaves the constant banded track matrix A_t plus one moving rank-one term, so A_t = UᵀU is
+factorised once (banded Cholesky) and each step is one sparse product for the right-hand
+side and one forward and one backward banded triangular solve, with Sherman-Morrison applied
+between them (rows U⁻ᵀe_j of the wheel's element are solved once per element). The solution
+is the same as solving the coupled system outright, to round-off.
 
-Time histories are recorded per step.
+Time histories are recorded per step. No flush of tiny values: in the reference track the
+smallest nonzero state value is ~1e-68, far above the denormal range; denormals appear only
+where a track end lies several hundred metres from the wheel (the exponential decay of the
+deflection), a band of a few hundred dofs that every banded solve regenerates, so a periodic
+flush could not remove them anyway (benchmarks/simulate.py --flush, README "Speed").
 """
 
 from __future__ import annotations
@@ -195,32 +200,38 @@ def integrate(track: TrackLike, dt: float, speed: float, x_start: float, n_steps
     force = np.zeros(steps)
     rail_disp = np.zeros(steps)
     veh = np.zeros((steps, 3))
-    rec_u = np.zeros((steps, len(record_dofs)))
-    rec_v = np.zeros((steps, len(record_dofs)))
+    rec = np.zeros((steps, 2, len(record_dofs)))      # q and u at the recorded dofs
 
     delta = float(vals @ u0[idx])
     rail_disp[0] = delta
     veh[0] = z
     force[0] = kw * (z[2] - delta - r0) if coupled else load
-    rec_u[0] = u0[record_dofs]
-    rec_v[0] = v0[record_dofs]
+    rec[0, 0] = a1 * u0[record_dofs] + v0[record_dofs]
+    rec[0, 1] = u0[record_dofs]
 
     if coupled:
-        # vehicle: z0 = Binv (Mv (a0 z + a2 zd + zdd) + Cv (a1 z + zd) + fv) + kw r Binv e3 as one
-        # 3x9 product of the state s = [z, zd, zdd]; the update of s as one 9x12 product
-        Q = np.hstack([Binv @ (a0 * Mv + a1 * Cv), Binv @ (a2 * Mv + Cv), Binv @ Mv])
-        q0 = Binv @ fv
+        # Vehicle, state s = [z, zd, zdd]: with t = [s, 1, r, δ],
+        #   z0 = Binv (Mv (a0 z + a2 zd + zdd) + Cv (a1 z + zd) + fv + kw r e3) = Q t,
+        #   z' = z0 + kw δ Binv e3, and Newmark's zd', zdd' from z, zd, zdd, z',
+        # so c0 = kw (z0[2] - r) and s' = G t are two small products per step.
         kb = kw * binv_col
+        Q = np.hstack([Binv @ (a0 * Mv + a1 * Cv), Binv @ (a2 * Mv + Cv), Binv @ Mv,
+                       (Binv @ fv)[:, None], kb[:, None], np.zeros((3, 1))])
+        Qd = Q.copy()
+        Qd[:, 11] = kb                                   # z' = Qd t
         I3, O3 = np.eye(3), np.zeros((3, 3))
         Rv = np.block([[O3, O3, O3, I3],
                        [-a1 * I3, -I3, O3, a1 * I3],
-                       [-a0 * I3, -a2 * I3, -I3, a0 * I3]])
-        s = np.concatenate([z, zd, zdd, np.zeros(3)])   # last three: z_next
-        s_new = np.empty(12)
+                       [-a0 * I3, -a2 * I3, -I3, a0 * I3]])   # [s; z'] -> s'
+        G = Rv[:, 9:] @ Qd
+        G[:, :9] += Rv[:, :9]
+        c_row = kw * (Q[2] - np.r_[np.zeros(10), 1.0, 0.0])   # c0 = c_row t
+        t = np.concatenate([z, zd, zdd, [1.0, 0.0, 0.0]])
         kappa_ = kappa
         kw_ = kw
 
     tbsv = blas.dtbsv
+    axpy = blas.daxpy
     dot = np.dot
     for k in range(1, steps):
         # right-hand side of the track from the state at step k-1 (public sparse product)
@@ -238,35 +249,33 @@ def integrate(track: TrackLike, dt: float, speed: float, x_start: float, n_steps
         g2 = dot(s_vec, s_vec)
         if coupled:
             r = r_all[k]
-            z0 = dot(Q, s[:9]) + q0 + r * kb
-            c0 = kw_ * (z0[2] - r)
+            t[10] = r
+            c0 = dot(c_row, t)
             delta = (g1 + c0 * g2) / (1.0 + kappa_ * g2)   # Nᵀ u_next
             coef = c0 - kappa_ * delta
-            s[9:] = z0 + delta * kb
-            dot(Rv, s, out=s_new[:9])
-            s[:9] = s_new[:9]
-            force[k] = kw_ * (s[2] - delta - r)
-            veh[k] = s[:3]
+            t[11] = delta
+            t[:9] = dot(G, t)
+            force[k] = kw_ * (t[2] - delta - r)
+            veh[k] = t[:3]
         else:
             coef = load
             delta = g1 + load * g2
             force[k] = load
         # u' = U⁻¹(z + coef s); then p', q' from p, q, u'
-        s_vec *= coef
-        y += s_vec
-        S[2] = tbsv(kd, chol, y, overwrite_x=1)
+        S[2] = tbsv(kd, chol, axpy(s_vec, y, a=coef), overwrite_x=1)
         dot(R, S, out=S_next[:2])
         S_next[2] = S[2]
         S, S_next = S_next, S
         rail_disp[k] = delta
-        rec_u[k] = S[2, record_dofs]
-        rec_v[k] = S[1, record_dofs] - a1 * rec_u[k]
+        rec[k] = S[1:, record_dofs]
         if on_step is not None:
             u = S[2]
             v = S[1] - a1 * u
             acc = S[0] - a0 * u - a2 * v
             if coupled:
-                z, zd, zdd = s[:3].copy(), s[3:6].copy(), s[6:9].copy()
+                z, zd, zdd = t[:3].copy(), t[3:6].copy(), t[6:9].copy()
             on_step(k, u, v, acc, z, zd, zdd, idx, vals, force[k])
 
+    rec_u = rec[:, 1]
+    rec_v = rec[:, 0] - a1 * rec_u
     return History(time, position, force, rail_disp, veh, rec_u, rec_v)
