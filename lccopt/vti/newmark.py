@@ -7,13 +7,17 @@ The coupled system of Eq. (3) is
 
 with A = K + 4/dt² M + 2/dt C for track (t) and vehicle (v), N the Hermite vector of the
 wheel position and r the rail irregularity (dip positive). Eliminating the 3 vehicle dofs
-leaves the constant banded track matrix A_t plus one moving rank-one term, so A_t is
-factorised once (banded Cholesky) and each step solves it for two right-hand sides and
-applies Sherman-Morrison. The solution is the same as solving the coupled system outright,
-to round-off.
+leaves the constant banded track matrix A_t plus one moving rank-one term, so A_t = UᵀU is
+factorised once (banded Cholesky) and each step is one sparse product for the right-hand
+side and one forward and one backward banded triangular solve, with Sherman-Morrison applied
+between them (rows U⁻ᵀe_j of the wheel's element are solved once per element). The solution
+is the same as solving the coupled system outright, to round-off.
 
-Time histories are recorded per step; the quiet far field is flushed to exact zeros now
-and then, because denormal floats make banded solves about ten times slower.
+Time histories are recorded per step. No flush of tiny values: in the reference track the
+smallest nonzero state value is ~1e-68, far above the denormal range; denormals appear only
+where a track end lies several hundred metres from the wheel (the exponential decay of the
+deflection), a band of a few hundred dofs that every banded solve regenerates, so a periodic
+flush could not remove them anyway (benchmarks/simulate.py --flush, README "Speed").
 """
 
 from __future__ import annotations
@@ -23,19 +27,10 @@ from typing import Callable, Protocol
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.linalg import lapack
+from scipy.linalg import blas, lapack
 from scipy.sparse.linalg import spsolve
 
 from .assembly import hermite, to_upper_banded
-
-try:  # the C kernel behind ``csr @ vector``, without scipy's per-call dispatch (~10 µs)
-    from scipy.sparse._sparsetools import csr_matvec as _csr_matvec
-except ImportError:  # pragma: no cover - older/newer scipy layouts
-    def _csr_matvec(n_row, n_col, indptr, indices, data, x, y):
-        y += sp.csr_matrix((data, indices, indptr), shape=(n_row, n_col)) @ x
-
-FLUSH_EVERY = 200         # steps between flushes of tiny values
-FLUSH_BELOW = 1e-150      # |value| below this is set to 0 (displacements are ~1e-3 m)
 
 
 class TrackLike(Protocol):
@@ -45,16 +40,6 @@ class TrackLike(Protocol):
     node_x: np.ndarray      # rail node positions, increasing [m]
     rail_w: np.ndarray      # dof of rail deflection per node (-1: fixed)
     rail_th: np.ndarray     # dof of rail rotation per node
-
-
-@dataclass
-class Contact:
-    """Wheel-rail contact: a linear Hertz spring between wheel and rail.
-
-    With ``vehicle`` None the wheel is replaced by a constant downward ``force`` (moving load).
-    """
-    stiffness: float = 0.0
-    force: float = 0.0
 
 
 def contact_vectors(track: TrackLike, x) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -84,6 +69,19 @@ def inverse_columns(chol: np.ndarray, dofs: np.ndarray) -> np.ndarray:
     unit[dofs, np.arange(len(dofs))] = 1.0
     sol, info = lapack.dpbtrs(chol, unit, lower=0, overwrite_b=1)
     return sol.T
+
+
+def forward_columns(chol: np.ndarray, dofs, out: np.ndarray) -> None:
+    """Rows U⁻ᵀe_j into ``out`` (shape (len(dofs), n)), A = UᵀU factorised by ``dpbtrf``.
+
+    Uᵀ is lower triangular, so U⁻ᵀe_j is zero before j and the solve starts at row j: the
+    nearer j is to the end of the numbering, the cheaper (exact, no truncation)."""
+    kd = chol.shape[0] - 1
+    for row, j in zip(out, dofs):
+        row[:j] = 0.0
+        e = np.zeros(len(row) - j)
+        e[0] = 1.0
+        row[j:] = blas.dtbsv(kd, chol[:, j:], e, trans=1, overwrite_x=1)
 
 
 @dataclass
@@ -150,7 +148,6 @@ def integrate(track: TrackLike, dt: float, speed: float, x_start: float, n_steps
         np.add.at(f, idx, load * vals)
         u0 = spsolve(K.tocsc(), f)
         z = np.zeros(3)
-    u0[np.abs(u0) < FLUSH_BELOW] = 0.0
     v0 = np.zeros(n)
     acc0 = np.zeros(n)
     zd = np.zeros(3)
@@ -174,85 +171,111 @@ def integrate(track: TrackLike, dt: float, speed: float, x_start: float, n_steps
     chol, info = lapack.dpbtrf(ab, lower=0, overwrite_ab=1)
     if info != 0:
         raise np.linalg.LinAlgError(f"effective track matrix is not positive definite (dpbtrf info={info})")
-    # rhs of the track from [u; v; a]: M(a0 u + a2 v + a) + C(a1 u + v), one sparse product
-    W = sp.hstack([a0 * M + a1 * C, a2 * M + C, M]).tocsr()
-
-    # state rows: u, v, a, u_next (so that one small matrix product updates them)
-    X = np.zeros((4, n))
-    Y = np.zeros((4, n))
-    X[0], X[1], X[2] = u0, v0, acc0
-    R = np.array([[-a1, -1.0, 0.0, a1], [-a0, -a2, -1.0, a0]])  # -> [v_next; a_next]
-    rhs = np.zeros(n)
-    w = np.zeros(n)
-    # A_t⁻¹N = vals · (A_t⁻¹ e_j for the element's 4 dofs): columns solved when the wheel
-    # enters an element; the next element shares a node, so that costs two columns, not a
-    # second banded solve every step.
-    cols = np.empty((4, n))
-
+    # The track state is kept as p = a0 u + a2 v + a, q = a1 u + v and u, so that the right-hand
+    # side M(a0 u + a2 v + a) + C(a1 u + v) is one sparse product [M C] [p; q], and Newmark's
+    # updates of v and a become (with a1 a2 = 2 a0) q' = 2 a1 u' - q, p' = 4 a0 u' - a2 q - p.
+    # v = q - a1 u and a = p - a0 u - a2 v are formed only where they are recorded.
+    MC = sp.hstack([M, C]).tocsr()
+    S = np.zeros((3, n))                # rows p, q, u
+    S_next = np.zeros((3, n))
+    S[0] = a0 * u0 + a2 * v0 + acc0
+    S[1] = a1 * u0 + v0
+    S[2] = u0
+    R = np.array([[-1.0, -a2, 4.0 * a0], [0.0, -1.0, 2.0 * a1]])   # [p; q; u'] -> [p'; q']
+    s_vec = np.zeros(n)
+    # With A_t = UᵀU: z = U⁻ᵀ b, s = U⁻ᵀ N, then Nᵀu = sᵀ(z + c s) and u = U⁻¹(z + c s) for a
+    # contact force c (Sherman-Morrison in factored form). s = vals · (U⁻ᵀe_j for the
+    # element's 4 dofs): rows solved when the wheel enters an element, from row j on only;
+    # the next element shares a node, so that costs two rows. Per step: one forward and one
+    # backward banded triangular solve, i.e. one banded solve pair.
+    scols = np.zeros((4, n), order="C")
+    chol = np.asfortranarray(chol)
     steps = n_steps + 1
     time = dt * np.arange(steps)
     position = x_start + speed * time
     elem, idx_all, vals_all = contact_vectors(track, position)
     new_elem = np.r_[True, True, elem[2:] != elem[1:-1]]   # step 1 always fills the columns
+    shift = np.r_[False, False, elem[2:] == elem[1:-1] + 1]
+    r_all = np.array([r_of(p) for p in position]) if irregularity is not None else np.zeros(steps)
     force = np.zeros(steps)
     rail_disp = np.zeros(steps)
     veh = np.zeros((steps, 3))
-    rec_u = np.zeros((steps, len(record_dofs)))
-    rec_v = np.zeros((steps, len(record_dofs)))
+    rec = np.zeros((steps, 2, len(record_dofs)))      # q and u at the recorded dofs
 
     delta = float(vals @ u0[idx])
     rail_disp[0] = delta
     veh[0] = z
     force[0] = kw * (z[2] - delta - r0) if coupled else load
-    rec_u[0] = u0[record_dofs]
-    rec_v[0] = v0[record_dofs]
+    rec[0, 0] = a1 * u0[record_dofs] + v0[record_dofs]
+    rec[0, 1] = u0[record_dofs]
 
+    if coupled:
+        # Vehicle, state s = [z, zd, zdd]: with t = [s, 1, r, δ],
+        #   z0 = Binv (Mv (a0 z + a2 zd + zdd) + Cv (a1 z + zd) + fv + kw r e3) = Q t,
+        #   z' = z0 + kw δ Binv e3, and Newmark's zd', zdd' from z, zd, zdd, z',
+        # so c0 = kw (z0[2] - r) and s' = G t are two small products per step.
+        kb = kw * binv_col
+        Q = np.hstack([Binv @ (a0 * Mv + a1 * Cv), Binv @ (a2 * Mv + Cv), Binv @ Mv,
+                       (Binv @ fv)[:, None], kb[:, None], np.zeros((3, 1))])
+        Qd = Q.copy()
+        Qd[:, 11] = kb                                   # z' = Qd t
+        I3, O3 = np.eye(3), np.zeros((3, 3))
+        Rv = np.block([[O3, O3, O3, I3],
+                       [-a1 * I3, -I3, O3, a1 * I3],
+                       [-a0 * I3, -a2 * I3, -I3, a0 * I3]])   # [s; z'] -> s'
+        G = Rv[:, 9:] @ Qd
+        G[:, :9] += Rv[:, :9]
+        c_row = kw * (Q[2] - np.r_[np.zeros(10), 1.0, 0.0])   # c0 = c_row t
+        t = np.concatenate([z, zd, zdd, [1.0, 0.0, 0.0]])
+        kappa_ = kappa
+        kw_ = kw
+
+    tbsv = blas.dtbsv
+    axpy = blas.daxpy
+    dot = np.dot
     for k in range(1, steps):
-        # right-hand side of the track from the state at step k-1
-        rhs.fill(0.0)
-        _csr_matvec(n, 3 * n, W.indptr, W.indices, W.data, X[:3].reshape(-1), rhs)
+        # right-hand side of the track from the state at step k-1 (public sparse product)
+        rhs = MC @ S[:2].reshape(-1)
         idx, vals = idx_all[k], vals_all[k]
         if new_elem[k]:
-            if k > 1 and elem[k] == elem[k - 1] + 1:
-                cols[:2] = cols[2:]
-                cols[2:] = inverse_columns(chol, idx[2:])
+            if shift[k]:
+                scols[:2] = scols[2:]
+                forward_columns(chol, idx[2:], scols[2:])
             else:
-                cols[:] = inverse_columns(chol, idx)
-        r = r_of(position[k])
-        y, info = lapack.dpbtrs(chol, rhs, lower=0)
-        np.dot(vals, cols, out=w)
-        g1 = float(vals @ y[idx])
-        g2 = float(vals @ w[idx])
+                forward_columns(chol, idx, scols)
+        y = tbsv(kd, chol, rhs, trans=1, overwrite_x=1)          # z = U⁻ᵀ rhs
+        dot(vals, scols, out=s_vec)
+        g1 = dot(s_vec, y)
+        g2 = dot(s_vec, s_vec)
         if coupled:
-            rv = Mv @ (a0 * z + a2 * zd + zdd) + Cv @ (a1 * z + zd) + fv
-            z0 = Binv @ rv + (kw * r) * binv_col
-            c0 = kw * (z0[2] - r)
-            nt = g1 + c0 * g2                      # Nᵀ A_t⁻¹ b
-            delta = nt / (1.0 + kappa * g2)        # Nᵀ u_next
-            coef = c0 - kappa * delta
+            r = r_all[k]
+            t[10] = r
+            c0 = dot(c_row, t)
+            delta = (g1 + c0 * g2) / (1.0 + kappa_ * g2)   # Nᵀ u_next
+            coef = c0 - kappa_ * delta
+            t[11] = delta
+            t[:9] = dot(G, t)
+            force[k] = kw_ * (t[2] - delta - r)
+            veh[k] = t[:3]
         else:
             coef = load
             delta = g1 + load * g2
-        np.multiply(w, coef, out=X[3])
-        X[3] += y
-        np.dot(R, X, out=Y[1:3])
-        Y[0] = X[3]
-        X, Y = Y, X
-        if coupled:
-            z_new = z0 + (kw * delta) * binv_col
-            zd_new = -zd + a1 * (z_new - z)
-            zdd = -zdd - a2 * zd + a0 * (z_new - z)
-            z, zd = z_new, zd_new
-            force[k] = kw * (z[2] - delta - r)
-        else:
             force[k] = load
+        # u' = U⁻¹(z + coef s); then p', q' from p, q, u'
+        S[2] = tbsv(kd, chol, axpy(s_vec, y, a=coef), overwrite_x=1)
+        dot(R, S, out=S_next[:2])
+        S_next[2] = S[2]
+        S, S_next = S_next, S
         rail_disp[k] = delta
-        veh[k] = z
-        rec_u[k] = X[0, record_dofs]
-        rec_v[k] = X[1, record_dofs]
-        if k % FLUSH_EVERY == 0:
-            X[:3][np.abs(X[:3]) < FLUSH_BELOW] = 0.0
+        rec[k] = S[1:, record_dofs]
         if on_step is not None:
-            on_step(k, X[0], X[1], X[2], z, zd, zdd, idx, vals, force[k])
+            u = S[2]
+            v = S[1] - a1 * u
+            acc = S[0] - a0 * u - a2 * v
+            if coupled:
+                z, zd, zdd = t[:3].copy(), t[3:6].copy(), t[6:9].copy()
+            on_step(k, u, v, acc, z, zd, zdd, idx, vals, force[k])
 
+    rec_u = rec[:, 1]
+    rec_v = rec[:, 0] - a1 * rec_u
     return History(time, position, force, rail_disp, veh, rec_u, rec_v)

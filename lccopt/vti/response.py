@@ -38,13 +38,17 @@ HISTORY_DOC = {
 }
 
 
-def objectives_from(force_in_zone: np.ndarray, sleeper_energy: np.ndarray) -> dict[str, float]:
-    """Eq. (4) and the rms / max-min metrics of Sec. 2.2.2."""
+def objectives_from(force_in_zone: np.ndarray, sleeper_energy: np.ndarray,
+                    force_ends=None) -> dict[str, float]:
+    """Eq. (4) and the rms / max-min metrics of Sec. 2.2.2.
+
+    force_ends: the force at the force zone's exact ends, also taken for F_max (not F_rms)."""
     f = np.asarray(force_in_zone, dtype=float)
     e = np.asarray(sleeper_energy, dtype=float)
+    fm = f if force_ends is None else np.concatenate([f, np.asarray(force_ends, dtype=float)])
     return {
         "F_rms": float(np.sqrt(np.mean(f ** 2))),
-        "F_max": float(f.max() - f.min()),
+        "F_max": float(fm.max() - fm.min()),
         "E_rms": float(np.sqrt(np.mean(e ** 2))),
         "E_max": float(e.max() - e.min()),
     }

@@ -176,7 +176,11 @@ def build_track(case: Case, x: np.ndarray) -> TrackModel:
         for kind in (SLAB_W, SLAB_TH):
             keys_node.append(nodes)
             keys_kind.append(np.full(len(nodes), kind))
-            keys_sub.append(np.full(len(nodes), s))
+            # a slab's last node sorts before the rail: at a joint of two slabs the dofs run
+            # (ending slab, rail, starting slab), which keeps the half-bandwidth at 7, not 9
+            sub = np.full(len(nodes), s + 1)
+            sub[-1] = -1
+            keys_sub.append(sub)
     kn, kk, ks = (np.concatenate(a) for a in (keys_node, keys_kind, keys_sub))
     # the kinds are listed so that (node, slab, kind) keeps each slab's w, th together
     order = np.lexsort((kk, ks, kn))
