@@ -13,7 +13,10 @@ reads the engine's own accounting from the journal's ``session`` line:
   written by the engine process; overhead = (optimiser + bookkeeping) / wall;
 * mean simulation time per evaluation (measured in the worker);
 * busy = total simulation time / (workers * wall): the share of worker time spent simulating
-  (1 - busy is the time workers sat idle or were being handed their next point).
+  (1 - busy is the time workers sat idle or were being handed their next point);
+* held = worker time idle because the next proposal waited for an earlier evaluation still
+  running (the cost of the reproducible order, lccopt/engine/schedule.py), share of
+  workers * wall; nan for lccopt versions without the rule.
 
 ``--cheap`` uses the tests' coarse simulation settings (tests/conftest.py, ~0.1-0.2 s per
 evaluation), where the engine's own costs and any waiting show most; ``--repeat`` runs each
@@ -66,7 +69,8 @@ def run_once(case: Path, budget: int, initial: int, workers: int, root: Path, ch
     return {"workers": workers, "evaluations": session["evaluations"], "wall": session["wall_time"],
             "startup": total - session["wall_time"], "optimiser": session["optimiser_time"],
             "bookkeeping": session["bookkeeping_time"], "sim_mean": float(np.mean(sims)),
-            "busy": float(np.sum(sims)) / (workers * session["wall_time"])}
+            "busy": float(np.sum(sims)) / (workers * session["wall_time"]),
+            "held": session.get("held_time", float("nan")) / (workers * session["wall_time"])}
 
 
 def main() -> None:
@@ -86,23 +90,25 @@ def main() -> None:
                 runs[w].append(r)
                 print(f"workers {w}: {r['evaluations']} evaluations in {r['wall']:.1f} s "
                       f"(+{r['startup']:.1f} s start-up and summary), simulation {r['sim_mean']:.3f} s mean, "
-                      f"busy {r['busy']:.2f}", flush=True)
+                      f"busy {r['busy']:.2f}, held {r['held']:.3f}", flush=True)
     rows = []
     for w in args.workers:
         rs = runs[w]
         thr = float(np.median([r["evaluations"] / r["wall"] for r in rs]))
         rows.append({"workers": w, "thr": thr, "busy": float(np.median([r["busy"] for r in rs])),
+                     "held": float(np.median([r["held"] for r in rs])),
                      "optimiser": float(np.median([r["optimiser"] for r in rs])),
                      "bookkeeping": float(np.median([r["bookkeeping"] for r in rs])),
                      "wall": float(np.median([r["wall"] for r in rs]))})
     base = rows[0]["thr"] / rows[0]["workers"]
     print(f"\ncase {args.case.name}{' (cheap simulation)' if args.cheap else ''}, budget {args.budget} "
           f"({args.initial} initial), median of {args.repeat}")
-    print("workers  evals/s  efficiency  busy  optimiser[s]  bookkeeping[s]  overhead[% of wall]")
+    print("workers  evals/s  efficiency  busy  held   optimiser[s]  bookkeeping[s]  overhead[% of wall]")
     for r in rows:
         eff = r["thr"] / (r["workers"] * base)
         over = 100.0 * (r["optimiser"] + r["bookkeeping"]) / r["wall"]
-        print(f"{r['workers']:>7}  {r['thr']:7.3f}  {eff:10.2f}  {r['busy']:4.2f}  {r['optimiser']:12.2f}  "
+        print(f"{r['workers']:>7}  {r['thr']:7.3f}  {eff:10.2f}  {r['busy']:4.2f}  {r['held']:5.3f}  "
+              f"{r['optimiser']:12.2f}  "
               f"{r['bookkeeping']:14.2f}  {over:19.1f}")
 
 

@@ -374,6 +374,8 @@ class Engine:
         self._snapshot_at = time.monotonic()
         self.t_optimiser = 0.0     # time in ask/tell
         self.t_bookkeeping = 0.0   # journal, snapshots, results.h5, files written here
+        self.t_held = 0.0          # worker-seconds idle because a proposal waited for a late result
+        self._held = False         # the last ask waited for a result (schedule.py)
         self._old_handlers: dict = {}
         self._restore: list[int] = []          # ids whose lost evals/ file is simulated again
         self._restoring: set[int] = set()
@@ -434,6 +436,8 @@ class Engine:
                 p.log(f"running again {len(requeue)} evaluation(s) that were in flight: "
                       f"{', '.join('#' + str(i) for i in requeue)}")
             while True:
+                if self.stop:
+                    self._held = False
                 submitted = 0 if self.stop else self._fill(requeue)
                 if time.monotonic() - self._snapshot_at > SNAPSHOT_EVERY:
                     self._snapshot()
@@ -442,8 +446,12 @@ class Engine:
                         break
                     if submitted == 0 and self.executor.free() > 0:
                         break  # nothing left to propose and nothing in flight
+                idle = self.executor.free() if self._held and self.executor.running else 0
+                t_wait = time.monotonic()
                 for o in self.executor.wait(0.2):
                     self._record(o)
+                if idle:
+                    self.t_held += idle * (time.monotonic() - t_wait)
                 if self.stop and not self._stop_logged:
                     self._stop_logged = True
                     n = self.executor.running
@@ -469,6 +477,7 @@ class Engine:
                 self.table.apply(self.journal.append(
                     "session", time=now_iso(), wall_time=wall, evaluations=self.table.n_done - n_start,
                     optimiser_time=self.t_optimiser, bookkeeping_time=self.t_bookkeeping,
+                    held_time=self.t_held, workers=self.lag,
                     executor=self.executor.description))
                 if self.strategy.done and not self.table.pending_ids() and not self.table.finished:
                     self.table.apply(self.journal.append("finished", time=now_iso(),
@@ -490,6 +499,7 @@ class Engine:
         pending in the journal: a resume runs them first, in order, and only then asks
         again, as the run would have."""
         n = 0
+        self._held = False
         while self.executor.free() > 0:
             if self._restore:
                 i = self._restore.pop(0)
@@ -516,7 +526,10 @@ class Engine:
         """One proposal from the optimiser, committed to the journal; None if there is none now."""
         if self.problem.multi and self.ref_point is None and self.strategy.n_asked >= 1:
             return None  # the reference design runs alone: it fixes the reference point
-        if self.strategy.done or not may_ask(self.strategy, self.lag, self.problem.multi):
+        if self.strategy.done:
+            return None
+        if not may_ask(self.strategy, self.lag, self.problem.multi):
+            self._held = True
             return None  # waits for the results it must see (in id order, whatever the timing)
         t0 = time.perf_counter()
         exhausted = self.strategy.exhausted
