@@ -2,6 +2,7 @@
 
     python benchmarks/throughput.py                       # quickstart case, 40 evaluations, 1 and 2 workers
     python benchmarks/throughput.py --budget 60 --workers 1 2 4
+    python benchmarks/throughput.py --cheap --workers 2 --repeat 3   # the tests' coarse simulation
 
 For each worker count, runs the case (real simulator) into a temporary run directory and
 reads the engine's own accounting from the journal's ``session`` line:
@@ -10,7 +11,16 @@ reads the engine's own accounting from the journal's ``session`` line:
 * throughput = evaluations / wall, parallel efficiency = throughput(n) / (n * throughput(1));
 * optimiser = time in ask/tell; bookkeeping = journal, state snapshots, results.h5, files
   written by the engine process; overhead = (optimiser + bookkeeping) / wall;
-* mean simulation time per evaluation (measured in the worker).
+* mean simulation time per evaluation (measured in the worker);
+* busy = total simulation time / (workers * wall): the share of worker time spent simulating
+  (1 - busy is the time workers sat idle or were being handed their next point);
+* held = worker time idle because the next proposal waited for an earlier evaluation still
+  running (the cost of the reproducible order, lccopt/engine/schedule.py), share of
+  workers * wall; nan for lccopt versions without the rule.
+
+``--cheap`` uses the tests' coarse simulation settings (tests/conftest.py, ~0.1-0.2 s per
+evaluation), where the engine's own costs and any waiting show most; ``--repeat`` runs each
+worker count several times (interleaved) and prints every run and the median.
 """
 
 from __future__ import annotations
@@ -31,13 +41,25 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 
 
-def run_once(case: Path, budget: int, initial: int, workers: int, root: Path) -> dict:
+CHEAP = """\
+simulation:
+  time_step: 1.0e-3
+  element_length: 0.1
+  far_element_length: 0.1
+  run_in: 3.0
+  run_out: 1.0
+"""  # as tests/conftest.py CHEAP_SIMULATION
+
+
+def run_once(case: Path, budget: int, initial: int, workers: int, root: Path, cheap: bool = False,
+             tag: str = "") -> dict:
     from lccopt.engine.runner import optimise
 
-    name = f"throughput-w{workers}"
+    name = f"throughput-w{workers}{tag}"
     path = root / f"{name}.yaml"
     path.write_text(f"extends: {case.resolve()}\nname: {name}\noptimisation:\n"
-                    f"  budget: {budget}\n  initial_points: {initial}\n", encoding="utf-8")
+                    f"  budget: {budget}\n  initial_points: {initial}\n" + (CHEAP if cheap else ""),
+                    encoding="utf-8")
     t0 = time.perf_counter()
     run = optimise(path, workers=workers, runs=root / "runs", progress=False)
     total = time.perf_counter() - t0
@@ -46,7 +68,9 @@ def run_once(case: Path, budget: int, initial: int, workers: int, root: Path) ->
     sims = [e["wall_time"] for e in events if e["event"] in ("evaluated", "failed")]
     return {"workers": workers, "evaluations": session["evaluations"], "wall": session["wall_time"],
             "startup": total - session["wall_time"], "optimiser": session["optimiser_time"],
-            "bookkeeping": session["bookkeeping_time"], "sim_mean": float(np.mean(sims))}
+            "bookkeeping": session["bookkeeping_time"], "sim_mean": float(np.mean(sims)),
+            "busy": float(np.sum(sims)) / (workers * session["wall_time"]),
+            "held": session.get("held_time", float("nan")) / (workers * session["wall_time"])}
 
 
 def main() -> None:
@@ -55,23 +79,37 @@ def main() -> None:
     ap.add_argument("--budget", type=int, default=40)
     ap.add_argument("--initial", type=int, default=10)
     ap.add_argument("--workers", type=int, nargs="+", default=[1, 2])
+    ap.add_argument("--cheap", action="store_true", help="coarse simulation settings (as the tests)")
+    ap.add_argument("--repeat", type=int, default=1, help="runs per worker count (median reported)")
     args = ap.parse_args()
-    rows = []
+    runs: dict[int, list[dict]] = {w: [] for w in args.workers}
     with tempfile.TemporaryDirectory(prefix="lccopt-throughput-") as tmp:
-        for w in args.workers:
-            r = run_once(args.case, args.budget, args.initial, w, Path(tmp))
-            rows.append(r)
-            print(f"workers {w}: {r['evaluations']} evaluations in {r['wall']:.1f} s "
-                  f"(+{r['startup']:.1f} s start-up and summary), simulation {r['sim_mean']:.3f} s mean", flush=True)
-    base = rows[0]["evaluations"] / rows[0]["wall"] / rows[0]["workers"]
-    print(f"\ncase {args.case.name}, budget {args.budget} ({args.initial} initial)")
-    print("workers  evals/s  efficiency  optimiser[s]  bookkeeping[s]  overhead[% of wall]")
+        for k in range(args.repeat):
+            for w in args.workers:
+                r = run_once(args.case, args.budget, args.initial, w, Path(tmp), args.cheap, f"-{k}")
+                runs[w].append(r)
+                print(f"workers {w}: {r['evaluations']} evaluations in {r['wall']:.1f} s "
+                      f"(+{r['startup']:.1f} s start-up and summary), simulation {r['sim_mean']:.3f} s mean, "
+                      f"busy {r['busy']:.2f}, held {r['held']:.3f}", flush=True)
+    rows = []
+    for w in args.workers:
+        rs = runs[w]
+        thr = float(np.median([r["evaluations"] / r["wall"] for r in rs]))
+        rows.append({"workers": w, "thr": thr, "busy": float(np.median([r["busy"] for r in rs])),
+                     "held": float(np.median([r["held"] for r in rs])),
+                     "optimiser": float(np.median([r["optimiser"] for r in rs])),
+                     "bookkeeping": float(np.median([r["bookkeeping"] for r in rs])),
+                     "wall": float(np.median([r["wall"] for r in rs]))})
+    base = rows[0]["thr"] / rows[0]["workers"]
+    print(f"\ncase {args.case.name}{' (cheap simulation)' if args.cheap else ''}, budget {args.budget} "
+          f"({args.initial} initial), median of {args.repeat}")
+    print("workers  evals/s  efficiency  busy  held   optimiser[s]  bookkeeping[s]  overhead[% of wall]")
     for r in rows:
-        thr = r["evaluations"] / r["wall"]
-        eff = thr / (r["workers"] * base)
+        eff = r["thr"] / (r["workers"] * base)
         over = 100.0 * (r["optimiser"] + r["bookkeeping"]) / r["wall"]
-        print(f"{r['workers']:>7}  {thr:7.3f}  {eff:10.2f}  {r['optimiser']:12.2f}  {r['bookkeeping']:14.2f}  "
-              f"{over:19.1f}")
+        print(f"{r['workers']:>7}  {r['thr']:7.3f}  {eff:10.2f}  {r['busy']:4.2f}  {r['held']:5.3f}  "
+              f"{r['optimiser']:12.2f}  "
+              f"{r['bookkeeping']:14.2f}  {over:19.1f}")
 
 
 if __name__ == "__main__":

@@ -225,6 +225,7 @@ class Table:
         self.reference: dict | None = None   # objectives, point, worst, ...
         self.finished = False
         self.seq = -1
+        self.lag: int | None = None          # the schedule's lag (workers) of the last session
 
     def apply(self, ev: dict) -> None:
         self.seq = ev["seq"]
@@ -248,6 +249,8 @@ class Table:
             self.reference = {k: v for k, v in ev.items() if k not in ("seq", "event")}
         elif kind == "finished":
             self.finished = True
+        elif kind == "schedule":
+            self.lag = int(ev["lag"])
         elif kind == "case_changed":  # e.g. a larger budget: a finished run carries on
             self.finished = False
 

@@ -9,15 +9,19 @@ Commit protocol, per evaluation ``i``:
 1. ``asked`` line (id, x, phase, restart) after ``strategy.ask`` returned the proposal;
 2. the worker writes ``evals/00000i.h5`` (tmp + fsync + rename);
 3. ``evaluated`` (objectives, scalar value, wall time, worker, file) or ``failed`` (reason)
-   line, then ``strategy.tell`` / ``tell_failed``;
+   line when the outcome arrives; ``strategy.tell`` / ``tell_failed`` when its turn comes:
+   results are told in id order, result ``i`` once proposal ``i + k`` is made (k = workers;
+   ``schedule.py``), so proposal ``n`` sees exactly results ``0 .. n-k-1`` whatever the timing;
 4. every few seconds: ``state.json`` (strategy state + the journal seq it reflects) and
    ``results.h5`` (rebuilt from the journal), both atomic.
 
-The journal lines are exactly the optimiser calls in order, so the optimiser state after
-any committed line is the snapshot plus a replay of the lines after it (``ask`` must give
-back the logged point, which is checked). Resume re-runs the ``asked`` ids without a
-result. With one worker the sequence of calls, and so the run, is the same as without
-the interruption.
+The optimiser calls are a fixed function of the journal lines (``Replay``: each ``asked`` or
+``exhausted`` line is an ask, a result is told as the schedule rule allows after each line,
+with the lag of the session's ``schedule`` line), so the optimiser state after any committed
+line is the snapshot plus a replay of the lines after it (``ask`` must give back the logged
+point, which is checked). Resume re-runs the ``asked`` ids without a result. With the same
+worker count the sequence of calls, and so the run, is the same as without the interruption,
+and the same from one run to the next.
 
 For two or more objectives the reference design (always proposal 0) runs alone first: its
 objectives fix the ASF reference point (``reference`` line) before any value is computed.
@@ -42,6 +46,7 @@ from .executors import ExecutorError, make_executor
 from .journal import Journal, JournalError, read_journal
 from .progress import Progress, fmt, hms, objective_text
 from .rundir import RunDir, RunError, Table, eval_name, now_iso, sha256_text, write_results
+from .schedule import may_ask, release
 from .worker import Outcome, Task, evaluator_spec
 
 RESULTS_EVERY = 10.0  # [s] results.h5 is rebuilt at most this often while running (and at the end)
@@ -287,9 +292,41 @@ def restore(problem: Problem, events: list[dict], snapshot: dict | None):
         strategy = Strategy(problem.space(), budget=budget0, n_initial=problem.initial_points,
                             seed=problem.seed)
         start = 0
+    replayer = Replay(strategy, problem.multi)
+    for ev in events[:start]:  # what the snapshot already reflects: results held back, the lag
+        replayer.note(ev)
     for ev in events[start:]:
-        replay(strategy, ev)
+        replayer(ev)
     return strategy, table
+
+
+class Replay:
+    """Makes the optimiser calls that the engine made for each journal line (see schedule.py:
+    results are told in id order, each once the proposal ``lag`` ids later has been made)."""
+
+    def __init__(self, strategy, multi: bool):
+        self.strategy, self.multi = strategy, multi
+        self.lag: int | None = None  # None: a journal of lccopt before the schedule rule
+        self.results: dict[int, tuple] = {}
+
+    def note(self, ev: dict) -> None:
+        kind = ev["event"]
+        if kind == "evaluated":
+            self.results[ev["id"]] = ("ok", ev["value"])
+        elif kind == "failed":
+            self.results[ev["id"]] = ("failed", ev.get("reason", ""))
+        elif kind == "schedule":
+            self.lag = int(ev["lag"])
+
+    def __call__(self, ev: dict) -> None:
+        kind = ev["event"]
+        if self.lag is None and kind in ("evaluated", "failed"):
+            replay(self.strategy, ev)  # the old rule: told in the journal's order
+        elif kind in ("asked", "exhausted", "case_changed"):
+            replay(self.strategy, ev)
+        self.note(ev)
+        if self.lag is not None:
+            release(self.strategy, self.lag, self.multi, self.results.get)
 
 
 def replay(strategy, ev: dict) -> None:
@@ -300,6 +337,12 @@ def replay(strategy, ev: dict) -> None:
             got = f"#{props[0].id} {props[0].x.tolist()}" if props else "nothing"
             raise JournalError(f"journal line {ev['seq'] + 1}: the optimiser proposes {got}, the journal "
                                f"says #{ev['id']} {ev['x']}; was lccopt changed since the run started?")
+    elif kind == "exhausted":
+        props = strategy.ask(1)
+        if props or not strategy.exhausted:
+            raise JournalError(f"journal line {ev['seq'] + 1}: the optimiser proposes #{props[0].id if props else '?'}"
+                               f", the journal says the design space was exhausted; was lccopt changed "
+                               f"since the run started?")
     elif kind == "evaluated":
         strategy.tell(ev["id"], ev["value"])
     elif kind == "failed":
@@ -321,6 +364,8 @@ class Engine:
         self.strategy.budget = problem.budget
         self.ref_point = (table.reference or {}).get("point")
         self._ahead: int | None = None   # id asked ahead, waiting for a free worker
+        # proposal n sees exactly the results 0 .. n-lag-1 (schedule.py); lag = the workers
+        self.lag = max(1, int(executor.slots))
         self.stop = False
         self.abort = False
         self._stop_logged = False
@@ -329,6 +374,8 @@ class Engine:
         self._snapshot_at = time.monotonic()
         self.t_optimiser = 0.0     # time in ask/tell
         self.t_bookkeeping = 0.0   # journal, snapshots, results.h5, files written here
+        self.t_held = 0.0          # worker-seconds idle because a proposal waited for a late result
+        self._held = False         # the last ask waited for a result (schedule.py)
         self._old_handlers: dict = {}
         self._restore: list[int] = []          # ids whose lost evals/ file is simulated again
         self._restoring: set[int] = set()
@@ -381,11 +428,16 @@ class Engine:
             what = ", ".join(pb.objectives) + (" (ASF, Eq. 7)" if pb.multi else "")
             p.log(f"run {self.rd.path}: case '{self.case.name}', {pb.dim} variables, minimising {what}, "
                   f"budget {pb.budget}, {self.table.n_done} done; {self.executor.description}")
+            if self.table.lag != self.lag:
+                self.table.apply(self.journal.append("schedule", lag=self.lag, time=now_iso()))
+            self._release()
             requeue = self.table.pending_ids()
             if requeue:
                 p.log(f"running again {len(requeue)} evaluation(s) that were in flight: "
                       f"{', '.join('#' + str(i) for i in requeue)}")
             while True:
+                if self.stop:
+                    self._held = False
                 submitted = 0 if self.stop else self._fill(requeue)
                 if time.monotonic() - self._snapshot_at > SNAPSHOT_EVERY:
                     self._snapshot()
@@ -394,8 +446,12 @@ class Engine:
                         break
                     if submitted == 0 and self.executor.free() > 0:
                         break  # nothing left to propose and nothing in flight
+                idle = self.executor.free() if self._held and self.executor.running else 0
+                t_wait = time.monotonic()
                 for o in self.executor.wait(0.2):
                     self._record(o)
+                if idle:
+                    self.t_held += idle * (time.monotonic() - t_wait)
                 if self.stop and not self._stop_logged:
                     self._stop_logged = True
                     n = self.executor.running
@@ -421,6 +477,7 @@ class Engine:
                 self.table.apply(self.journal.append(
                     "session", time=now_iso(), wall_time=wall, evaluations=self.table.n_done - n_start,
                     optimiser_time=self.t_optimiser, bookkeeping_time=self.t_bookkeeping,
+                    held_time=self.t_held, workers=self.lag,
                     executor=self.executor.description))
                 if self.strategy.done and not self.table.pending_ids() and not self.table.finished:
                     self.table.apply(self.journal.append("finished", time=now_iso(),
@@ -437,9 +494,12 @@ class Engine:
     def _fill(self, requeue: list[int]) -> int:
         """Give every free worker a point; then, with all workers busy, propose the next point
         already, so that the next worker to finish gets it at once (the ask runs while the
-        simulations do). Points asked but not yet running are pending in the journal: a
-        resume runs them first, in order, and only then asks again, as the run would have."""
+        simulations do). A proposal waits for the results it must see (``_ask``); a free
+        worker then idles until the late one arrives. Points asked but not yet running are
+        pending in the journal: a resume runs them first, in order, and only then asks
+        again, as the run would have."""
         n = 0
+        self._held = False
         while self.executor.free() > 0:
             if self._restore:
                 i = self._restore.pop(0)
@@ -468,18 +528,39 @@ class Engine:
             return None  # the reference design runs alone: it fixes the reference point
         if self.strategy.done:
             return None
+        if not may_ask(self.strategy, self.lag, self.problem.multi):
+            self._held = True
+            return None  # waits for the results it must see (in id order, whatever the timing)
         t0 = time.perf_counter()
+        exhausted = self.strategy.exhausted
         props = self.strategy.ask(1)
         t1 = time.perf_counter()
         self.t_optimiser += t1 - t0
         if not props:
+            if self.strategy.exhausted and not exhausted:  # replayed as a call that gives nothing
+                self.table.apply(self.journal.append("exhausted", n_asked=self.strategy.n_asked))
+            self.t_bookkeeping += time.perf_counter() - t1
+            self._release()  # no more proposals: every result may be told
             return None
         pr = props[0]
         ev = self.journal.append("asked", id=int(pr.id), x=[float(v) for v in pr.x], phase=pr.phase,
                                  restart=int(pr.restart))
         self.table.apply(ev)
         self.t_bookkeeping += time.perf_counter() - t1
+        self._release()
         return self.table.rows[pr.id]
+
+    def _result(self, i: int):
+        r = self.table.rows.get(i)
+        if r is None or r["status"] == "pending":
+            return None
+        return ("ok", r["value"]) if r["status"] == "ok" else ("failed", r["reason"])
+
+    def _release(self) -> None:
+        """Tell the optimiser the results it may see now (in id order; see schedule.py)."""
+        t0 = time.perf_counter()
+        release(self.strategy, self.lag, self.problem.multi, self._result)
+        self.t_optimiser += time.perf_counter() - t0
 
     def _submit(self, row: dict) -> None:
         out = None
@@ -527,17 +608,10 @@ class Engine:
                 self.ref_point = point
             value = pb.value(objectives, self.ref_point)
             self.table.apply(j.append("evaluated", value=value, **common))
-            t1 = time.perf_counter()
-            self.strategy.tell(o.id, value)
-            self.t_optimiser += time.perf_counter() - t1
-            self.t_bookkeeping -= time.perf_counter() - t1
         else:
             self.table.apply(j.append("failed", reason=error, **common))
-            t1 = time.perf_counter()
-            self.strategy.tell_failed(o.id, error)
-            self.t_optimiser += time.perf_counter() - t1
-            self.t_bookkeeping -= time.perf_counter() - t1
         self.t_bookkeeping += time.perf_counter() - t0
+        self._release()  # told when its turn comes, not when it arrives (schedule.py)
         self.progress.update(self.table, self.executor.running, last=row)
         if error is not None and pb.multi and o.id == 0 and self.table.reference is None:
             raise self._reference_failed(error)

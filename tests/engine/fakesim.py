@@ -2,7 +2,9 @@
 argument): a cheap analytic stand-in for the simulator, and faulty variants.
 
 ``evaluate``: deterministic smooth objectives of x (+ small time histories); sleeps
-``LCCOPT_FAKE_DELAY`` seconds (default 0) to look like a simulation.
+``LCCOPT_FAKE_DELAY`` seconds (default 0) to look like a simulation; with
+``LCCOPT_FAKE_SPREAD`` = s (0 <= s < 1) the delay varies between (1-s) and (1+s) times that
+from point to point (a fixed function of x), so that results come back out of order.
 
 ``faulty``: like ``evaluate`` for the reference design; otherwise fires each fault listed
 in ``LCCOPT_TEST_FAULTS`` (comma-separated: raise, nan, exit, hang) exactly once, claimed
@@ -33,7 +35,9 @@ def _objectives(case, x) -> dict:
 def evaluate(case, x) -> Evaluation:
     delay = float(os.environ.get("LCCOPT_FAKE_DELAY", "0") or 0)
     if delay:
-        time.sleep(delay)
+        spread = float(os.environ.get("LCCOPT_FAKE_SPREAD", "0") or 0)
+        u = (np.sin(1e3 * np.sum(np.asarray(x, float) * np.arange(1, len(x) + 1))) + 1.0) / 2.0
+        time.sleep(delay * (1.0 + spread * (2.0 * u - 1.0)))
     x = case.check_design(x)
     obj = _objectives(case, x)
     t = np.linspace(0.0, 0.1, 200)

@@ -70,9 +70,10 @@ def _check_consistent(run: Path) -> None:
 
 
 def test_kill_9_at_random_moments_then_resume_equals_an_uninterrupted_run(tmp_path):
-    """Real simulator (coarse settings), real case file and HDF5, one worker, fixed seed."""
+    """Real simulator (coarse settings), real case file and HDF5, two workers, fixed seed: the
+    results reach the optimiser in id order whatever the timing, so the tables are equal."""
     case = write_case(tmp_path, "k9", budget=20, initial=6, seed=4, worst=(20000.0, 3.0))
-    reference = read_table(optimise(case, workers=1, runs=tmp_path / "uninterrupted", evaluator=REAL,
+    reference = read_table(optimise(case, workers=2, runs=tmp_path / "uninterrupted", evaluator=REAL,
                                     progress=False))
     assert (reference["status"] == "ok").all(), set(reference["reason"])
     runs = tmp_path / "runs"
@@ -81,8 +82,8 @@ def test_kill_9_at_random_moments_then_resume_equals_an_uninterrupted_run(tmp_pa
     rng = random.Random(20240611)
     kills = 0
     for _ in range(5):
-        args = ["resume", run, "--workers", "1"] if run.exists() else \
-            ["optimise", case, "--workers", "1", "--runs", runs]
+        args = ["resume", run, "--workers", "2"] if run.exists() else \
+            ["optimise", case, "--workers", "2", "--runs", runs]
         p = cli(*args, env=env)
         # A random moment once the run is under way (start-up time varies with the load).
         _wait_for(lambda: (run / "journal.jsonl").exists() or p.poll() is not None, what="the run to start")
@@ -96,7 +97,7 @@ def test_kill_9_at_random_moments_then_resume_equals_an_uninterrupted_run(tmp_pa
         if run.exists():
             _check_consistent(run)
     assert kills >= 3
-    done = cli_run("resume", run, "--workers", "1", env=env)
+    done = cli_run("resume", run, "--workers", "2", env=env)
     assert done.returncode == 0, done.stderr
     final = read_table(run)
     assert_same_evaluations(reference, final)
@@ -107,13 +108,14 @@ def test_kill_9_at_random_moments_then_resume_equals_an_uninterrupted_run(tmp_pa
 
 def test_ctrl_c_saves_exits_130_and_resumes_to_the_same_run(tmp_path):
     case = write_case(tmp_path, "cc", budget=12, initial=5, seed=2)
-    env = {"LCCOPT_EVALUATOR": FAKE, "LCCOPT_FAKE_DELAY": "0.3"}
-    reference = read_table(optimise(case, workers=1, runs=tmp_path / "uninterrupted", evaluator=FAKE,
+    # two workers, evaluation times varying from point to point: results arrive out of order
+    env = {"LCCOPT_EVALUATOR": FAKE, "LCCOPT_FAKE_DELAY": "0.3", "LCCOPT_FAKE_SPREAD": "0.8"}
+    reference = read_table(optimise(case, workers=2, runs=tmp_path / "uninterrupted", evaluator=FAKE,
                                     progress=False))
     runs = tmp_path / "runs"
     run = runs / "cc"
     # Ctrl-C in a terminal signals the whole process group, workers included.
-    p = cli("optimise", case, "--workers", "1", "--runs", runs, env=env, start_new_session=True)
+    p = cli("optimise", case, "--workers", "2", "--runs", runs, env=env, start_new_session=True)
     _wait_for(lambda: run.exists() and _n_done(run) >= 3, what="3 evaluations")
     os.killpg(p.pid, signal.SIGINT)
     out, err = p.communicate(timeout=60)
@@ -123,7 +125,7 @@ def test_ctrl_c_saves_exits_130_and_resumes_to_the_same_run(tmp_path):
     assert 3 <= len(t["id"]) < 12 and set(t["status"]) == {"ok"}  # the running one finished, not failed
 
     # Second Ctrl-C stops the running evaluation; it runs again on resume.
-    p = cli("resume", run, "--workers", "1", env=env, start_new_session=True)
+    p = cli("resume", run, "--workers", "2", env=env, start_new_session=True)
     n0 = len(t["id"])
     _wait_for(lambda: _n_done(run) >= n0 + 2, what="2 more evaluations")
     os.killpg(p.pid, signal.SIGINT)
@@ -133,7 +135,7 @@ def test_ctrl_c_saves_exits_130_and_resumes_to_the_same_run(tmp_path):
     assert p.returncode == 130, err
     assert set(read_table(run)["status"]) == {"ok"}
 
-    done = cli_run("resume", run, "--workers", "1", env=env)
+    done = cli_run("resume", run, "--workers", "2", env=env)
     assert done.returncode == 0, done.stderr
     assert_same_evaluations(reference, read_table(run))
     again = cli_run("resume", run, env=env)

@@ -39,8 +39,8 @@ def _wait_for(cond, timeout=120.0):
         time.sleep(0.05)
 
 
-def _uninterrupted(tmp_path: Path, case: Path) -> dict:
-    return read_table(optimise(case, workers=1, runs=tmp_path / "uninterrupted", evaluator=FAKE,
+def _uninterrupted(tmp_path: Path, case: Path, workers: int = 1) -> dict:
+    return read_table(optimise(case, workers=workers, runs=tmp_path / "uninterrupted", evaluator=FAKE,
                                progress=False))
 
 
@@ -97,10 +97,11 @@ def test_force_replaces_only_an_lccopt_run_directory_inside_runs(tmp_path):
 def test_a_stop_signal_to_the_process_group_leaves_the_running_evaluation_pending(tmp_path, sig):
     """What Slurm, systemd and `timeout` do: the whole group gets SIGTERM at once."""
     case = write_case(tmp_path, "st", budget=10, initial=4, seed=3)
-    reference = _uninterrupted(tmp_path, case)
+    reference = _uninterrupted(tmp_path, case, workers=2)
     run = tmp_path / "runs" / "st"
-    p = cli("optimise", case, "--workers", "1", "--runs", tmp_path / "runs",
-            env={**ENV, "LCCOPT_FAKE_DELAY": "0.4"}, start_new_session=True)
+    # two workers and evaluation times that vary from point to point: results arrive out of order
+    p = cli("optimise", case, "--workers", "2", "--runs", tmp_path / "runs",
+            env={**ENV, "LCCOPT_FAKE_DELAY": "0.4", "LCCOPT_FAKE_SPREAD": "0.8"}, start_new_session=True)
     _wait_for(lambda: run.exists() and _n_done(run) >= 2)
     time.sleep(0.2)  # mid-evaluation
     os.killpg(p.pid, sig)
@@ -108,7 +109,7 @@ def test_a_stop_signal_to_the_process_group_leaves_the_running_evaluation_pendin
     assert p.returncode == 130, err
     assert "Traceback" not in err
     assert not [e for e in _events(run) if e["event"] == "failed"]
-    assert cli_run("resume", run, "--workers", "1", env=ENV).returncode == 0
+    assert cli_run("resume", run, "--workers", "2", env=ENV).returncode == 0
     assert_same_evaluations(reference, read_table(run))
 
 
