@@ -6,6 +6,8 @@ Pure and small: no files, no processes. The run engine asks it for
   given point, so the reference design is always evaluation 0),
 * ``value(objectives, reference_point)``: the objective itself for a single-objective case,
   the augmented Chebyshev ASF of the paper's Eq. (7) for two or more objectives,
+* ``aggregate(reference_point)``: the same ASF as a function of objective vectors, which the
+  composite surrogate of a multi-objective run (``strategy()``) scores its candidates with,
 * ``reference_point(reference_objectives)``: f^r = (1 - improvement) * f(x_ref), the paper's
   "20 % better than the reference design" (only for two or more objectives).
 """

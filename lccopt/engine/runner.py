@@ -9,7 +9,8 @@ Commit protocol, per evaluation ``i``:
 1. ``asked`` line (id, x, phase, restart) after ``strategy.ask`` returned the proposal;
 2. the worker writes ``evals/00000i.h5`` (tmp + fsync + rename);
 3. ``evaluated`` (objectives, scalar value, wall time, worker, file) or ``failed`` (reason)
-   line when the outcome arrives; ``strategy.tell`` / ``tell_failed`` when its turn comes:
+   line when the outcome arrives; ``strategy.tell`` (value and objective vector, which the
+   composite surrogate of a multi-objective run fits) / ``tell_failed`` when its turn comes:
    results are told in id order, result ``i`` once proposal ``i + k`` is made (k = workers;
    ``schedule.py``), so proposal ``n`` sees exactly results ``0 .. n-k-1`` whatever the timing;
 4. every few seconds: ``state.json`` (strategy state + the journal seq it reflects) and
