@@ -6,6 +6,8 @@ Pure and small: no files, no processes. The run engine asks it for
   given point, so the reference design is always evaluation 0),
 * ``value(objectives, reference_point)``: the objective itself for a single-objective case,
   the augmented Chebyshev ASF of the paper's Eq. (7) for two or more objectives,
+* ``aggregate(reference_point)``: the same ASF as a function of objective vectors, which the
+  composite surrogate of a multi-objective run (``strategy()``) scores its candidates with,
 * ``reference_point(reference_objectives)``: f^r = (1 - improvement) * f(x_ref), the paper's
   "20 % better than the reference design" (only for two or more objectives).
 """
@@ -79,10 +81,25 @@ class Problem:
         return DesignSpace(names=list(self.names), lower=list(self.lower), upper=list(self.upper),
                            integer=list(self.integer), given=[list(self.reference)])
 
-    def strategy(self):
+    def strategy(self, budget: int | None = None, composite: bool | None = None):
+        """The optimiser; multi-objective: a composite surrogate (one RBF per objective, scored
+        by the ASF, see ``aggregate``) unless composite=False."""
         from .optim.strategy import Strategy
 
-        return Strategy(self.space(), budget=self.budget, n_initial=self.initial_points, seed=self.seed)
+        return Strategy(self.space(), budget=self.budget if budget is None else int(budget),
+                        n_initial=self.initial_points, seed=self.seed,
+                        composite=self.multi if composite is None else bool(composite))
+
+    def aggregate(self, reference_point, worst=None, rho=None):
+        """The value as a function of objective vectors F (n, k), for the composite surrogate:
+        the ASF with this reference point (and worst, rho: the case's unless given); None
+        for a single objective."""
+        if not self.multi or reference_point is None:
+            return None
+        from .optim.scalarise import ASF
+
+        return ASF(reference_point, self.worst if worst is None else worst,
+                   self.rho if rho is None else rho)
 
     def same_space(self, other: "Problem") -> bool:
         """Same variables, bounds, reference design and objectives (what a resume must keep)."""

@@ -9,7 +9,8 @@ Commit protocol, per evaluation ``i``:
 1. ``asked`` line (id, x, phase, restart) after ``strategy.ask`` returned the proposal;
 2. the worker writes ``evals/00000i.h5`` (tmp + fsync + rename);
 3. ``evaluated`` (objectives, scalar value, wall time, worker, file) or ``failed`` (reason)
-   line when the outcome arrives; ``strategy.tell`` / ``tell_failed`` when its turn comes:
+   line when the outcome arrives; ``strategy.tell`` (value and objective vector, which the
+   composite surrogate of a multi-objective run fits) / ``tell_failed`` when its turn comes:
    results are told in id order, result ``i`` once proposal ``i + k`` is made (k = workers;
    ``schedule.py``), so proposal ``n`` sees exactly results ``0 .. n-k-1`` whatever the timing;
 4. every few seconds: ``state.json`` (strategy state + the journal seq it reflects) and
@@ -166,8 +167,9 @@ def resume(run, workers: int | None = None, scheduler=None, case=None, allow_cha
             raise _usage_error(f"the case's objectives {list(problem.objectives)} differ from the run's "
                                f"{events[0]['objectives']}; start a new run instead")
         if meta.get("case_sha256") != sha256_text(case_obj.resolved):
+            extra = {"worst": list(problem.worst), "rho": problem.rho} if problem.multi and problem.worst else {}
             ev = journal.append("case_changed", time=now_iso(), case_sha256=sha256_text(case_obj.resolved),
-                                budget=problem.budget, case_file=str(case_obj.path))
+                                budget=problem.budget, case_file=str(case_obj.path), **extra)
             events.append(ev)
             rd.case_path.write_text(case_obj.resolved, encoding="utf-8")
             meta.update(case_sha256=sha256_text(case_obj.resolved), case_file=str(Path(case_obj.path).resolve()))
@@ -289,10 +291,9 @@ def restore(problem: Problem, events: list[dict], snapshot: dict | None):
             strategy = None
     if strategy is None:
         budget0 = events[0].get("budget", problem.budget) if events else problem.budget
-        strategy = Strategy(problem.space(), budget=budget0, n_initial=problem.initial_points,
-                            seed=problem.seed)
+        strategy = problem.strategy(budget=budget0)
         start = 0
-    replayer = Replay(strategy, problem.multi)
+    replayer = Replay(strategy, problem.multi, problem)
     for ev in events[:start]:  # what the snapshot already reflects: results held back, the lag
         replayer.note(ev)
     for ev in events[start:]:
@@ -302,26 +303,47 @@ def restore(problem: Problem, events: list[dict], snapshot: dict | None):
 
 class Replay:
     """Makes the optimiser calls that the engine made for each journal line (see schedule.py:
-    results are told in id order, each once the proposal ``lag`` ids later has been made)."""
+    results are told in id order, each once the proposal ``lag`` ids later has been made).
 
-    def __init__(self, strategy, multi: bool):
-        self.strategy, self.multi = strategy, multi
+    With the problem given, results are told with their objective vectors, and the optimiser's
+    aggregate (the ASF, for a composite surrogate) is set as the engine set it: from the
+    ``reference`` line (point, worst, rho) and from any ``case_changed`` line that records
+    other worst values or rho."""
+
+    def __init__(self, strategy, multi: bool, problem=None):
+        self.strategy, self.multi, self.problem = strategy, multi, problem
         self.lag: int | None = None  # None: a journal of lccopt before the schedule rule
         self.results: dict[int, tuple] = {}
+        self.asf: dict | None = None  # point, worst, rho of the aggregate in force
+
+    def outputs(self, ev: dict):
+        if self.problem is None:
+            return None
+        return [float(v) for v in self.problem.objective_vector(ev.get("objectives") or {})]
 
     def note(self, ev: dict) -> None:
         kind = ev["event"]
         if kind == "evaluated":
-            self.results[ev["id"]] = ("ok", ev["value"])
+            self.results[ev["id"]] = ("ok", ev["value"], self.outputs(ev))
         elif kind == "failed":
             self.results[ev["id"]] = ("failed", ev.get("reason", ""))
         elif kind == "schedule":
             self.lag = int(ev["lag"])
+        elif kind == "reference" and self.problem is not None:
+            self.asf = {"point": ev["point"], "worst": ev.get("worst"), "rho": ev.get("rho")}
+            self._set_aggregate()
+        elif kind == "case_changed" and self.asf is not None and ("worst" in ev or "rho" in ev):
+            self.asf.update({k: ev[k] for k in ("worst", "rho") if k in ev})
+            self._set_aggregate()
+
+    def _set_aggregate(self) -> None:
+        a = self.asf
+        self.strategy.set_aggregate(self.problem.aggregate(a["point"], a["worst"], a["rho"]))
 
     def __call__(self, ev: dict) -> None:
         kind = ev["event"]
         if self.lag is None and kind in ("evaluated", "failed"):
-            replay(self.strategy, ev)  # the old rule: told in the journal's order
+            replay(self.strategy, ev, self.outputs(ev))  # the old rule: told in the journal's order
         elif kind in ("asked", "exhausted", "case_changed"):
             replay(self.strategy, ev)
         self.note(ev)
@@ -329,7 +351,7 @@ class Replay:
             release(self.strategy, self.lag, self.multi, self.results.get)
 
 
-def replay(strategy, ev: dict) -> None:
+def replay(strategy, ev: dict, outputs=None) -> None:
     kind = ev["event"]
     if kind == "asked":
         props = strategy.ask(1)
@@ -344,7 +366,10 @@ def replay(strategy, ev: dict) -> None:
                                f", the journal says the design space was exhausted; was lccopt changed "
                                f"since the run started?")
     elif kind == "evaluated":
-        strategy.tell(ev["id"], ev["value"])
+        if outputs is None:
+            strategy.tell(ev["id"], ev["value"])
+        else:
+            strategy.tell(ev["id"], ev["value"], outputs)
     elif kind == "failed":
         strategy.tell_failed(ev["id"], ev.get("reason", ""))
     elif kind == "case_changed":
@@ -363,6 +388,8 @@ class Engine:
         self.executor = executor
         self.strategy.budget = problem.budget
         self.ref_point = (table.reference or {}).get("point")
+        if self.ref_point is not None:  # as the replay of the journal set it (restore)
+            self.strategy.set_aggregate(problem.aggregate(self.ref_point))
         self._ahead: int | None = None   # id asked ahead, waiting for a free worker
         # proposal n sees exactly the results 0 .. n-lag-1 (schedule.py); lag = the workers
         self.lag = max(1, int(executor.slots))
@@ -554,7 +581,9 @@ class Engine:
         r = self.table.rows.get(i)
         if r is None or r["status"] == "pending":
             return None
-        return ("ok", r["value"]) if r["status"] == "ok" else ("failed", r["reason"])
+        if r["status"] != "ok":
+            return ("failed", r["reason"])
+        return ("ok", r["value"], [float(v) for v in self.problem.objective_vector(r["objectives"])])
 
     def _release(self) -> None:
         """Tell the optimiser the results it may see now (in id order; see schedule.py)."""
@@ -606,6 +635,7 @@ class Engine:
                                           worst=list(pb.worst) if pb.worst else None, rho=pb.rho,
                                           improvement=pb.improvement))
                 self.ref_point = point
+                self.strategy.set_aggregate(pb.aggregate(point))
             value = pb.value(objectives, self.ref_point)
             self.table.apply(j.append("evaluated", value=value, **common))
         else:

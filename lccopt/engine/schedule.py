@@ -26,10 +26,11 @@ any ``schedule`` line (lccopt before this rule) told results in the journal's or
 
 from __future__ import annotations
 
-from typing import Callable, Optional, Tuple
+from typing import Callable, Optional
 
-# (status, value or reason): ("ok", value) or ("failed", reason); None if not there yet
-Result = Optional[Tuple[str, object]]
+# (status, value or reason[, outputs]): ("ok", value), ("ok", value, objective vector) or
+# ("failed", reason); None if not there yet
+Result = Optional[tuple]
 
 
 def asks_over(strategy) -> bool:
@@ -65,7 +66,10 @@ def release(strategy, lag: int, multi: bool, result: Callable[[int], Result]) ->
         if r is None or not may_tell(strategy, i, lag, multi):
             break
         if r[0] == "ok":
-            strategy.tell(i, r[1])
+            if len(r) > 2 and r[2] is not None:  # the objectives, for a composite surrogate
+                strategy.tell(i, r[1], r[2])
+            else:
+                strategy.tell(i, r[1])
         else:
             strategy.tell_failed(i, r[1])
         told.append(i)

@@ -36,6 +36,26 @@ def asf(F, ref_point, worst, rho: float = 0.05) -> np.ndarray:
     return dev.max(axis=-1) + rho * dev.sum(axis=-1)
 
 
+class ASF:
+    """``asf`` with fixed reference point, worst values and rho, as an aggregate F -> values
+    (for a composite surrogate); compares equal to another with the same parameters."""
+
+    def __init__(self, ref_point, worst, rho: float = 0.05):
+        self.ref_point = [float(v) for v in ref_point]
+        self.worst = [float(v) for v in worst]
+        self.rho = float(rho)
+
+    def __call__(self, F) -> np.ndarray:
+        return np.atleast_1d(asf(F, self.ref_point, self.worst, rho=self.rho))
+
+    def __eq__(self, other) -> bool:
+        return isinstance(other, ASF) and (self.ref_point, self.worst, self.rho) == (
+            other.ref_point, other.worst, other.rho)
+
+    def __repr__(self) -> str:
+        return f"ASF(ref_point={self.ref_point}, worst={self.worst}, rho={self.rho})"
+
+
 def improvement_target(f_reference, fraction: float = 0.2) -> np.ndarray:
     """Reference point a given fraction better than a reference design's objectives
     (the paper's 20 %: f^r = 0.8 f(x_ref)); assumes positive objectives."""

@@ -16,6 +16,15 @@ Metric Stochastic Response Surface (Regis & Shoemaker) with DYCORS perturbations
   design when sigma collapses or evaluations keep failing.
 * Step G: stop at a budget of told evaluations (failures included).
 
+Composite surrogate (setting ``composite``): when the minimised value is an aggregate of
+several outputs (e.g. a scalarising function of objectives), ``tell`` may also be given the
+output vector, and ``set_aggregate`` the function ``aggregate(F (n, k)) -> (n,)``. Then one
+cubic RBF is fitted per output (median-capped per output if ``composite_capping``) and the
+candidates and the local search are scored by ``aggregate(predicted outputs)`` instead of an
+RBF of the (possibly kinked) scalar value. Success/failure counting and the best point stay on
+the told scalar value. The told outputs are part of the state; the aggregate function is not
+(the caller rebuilds it). Without an aggregate or outputs the scalar surrogate is used.
+
 The object holds no references to files, processes or clocks: every decision depends only
 on its state, which ``state_dict`` writes out completely (random generator included) as
 plain JSON types, so a restored strategy proposes exactly what the original would have.
@@ -71,6 +80,8 @@ def _default_settings(space: DesignSpace) -> dict:
         "capping": True,                   # median-cap values before fitting
         "force_int_move": True,            # selected integers move >= 1 unit (else pySOT-like)
         "dist_tol": 1e-3,                  # duplicate radius (unit box, times sqrt(d_cont))
+        "composite": False,                # one RBF per told output, scored by the aggregate
+        "composite_capping": True,         # median-cap each output before fitting (composite)
     }
 
 
@@ -107,6 +118,8 @@ class Strategy:
         if not self.settings["weights"] or not all(0.0 <= w <= 1.0 for w in self.settings["weights"]):
             raise ValueError("weights must be a non-empty list of numbers in [0, 1]")
         self._rbf = CubicRBF()  # cache only (distance matrix); never part of the state
+        self._rbfs: list[CubicRBF] = []  # composite: one per output (cache only, as above)
+        self._aggregate = None  # composite: outputs (n, k) -> values (n,); not state
         span = space.ub - space.lb
         self._int = space.int_mask
         self._cont = ~self._int & (span > 0)
@@ -125,6 +138,19 @@ class Strategy:
         self._w_index = 0
         self._fbest_restart: float | None = None
         self._exhausted = False
+
+    def set_aggregate(self, aggregate) -> None:
+        """The function that maps output vectors F (n, k) to the scalar values (n,), or None.
+
+        Not part of the state: whoever restores a strategy sets it again (it must be the same
+        deterministic function for a resumed run to propose the same points)."""
+        if aggregate is not None and not callable(aggregate):
+            raise TypeError("aggregate must be callable or None")
+        self._aggregate = aggregate
+
+    @property
+    def aggregate(self):
+        return self._aggregate
 
     # -- public read-only view ------------------------------------------------------
     @property
@@ -194,7 +220,7 @@ class Strategy:
                 x, phase = pick
                 ctx.add(x)
             rec = {"id": self.n_asked, "x": np.asarray(x, dtype=float).copy(), "phase": phase,
-                   "restart": self._restart, "status": "pending", "value": None, "reason": None}
+                   "restart": self._restart, "status": "pending", "value": None, "reason": None, "outputs": None}
             self._records.append(rec)
             out.append(Proposal(rec["id"], rec["x"].copy(), phase, self._restart))
         return out
@@ -226,11 +252,31 @@ class Strategy:
         if len(ok) >= 2:
             X = sp.to_unit(np.array([r["x"] for r in ok]))
             f = np.array([r["value"] for r in ok])
-            if self.settings["capping"]:
-                f = np.minimum(f, np.median(f))
-            ctx.rbf = self._rbf.fit(X, f)
+            ctx.rbf = self._composite(X, ok)
+            if ctx.rbf is None:
+                if self.settings["capping"]:
+                    f = np.minimum(f, np.median(f))
+                ctx.rbf = self._rbf.fit(X, f)
             ctx.local = self._local_search(ctx)
         return ctx
+
+    def _composite(self, X: np.ndarray, ok: list) -> "_CompositeSurrogate | None":
+        """One RBF per output of the ok points, or None (setting off, no aggregate, outputs
+        missing or of different lengths)."""
+        if not self.settings["composite"] or self._aggregate is None:
+            return None
+        outs = [r.get("outputs") for r in ok]
+        if any(o is None for o in outs) or len({len(o) for o in outs}) != 1 or len(outs[0]) == 0:
+            return None
+        F = np.array(outs, dtype=float)
+        if not np.all(np.isfinite(F)):
+            return None
+        if self.settings["composite_capping"]:
+            F = np.minimum(F, np.median(F, axis=0)[None, :])
+        while len(self._rbfs) < F.shape[1]:
+            self._rbfs.append(CubicRBF())
+        rbfs = [self._rbfs[j].fit(X, F[:, j]) for j in range(F.shape[1])]
+        return _CompositeSurrogate(rbfs, self._aggregate)
 
     def _select(self, ctx: "_Context"):
         """Best candidate by the merit of Eq. (11), or None if the space is exhausted."""
@@ -393,14 +439,17 @@ class Strategy:
             raise ValueError(f"proposal {rec['id']} was already told ({rec['status']})")
         return rec
 
-    def tell(self, x_or_id, value: float) -> None:
-        """Result of a proposal (by id, Proposal or x). A non-finite value counts as failed."""
+    def tell(self, x_or_id, value: float, outputs=None) -> None:
+        """Result of a proposal (by id, Proposal or x). A non-finite value counts as failed.
+
+        ``outputs``: optionally the vector the value aggregates (composite surrogate)."""
         rec = self._find(x_or_id)
         value = float(value)
         if not math.isfinite(value):
             self._fail(rec, f"non-finite value {value!r}")
             return
         rec["status"], rec["value"] = "ok", value
+        rec["outputs"] = None if outputs is None else [float(v) for v in np.ravel(outputs)]
         if rec["restart"] != self._restart:
             return  # a straggler from before the restart: recorded, not used
         self._failed_row = 0
@@ -473,7 +522,7 @@ class Strategy:
         bg = getattr(np.random, d["rng"]["bit_generator"])()
         bg.state = d["rng"]
         s._rng = np.random.Generator(bg)
-        s._records = [{**r, "x": np.array(r["x"], dtype=float)} for r in d["records"]]
+        s._records = [{"outputs": None, **r, "x": np.array(r["x"], dtype=float)} for r in d["records"]]
         s._queue = [np.array(x, dtype=float) for x in d["queue"]]
         s._restart = int(d["restart"])
         s._restart_start_n = int(d["restart_start_n"])
@@ -501,6 +550,39 @@ class Strategy:
 def _scale(v: np.ndarray) -> np.ndarray:
     lo, hi = float(v.min()), float(v.max())
     return (v - lo) / (hi - lo) if hi > lo else np.zeros_like(v)
+
+
+class _CompositeSurrogate:
+    """aggregate(one RBF per output): called and differentiated like a CubicRBF."""
+
+    def __init__(self, rbfs: list, aggregate):
+        self.rbfs, self.aggregate = rbfs, aggregate
+
+    def _agg(self, F: np.ndarray) -> np.ndarray:
+        return np.asarray(self.aggregate(F), dtype=float).reshape(len(F))
+
+    def __call__(self, Xq: np.ndarray):
+        Xq = np.asarray(Xq, dtype=float)
+        single = Xq.ndim == 1
+        Xq = np.atleast_2d(Xq)
+        F = np.column_stack([r(Xq) for r in self.rbfs])
+        v = self._agg(F)
+        return v[0] if single else v
+
+    def gradient(self, x: np.ndarray) -> np.ndarray:
+        """Chain rule with forward differences of the aggregate in each output (a one-sided
+        derivative at a kink of the aggregate, enough for the heuristic local search)."""
+        x = np.asarray(x, dtype=float)
+        f = np.array([r(x) for r in self.rbfs], dtype=float)
+        h = 1e-7 * np.maximum(1.0, np.abs(f))
+        F = np.vstack([f[None, :], f[None, :] + np.diag(h)])
+        a = self._agg(F)
+        dA = (a[1:] - a[0]) / h
+        g = np.zeros_like(x)
+        for j, r in enumerate(self.rbfs):
+            if dA[j] != 0.0:
+                g += dA[j] * r.gradient(x)
+        return g
 
 
 class _Context:

@@ -200,3 +200,47 @@ def test_reference_point_must_be_below_worst(tmp_path):
     case = write_case(tmp_path, "worst", budget=6, initial=3, worst=(1.0, 5.0))
     with pytest.raises(CaseError, match="worst = 1 must exceed the reference point"):
         optimise(case, workers=1, runs=tmp_path, evaluator=FAKE, progress=False)
+
+
+def test_multi_objective_runs_use_the_composite_surrogate_and_replay_it(tmp_path):
+    """The engine tells each result with its objective vector and sets the ASF as the aggregate;
+    the replay of the journal does the same (from the journal's objectives and reference line),
+    so without the objectives the replay no longer reproduces the run."""
+    from lccopt.engine.runner import Replay
+    from lccopt.optim.scalarise import ASF
+
+    case = write_case(tmp_path, "composite", budget=16, initial=5)
+    run = optimise(case, workers=2, runs=tmp_path, evaluator=FAKE, progress=False)
+    pb = Problem.from_case(load_case(case))
+    events, _, _ = read_journal(run / "journal.jsonl")
+    strategy, table = restore(pb, events, None)
+    assert strategy.settings["composite"] is True
+    ref = next(e for e in events if e["event"] == "reference")
+    assert strategy.aggregate == ASF(ref["point"], pb.worst, pb.rho)
+    for r in strategy.history:
+        if r["status"] == "ok":
+            assert r["outputs"] == [table.rows[r["id"]]["objectives"][k] for k in pb.objectives]
+    # the same journal told without the objectives: scalar surrogate, other proposals
+    blind = pb.strategy(budget=events[0].get("budget", pb.budget))
+    rep = Replay(blind, True)
+    with pytest.raises(JournalError, match="optimiser proposes"):
+        for ev in events:
+            rep(ev)
+    # the old behaviour stays available
+    assert pb.strategy(composite=False).settings["composite"] is False
+    single = write_case(tmp_path, "single-c", objectives=("E_max",), budget=8, initial=4)
+    assert Problem.from_case(load_case(single)).strategy().settings["composite"] is False
+
+
+def test_changed_worst_values_are_journalled_and_replayed(tmp_path):
+    case = write_case(tmp_path, "worst", budget=12, initial=5)
+    run = optimise(case, workers=1, runs=tmp_path, evaluator=FAKE, progress=False)
+    case.write_text(case.read_text().replace("budget: 12", "budget: 18").replace(
+        "worst: [60000.0, 5.0]", "worst: [30000.0, 4.0]"))
+    resume(run, workers=2, allow_changed_case=True, evaluator=FAKE, progress=False)
+    events, _, _ = read_journal(run / "journal.jsonl")
+    changed = next(e for e in events if e["event"] == "case_changed")
+    assert changed["worst"] == [30000.0, 4.0] and changed["rho"] == 0.05
+    pb = Problem.from_case(load_case(case))
+    full, _ = restore(pb, events, None)  # raises if a proposal is not reproduced
+    assert full.aggregate.worst == [30000.0, 4.0] and full.n_told == 18
