@@ -101,7 +101,10 @@ class RunDir:
             with open(tmp / "journal.jsonl", "wb") as fh:
                 line = {"seq": 0, "event": "run", "time": now_iso(), "case_sha256": meta["case_sha256"],
                         "budget": problem.budget, "objectives": list(problem.objectives),
-                        "seed": problem.seed, "versions": meta["versions"]}
+                        "seed": problem.seed, "versions": meta["versions"],
+                        # which surrogate proposes: a resume must rebuild the same one (runs of
+                        # lccopt before the composite surrogate have no such key: scalar)
+                        "surrogate": "composite" if problem.multi else "scalar"}
                 fh.write((json.dumps(line, separators=(",", ":")) + "\n").encode())
                 fh.flush()
                 os.fsync(fh.fileno())

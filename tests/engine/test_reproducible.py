@@ -91,3 +91,32 @@ def test_a_journal_without_schedule_lines_is_replayed_in_its_own_order(tmp_path)
     old = [{**e, "seq": i} for i, e in enumerate(old)]
     before, _ = restore(pb, old, None)
     assert _state(before) == _state(now)
+
+
+def test_a_multi_objective_run_of_before_the_composite_surrogate_resumes_with_its_own(tmp_path, monkeypatch):
+    """The journal's first line names the surrogate; a run of an older lccopt (no such key)
+    was proposed by the scalar surrogate and is replayed and carried on with it."""
+    case = write_case(tmp_path, "older", budget=12, initial=4, seed=3)
+    pb = Problem.from_case(load_case(case))
+    assert pb.multi
+    new = optimise(case, workers=1, runs=tmp_path / "new", evaluator=FAKE, progress=False)
+    assert _events(new)[0]["surrogate"] == "composite"
+    # the older lccopt: the scalar surrogate, and no key in the journal
+    real_strategy = Problem.strategy
+    monkeypatch.setattr(Problem, "strategy", lambda self, budget=None, composite=None:
+                        real_strategy(self, budget, composite=False))
+    old = optimise(case, workers=1, runs=tmp_path / "old", evaluator=FAKE, progress=False)
+    monkeypatch.setattr(Problem, "strategy", real_strategy)
+    lines = (old / "journal.jsonl").read_text().splitlines()
+    first = json.loads(lines[0])
+    first.pop("surrogate")
+    (old / "journal.jsonl").write_text("\n".join([json.dumps(first, separators=(",", ":"))] + lines[1:]) + "\n")
+    (old / "state.json").unlink(missing_ok=True)
+    events = _events(old)
+    replayed, table = restore(pb, events, None)          # no JournalError: the same proposals
+    assert replayed.done and table.n_done == 12
+    assert _asked(old) != _asked(new), "the two surrogates should propose differently here"
+    # and carried on with more budget, it stays the scalar surrogate
+    case.write_text(case.read_text().replace("budget: 12", "budget: 16"))
+    resume(old, workers=1, allow_changed_case=True, evaluator=FAKE, progress=False)
+    assert len(read_table(old)["id"]) == 16
