@@ -34,11 +34,22 @@ def distances(A: np.ndarray, B: np.ndarray) -> np.ndarray:
     """
     A = np.asarray(A, dtype=float)
     B = np.asarray(B, dtype=float)
-    acc = np.zeros((A.shape[0], B.shape[0]))
-    for k in range(A.shape[1]):
+    m, n, d = A.shape[0], B.shape[0], A.shape[1]
+    if 0 < d and m * n * d <= _BLOCK:
+        # One broadcast instead of a Python loop over the coordinates (the local search calls
+        # this ~16000 times per run with one point): add.accumulate sums the squares in the
+        # same sequential order as the loop below (a reduce would sum pairwise), so the
+        # result is bit-identical.
+        diff = A[:, None, :] - B[None, :, :]
+        return np.sqrt(np.add.accumulate(diff * diff, axis=2)[:, :, -1])
+    acc = np.zeros((m, n))
+    for k in range(d):
         diff = A[:, k, None] - B[None, :, k]
         acc += diff * diff
     return np.sqrt(acc)
+
+
+_BLOCK = 1 << 19  # largest m * n * d done in one broadcast by ``distances``
 
 
 class CubicRBF:
@@ -116,6 +127,10 @@ class CubicRBF:
         r = distances(Xq, self.X)
         s = (r * r * r) @ self.lam + self.beta[0] + Xq[:, self.tail_dims] @ self.beta[1:]
         return s[0] if single else s
+
+    def value_and_gradient(self, x: np.ndarray) -> tuple[float, np.ndarray]:
+        """``(float(s(x)), gradient(x))`` at one point x (d,), as the two calls give them."""
+        return float(self(x)), self.gradient(x)
 
     def gradient(self, x: np.ndarray) -> np.ndarray:
         """Gradient at one point x (d,): d/dx ||x - x_k||^3 = 3 ||x - x_k|| (x - x_k)."""

@@ -32,7 +32,11 @@ def asf(F, ref_point, worst, rho: float = 0.05) -> np.ndarray:
         raise ValueError("every worst value must exceed its reference value (kappa_i > 0)")
     if rho < 0:
         raise ValueError("rho must be >= 0")
-    dev = (F - ref) / (worst - ref)
+    return _asf(F, ref, worst - ref, rho)
+
+
+def _asf(F: np.ndarray, ref: np.ndarray, span: np.ndarray, rho: float) -> np.ndarray:
+    dev = (F - ref) / span
     return dev.max(axis=-1) + rho * dev.sum(axis=-1)
 
 
@@ -44,9 +48,20 @@ class ASF:
         self.ref_point = [float(v) for v in ref_point]
         self.worst = [float(v) for v in worst]
         self.rho = float(rho)
+        # The composite surrogate's local search calls this ~30000 times per run with one or
+        # a few rows: once a call of asf has passed its checks, the arrays are kept and the
+        # same arithmetic (same numbers) is done without them.
+        self._ref = np.asarray(self.ref_point, dtype=float)
+        self._span = np.asarray(self.worst, dtype=float) - self._ref
+        self._checked = False
 
     def __call__(self, F) -> np.ndarray:
-        return np.atleast_1d(asf(F, self.ref_point, self.worst, rho=self.rho))
+        F = np.asarray(F, dtype=float)
+        if not self._checked or F.ndim == 0 or F.shape[-1] != self._ref.shape[0]:
+            out = np.atleast_1d(asf(F, self.ref_point, self.worst, rho=self.rho))  # or its error
+            self._checked = True
+            return out
+        return np.atleast_1d(_asf(F, self._ref, self._span, self.rho))
 
     def __eq__(self, other) -> bool:
         return isinstance(other, ASF) and (self.ref_point, self.worst, self.rho) == (

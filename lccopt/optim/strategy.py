@@ -40,7 +40,7 @@ import numpy as np
 import scipy.optimize
 from scipy.spatial.distance import cdist
 
-from .rbf import CubicRBF
+from .rbf import CubicRBF, distances
 from .sampling import latin_hypercube
 from .space import DesignSpace
 
@@ -382,7 +382,8 @@ class Strategy:
 
             def fg(z):
                 u[dims] = z
-                return float(rbf(u)), rbf.gradient(u)[dims]
+                v, g = rbf.value_and_gradient(u)
+                return v, g[dims]
 
             res = scipy.optimize.minimize(fg, u0[dims], jac=True, method="L-BFGS-B",
                                           bounds=[(0.0, 1.0)] * len(dims), options=opts)
@@ -557,6 +558,7 @@ class _CompositeSurrogate:
 
     def __init__(self, rbfs: list, aggregate):
         self.rbfs, self.aggregate = rbfs, aggregate
+        self._shared = None  # see _shared_points
 
     def _agg(self, F: np.ndarray) -> np.ndarray:
         return np.asarray(self.aggregate(F), dtype=float).reshape(len(F))
@@ -572,17 +574,51 @@ class _CompositeSurrogate:
     def gradient(self, x: np.ndarray) -> np.ndarray:
         """Chain rule with forward differences of the aggregate in each output (a one-sided
         derivative at a kink of the aggregate, enough for the heuristic local search)."""
+        return self.value_and_gradient(x)[1]
+
+    def value_and_gradient(self, x: np.ndarray) -> tuple[float, np.ndarray]:
+        """``(float(self(x)), gradient(x))`` at one point x (d,), the outputs predicted once
+        for both (the local search asks for both at every step); the same numbers as the two
+        calls give: the value is the aggregate of the same (1, k) row as ``__call__``'s."""
         x = np.asarray(x, dtype=float)
-        f = np.array([r(x) for r in self.rbfs], dtype=float)
+        shared = self._shared_points()
+        if shared:  # the RBFs' distances to x computed once for all (same operations)
+            xq = x[None, :]
+            r3 = distances(xq, shared.X)
+            r3 = r3 * r3 * r3
+            f = np.array([(r3 @ r.lam + r.beta[0] + xq[:, r.tail_dims] @ r.beta[1:])[0]
+                          for r in self.rbfs], dtype=float)
+        else:
+            f = np.array([r(x) for r in self.rbfs], dtype=float)
+        value = float(self._agg(f[None, :])[0])
         h = 1e-7 * np.maximum(1.0, np.abs(f))
         F = np.vstack([f[None, :], f[None, :] + np.diag(h)])
         a = self._agg(F)
         dA = (a[1:] - a[0]) / h
         g = np.zeros_like(x)
+        diff = rn = None
         for j, r in enumerate(self.rbfs):
             if dA[j] != 0.0:
-                g += dA[j] * r.gradient(x)
-        return g
+                if not shared:
+                    g += dA[j] * r.gradient(x)
+                    continue
+                if diff is None:  # as CubicRBF.gradient computes them
+                    diff = x[None, :] - shared.X
+                    rn = np.sqrt(np.einsum("ij,ij->i", diff, diff))
+                gj = 3.0 * (r.lam * rn) @ diff
+                gj[r.tail_dims] += r.beta[1:]
+                g += dA[j] * gj
+        return value, g
+
+    def _shared_points(self):
+        """The first RBF if every RBF was fitted to the same points (as ``_composite`` fits
+        them: the same X, hence the same tail columns), else None."""
+        if self._shared is None:
+            r0 = self.rbfs[0] if self.rbfs else None
+            ok = r0 is not None and all(
+                np.array_equal(r.X, r0.X) and np.array_equal(r.tail_dims, r0.tail_dims) for r in self.rbfs)
+            self._shared = (r0,) if ok else ()
+        return self._shared[0] if self._shared else None
 
 
 class _Context:

@@ -119,3 +119,25 @@ def test_an_old_state_without_outputs_loads():
     assert all(r["outputs"] is None for r in t.history)
     t.set_aggregate(AGG)
     assert t.ask(1)  # falls back to the scalar surrogate
+
+
+def test_value_and_gradient_are_the_separate_calls_bit_for_bit():
+    """The local search's shared value+gradient gives exactly what the two calls give."""
+    from lccopt.optim.rbf import CubicRBF
+    from lccopt.optim.strategy import _CompositeSurrogate
+
+    rng = np.random.default_rng(5)
+    X = rng.random((25, 4))
+    F = np.array([outputs(x) for x in X])
+    sur = _CompositeSurrogate([CubicRBF().fit(X, F[:, j]) for j in range(2)], AGG)
+    for x in rng.random((20, 4)):
+        f = np.array([r(x) for r in sur.rbfs])
+        h = 1e-7 * np.maximum(1.0, np.abs(f))
+        a = AGG(np.vstack([f[None, :], f[None, :] + np.diag(h)]))
+        dA = (a[1:] - a[0]) / h
+        g = np.zeros_like(x)
+        for j, r in enumerate(sur.rbfs):
+            if dA[j] != 0.0:
+                g += dA[j] * r.gradient(x)
+        v, g2 = sur.value_and_gradient(x)
+        assert v == float(sur(x)) and g.tobytes() == g2.tobytes()
