@@ -10,15 +10,7 @@ import typer
 
 from .case import format_design, load_case, parse_design
 from .store import write_evaluation
-from .vti.response import OBJECTIVE_UNITS, Evaluation
-
-
-OBJECTIVE_MEANING = {  # paper Sec. 2.2.2
-    "F_rms": "rms of the wheel-rail contact force in the force zone",
-    "F_max": "max - min of the contact force in the force zone",
-    "E_rms": "rms of the energy dissipated under the zone sleepers",
-    "E_max": "max - min of that energy over the zone sleepers",
-}
+from .vti.response import OBJECTIVE_DOC, Evaluation, objective_display
 
 
 def run_simulate(case_path: Path, design: str | None, out: Path | None, plots: bool,
@@ -49,8 +41,8 @@ def run_simulate(case_path: Path, design: str | None, out: Path | None, plots: b
     typer.echo(f"{info['n_dofs']} track dofs, {info['n_steps']} steps of {info['time_step'] * 1e3:g} ms, "
                f"wheel from {info['x_start']:.1f} m to {info['x_end']:.1f} m, {wall:.2f} s")
     for k, v in ev.objectives.items():
-        shown, unit = (v / 1e3, "kN") if OBJECTIVE_UNITS[k] == "N" else (v, OBJECTIVE_UNITS[k])
-        typer.echo(f"  {k:<6} = {shown:10.5g} {unit:<2}  {OBJECTIVE_MEANING[k]}")
+        scale, unit = objective_display(k)
+        typer.echo(f"  {k:<6} = {v * scale:10.5g} {unit:<2}  {OBJECTIVE_DOC[k]}")
     if info["contact_loss_steps"]:
         typer.echo(f"WARNING: contact lost (force <= 0) in {info['contact_loss_steps']} steps, first at "
                    f"{info['contact_loss_first_position']:.2f} m; the linear contact spring pulled the wheel",

@@ -6,6 +6,8 @@ import math
 import sys
 import time
 
+from ..vti.response import objective_display
+
 
 def hms(seconds: float) -> str:
     if not math.isfinite(seconds):
@@ -18,11 +20,26 @@ def fmt(v) -> str:
     return "-" if v is None or (isinstance(v, float) and not math.isfinite(v)) else f"{v:.6g}"
 
 
-def objective_text(k: str, v) -> str:
-    """An objective in engineering units: forces in kN, energies in J."""
+def objective_value(k: str, v) -> str:
+    """Objective k's value in engineering units, e.g. '7.56 kN', '0.413 J'."""
     if v is None or not math.isfinite(v):
-        return f"{k} -"
-    return f"{k} {v / 1e3:.3g} kN" if k.startswith("F") else f"{k} {v:.3g} J"
+        return "-"
+    scale, unit = objective_display(k)
+    return f"{v * scale:.3g} {unit}"
+
+
+def objective_text(k: str, v) -> str:
+    """'F_max 7.56 kN'."""
+    return f"{k} {objective_value(k, v)}"
+
+
+def reference_objectives(table) -> dict | None:
+    """The reference design's objectives: from the reference line (multi-objective), else
+    evaluation 0 (the reference design is always proposal 0)."""
+    ref = (table.reference or {}).get("objectives")
+    if ref is None and 0 in table.rows and table.rows[0]["status"] == "ok":
+        ref = table.rows[0]["objectives"]
+    return ref
 
 
 def best_text(table, short: bool = False) -> str:
@@ -31,9 +48,7 @@ def best_text(table, short: bool = False) -> str:
     best = table.best()
     if best is None:
         return "best -"
-    ref = (table.reference or {}).get("objectives")
-    if ref is None and 0 in table.rows and table.rows[0]["status"] == "ok":
-        ref = table.rows[0]["objectives"]
+    ref = reference_objectives(table)
     parts = []
     for k in table.objectives:
         v, r = best["objectives"].get(k), (ref or {}).get(k)
@@ -96,7 +111,7 @@ class Progress:
         self.stream.write(f"lccopt: {message}\n")
         self.stream.flush()
 
-    def update(self, table, running: int, last: dict | None = None) -> None:
+    def update(self, table, last: dict | None = None) -> None:
         if not self.enabled:
             return
         done, failed = table.n_done, table.n_failed

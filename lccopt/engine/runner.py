@@ -45,7 +45,7 @@ from ..errors import EnvironmentFault, UsageError, describe_os_error, environmen
 from ..problem import Problem
 from .executors import ExecutorError, make_executor
 from .journal import Journal, JournalError, read_journal
-from .progress import Progress, fmt, hms, objective_text
+from .progress import Progress, fmt, hms, objective_text, objective_value, reference_objectives
 from .rundir import RunDir, RunError, Table, eval_name, now_iso, sha256_text, write_results
 from .schedule import may_ask, release
 from .worker import Outcome, Task, evaluator_spec
@@ -367,10 +367,7 @@ def replay(strategy, ev: dict, outputs=None) -> None:
                                f", the journal says the design space was exhausted; was lccopt changed "
                                f"since the run started?")
     elif kind == "evaluated":
-        if outputs is None:
-            strategy.tell(ev["id"], ev["value"])
-        else:
-            strategy.tell(ev["id"], ev["value"], outputs)
+        strategy.tell(ev["id"], ev["value"], outputs)
     elif kind == "failed":
         strategy.tell_failed(ev["id"], ev.get("reason", ""))
     elif kind == "case_changed":
@@ -643,7 +640,7 @@ class Engine:
             self.table.apply(j.append("failed", reason=error, **common))
         self.t_bookkeeping += time.perf_counter() - t0
         self._release()  # told when its turn comes, not when it arrives (schedule.py)
-        self.progress.update(self.table, self.executor.running, last=row)
+        self.progress.update(self.table, last=row)
         if error is not None and pb.multi and o.id == 0 and self.table.reference is None:
             raise self._reference_failed(error)
 
@@ -691,16 +688,14 @@ class Engine:
                  f"this session {hms(wall)} wall, optimiser {self.t_optimiser:.1f} s, "
                  f"bookkeeping {self.t_bookkeeping:.1f} s"]
         best = t.best()
-        ref = (t.reference or {}).get("objectives") or {}
+        ref = reference_objectives(t) or {}
         if best is not None:
             lines.append(f"best #{best['id']} ({best['phase']}, restart {best['restart']}): value "
                          f"{fmt(best['value'])}")
             lines.append("  x: " + format_design(self.case, best["x"]))
-            if not ref and 0 in t.rows and t.rows[0]["status"] == "ok":
-                ref = t.rows[0]["objectives"]
             for k in pb.objectives:
                 v, r = best["objectives"].get(k), ref.get(k)
-                rel = f" ({(v - r) / r:+.1%} vs reference design {objective_text(k, r).split(' ', 1)[1]})" if r else ""
+                rel = f" ({(v - r) / r:+.1%} vs reference design {objective_value(k, r)})" if r else ""
                 lines.append(f"  {objective_text(k, v)}{rel}")
         lines.append(f"results: {self.rd.results_path}")
         sys.stdout.write("\n".join(lines) + "\n")

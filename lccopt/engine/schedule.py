@@ -65,11 +65,8 @@ def release(strategy, lag: int, multi: bool, result: Callable[[int], Result]) ->
         r = result(i)
         if r is None or not may_tell(strategy, i, lag, multi):
             break
-        if r[0] == "ok":
-            if len(r) > 2 and r[2] is not None:  # the objectives, for a composite surrogate
-                strategy.tell(i, r[1], r[2])
-            else:
-                strategy.tell(i, r[1])
+        if r[0] == "ok":  # with the objectives, if given, for a composite surrogate
+            strategy.tell(i, r[1], r[2] if len(r) > 2 else None)
         else:
             strategy.tell_failed(i, r[1])
         told.append(i)

@@ -125,8 +125,13 @@ class CubicRBF:
         single = Xq.ndim == 1
         Xq = np.atleast_2d(Xq)
         r = distances(Xq, self.X)
-        s = (r * r * r) @ self.lam + self.beta[0] + Xq[:, self.tail_dims] @ self.beta[1:]
+        s = self.predict_from(Xq, r * r * r)
         return s[0] if single else s
+
+    def predict_from(self, Xq: np.ndarray, r3: np.ndarray) -> np.ndarray:
+        """s at the rows of Xq (m, d) given r3 = distances(Xq, X)³ (m, n): RBFs fitted to the
+        same points share r3 (a composite surrogate)."""
+        return r3 @ self.lam + self.beta[0] + Xq[:, self.tail_dims] @ self.beta[1:]
 
     def value_and_gradient(self, x: np.ndarray) -> tuple[float, np.ndarray]:
         """``(float(s(x)), gradient(x))`` at one point x (d,), as the two calls give them."""
@@ -136,7 +141,10 @@ class CubicRBF:
         """Gradient at one point x (d,): d/dx ||x - x_k||^3 = 3 ||x - x_k|| (x - x_k)."""
         x = np.asarray(x, dtype=float)
         diff = x[None, :] - self.X
-        r = np.sqrt(np.einsum("ij,ij->i", diff, diff))
+        return self.gradient_from(diff, np.sqrt(np.einsum("ij,ij->i", diff, diff)))
+
+    def gradient_from(self, diff: np.ndarray, r: np.ndarray) -> np.ndarray:
+        """Gradient given diff = x - X (n, d) and r = its row norms (shared as predict_from)."""
         g = 3.0 * (self.lam * r) @ diff
         g[self.tail_dims] += self.beta[1:]
         return g

@@ -48,19 +48,16 @@ class ASF:
         self.ref_point = [float(v) for v in ref_point]
         self.worst = [float(v) for v in worst]
         self.rho = float(rho)
+        asf(self.ref_point, self.ref_point, self.worst, self.rho)  # the parameters' checks, once
         # The composite surrogate's local search calls this ~30000 times per run with one or
-        # a few rows: once a call of asf has passed its checks, the arrays are kept and the
-        # same arithmetic (same numbers) is done without them.
+        # a few rows: the same arithmetic as asf (same numbers), without re-checking.
         self._ref = np.asarray(self.ref_point, dtype=float)
         self._span = np.asarray(self.worst, dtype=float) - self._ref
-        self._checked = False
 
     def __call__(self, F) -> np.ndarray:
         F = np.asarray(F, dtype=float)
-        if not self._checked or F.ndim == 0 or F.shape[-1] != self._ref.shape[0]:
-            out = np.atleast_1d(asf(F, self.ref_point, self.worst, rho=self.rho))  # or its error
-            self._checked = True
-            return out
+        if F.ndim == 0 or F.shape[-1] != self._ref.shape[0]:
+            return np.atleast_1d(asf(F, self.ref_point, self.worst, rho=self.rho))  # its error
         return np.atleast_1d(_asf(F, self._ref, self._span, self.rho))
 
     def __eq__(self, other) -> bool:

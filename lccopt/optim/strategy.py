@@ -567,7 +567,13 @@ class _CompositeSurrogate:
         Xq = np.asarray(Xq, dtype=float)
         single = Xq.ndim == 1
         Xq = np.atleast_2d(Xq)
-        F = np.column_stack([r(Xq) for r in self.rbfs])
+        shared = self._shared_points()
+        if shared:  # one distance matrix for all the RBFs (same operations as each would do)
+            r = distances(Xq, shared.X)
+            r3 = r * r * r
+            F = np.column_stack([rb.predict_from(Xq, r3) for rb in self.rbfs])
+        else:
+            F = np.column_stack([rb(Xq) for rb in self.rbfs])
         v = self._agg(F)
         return v[0] if single else v
 
@@ -584,10 +590,9 @@ class _CompositeSurrogate:
         shared = self._shared_points()
         if shared:  # the RBFs' distances to x computed once for all (same operations)
             xq = x[None, :]
-            r3 = distances(xq, shared.X)
-            r3 = r3 * r3 * r3
-            f = np.array([(r3 @ r.lam + r.beta[0] + xq[:, r.tail_dims] @ r.beta[1:])[0]
-                          for r in self.rbfs], dtype=float)
+            r = distances(xq, shared.X)
+            r3 = r * r * r
+            f = np.array([rb.predict_from(xq, r3)[0] for rb in self.rbfs], dtype=float)
         else:
             f = np.array([r(x) for r in self.rbfs], dtype=float)
         value = float(self._agg(f[None, :])[0])
@@ -597,17 +602,15 @@ class _CompositeSurrogate:
         dA = (a[1:] - a[0]) / h
         g = np.zeros_like(x)
         diff = rn = None
-        for j, r in enumerate(self.rbfs):
+        for j, rb in enumerate(self.rbfs):
             if dA[j] != 0.0:
                 if not shared:
-                    g += dA[j] * r.gradient(x)
+                    g += dA[j] * rb.gradient(x)
                     continue
                 if diff is None:  # as CubicRBF.gradient computes them
                     diff = x[None, :] - shared.X
                     rn = np.sqrt(np.einsum("ij,ij->i", diff, diff))
-                gj = 3.0 * (r.lam * rn) @ diff
-                gj[r.tail_dims] += r.beta[1:]
-                g += dA[j] * gj
+                g += dA[j] * rb.gradient_from(diff, rn)
         return value, g
 
     def _shared_points(self):

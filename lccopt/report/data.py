@@ -10,14 +10,10 @@ from pathlib import Path
 
 import numpy as np
 
+from ..vti.response import OBJECTIVE_DOC, objective_display as obj_display  # noqa: F401 (re-exported)
+
 FORMATS = ("md", "html", "both")
 OBJECTIVE_NAMES = ("F_rms", "F_max", "E_rms", "E_max")
-OBJECTIVE_DOC = {
-    "F_rms": "rms of the wheel-rail contact force in the force zone",
-    "F_max": "range (max - min) of the wheel-rail contact force in the force zone",
-    "E_rms": "rms of the energy dissipated under the zone sleepers",
-    "E_max": "range (max - min) of the energy dissipated under the zone sleepers",
-}
 # Okabe & Ito's colour-blind-safe palette (Color Universal Design, 2008): every pair stays
 # distinguishable under the common colour-vision deficiencies.
 OKABE_ITO = {"orange": "#E69F00", "sky": "#56B4E9", "green": "#009E73", "yellow": "#F0E442",
@@ -410,11 +406,6 @@ def read_history(run: RunData, index: int | None) -> tuple[dict | None, dict, st
 
 def obj_unit(k: str) -> str:
     return "N" if k.startswith("F") else "J"
-
-
-def obj_display(k: str) -> tuple[float, str]:
-    """(scale, unit) to show objective k in plots: forces in kN, energies in J."""
-    return (1e-3, "kN") if k.startswith("F") else (1.0, "J")
 
 
 def fnum(v: float, sig: int = 5) -> str:

@@ -7,6 +7,17 @@ from dataclasses import dataclass, field
 import numpy as np
 
 OBJECTIVE_UNITS = {"F_rms": "N", "F_max": "N", "E_rms": "J", "E_max": "J"}
+OBJECTIVE_DOC = {  # short enough for one line of `lccopt simulate` on 80 columns
+    "F_rms": "rms of the wheel-rail contact force in the force zone",
+    "F_max": "max - min of the contact force in the force zone",
+    "E_rms": "rms of the energy dissipated per zone sleeper",
+    "E_max": "max - min of the energy dissipated per zone sleeper",
+}
+
+
+def objective_display(k: str) -> tuple[float, str]:
+    """(scale, unit) in which people read objective k: forces in kN, energies in J."""
+    return (1e-3, "kN") if OBJECTIVE_UNITS.get(k, "N" if k.startswith("F") else "J") == "N" else (1.0, "J")
 
 
 @dataclass

@@ -33,9 +33,9 @@ class Recording(Strategy):
             self.calls.append(("ask", p.id, told))
         return out
 
-    def tell(self, x_or_id, value):
+    def tell(self, x_or_id, value, outputs=None):
         self.calls.append(("tell", int(x_or_id)))
-        super().tell(x_or_id, value)
+        super().tell(x_or_id, value, outputs)
 
     def tell_failed(self, x_or_id, reason=""):
         self.calls.append(("fail", int(x_or_id)))
