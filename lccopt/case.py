@@ -177,6 +177,26 @@ class Section:
 
 
 @dataclass(frozen=True)
+class Named:
+    """A mapping of user-chosen names (``SAFE_NAME``) to values of one spec (``vehicles:``)."""
+    item: Any
+    doc: str = ""
+    max_items: int = 50
+    required: bool = False
+    default: Any = None
+
+
+@dataclass(frozen=True)
+class Items:
+    """A list of values of one spec (``conditions:``)."""
+    item: Any
+    doc: str = ""
+    max_items: int = 50
+    required: bool = False
+    default: Any = None
+
+
+@dataclass(frozen=True)
 class StrList:
     doc: str
     choices: tuple
@@ -185,6 +205,7 @@ class StrList:
 
 
 OBJECTIVES = ("F_rms", "F_max", "E_rms", "E_max")
+CONDITION_MODES = ("worst", "mean", "each")
 OBJECTIVE_UNITS = {"F_rms": "N", "F_max": "N", "E_rms": "J", "E_max": "J"}
 
 
@@ -300,6 +321,10 @@ SCHEMA = Section({
                               le=10_000),
         "seed": Num("random seed", integer=True, ge=0, default=0, required=False),
         "timeout": Num("per-evaluation timeout", "s", gt=0, default=600.0, required=False),
+        "conditions": Str("how the objectives of several traffic conditions combine: worst (max over "
+                          "conditions), mean (weighted mean) or each (every condition's objective is "
+                          "an objective of its own, named like F_max@name)",
+                          CONDITION_MODES, default="worst", required=False),
         "asf": Section({
             "rho": Num("augmentation coefficient of the Chebyshev ASF", ge=0, default=0.05, required=False),
             "improvement": Num("reference point = reference design improved by this fraction",
@@ -309,6 +334,27 @@ SCHEMA = Section({
         }, required=False),
     }, required=False),
 })
+
+# Traffic conditions (issue 10): named vehicles take every key of `vehicle:` (the speed is the
+# condition's), and each condition runs one simulation of every design.
+SCHEMA.fields["vehicles"] = Named(
+    Section({**SCHEMA.fields["vehicle"].fields,
+             "speed": Num("default speed of the vehicle's conditions", "m/s", gt=0, le=150.0,
+                          required=False)}, "a vehicle, with the keys of the vehicle section"),
+    "named vehicles for the conditions (each with the keys of the vehicle section)")
+SCHEMA.fields["conditions"] = Items(Section({
+    "name": Str("condition name (letters, digits, '.', '-', '_'); objectives of it are named "
+                "like F_max@name"),
+    "vehicle": Str("a name from vehicles:, or case for the case's vehicle section",
+                   default="case", required=False),
+    "speed": Num("running speed (default: the vehicle's)", "m/s", gt=0, le=150.0, required=False),
+    "direction": Str("enter: from the designed ballast side into the ERS; leave: from the ERS "
+                     "onto the designed side", ("enter", "leave"), default="enter", required=False),
+    # the same forms as simulation.irregularity (default: that one); none: a smooth rail
+    "irregularity": SCHEMA.fields["simulation"].fields["irregularity"],
+    "weight": Num("weight of the condition in the weighted mean (conditions: mean)", gt=0,
+                  default=1.0, required=False),
+}), "traffic conditions; without this list the case is one condition: its vehicle section")
 
 
 def _check(value: Any, spec: Any, path: tuple, lines: dict, file: str) -> Any:
@@ -340,6 +386,22 @@ def _check(value: Any, spec: Any, path: tuple, lines: dict, file: str) -> Any:
                 continue
             out[key] = _check(value[key], sub, path + (key,), lines, file)
         return out
+    if isinstance(spec, Named):
+        if not isinstance(value, dict) or not value:
+            raise fail("expected a mapping of names to sections")
+        if len(value) > spec.max_items:
+            raise fail(f"{len(value)} entries; at most {spec.max_items}")
+        for k in value:
+            if not isinstance(k, str) or not SAFE_NAME.fullmatch(k):
+                raise fail(f"{str(k)[:40]!r} is not a name (1-64 letters, digits, '.', '-' and '_')",
+                           path + (k,))
+        return {k: _check(v, spec.item, path + (k,), lines, file) for k, v in value.items()}
+    if isinstance(spec, Items):
+        if not isinstance(value, list) or not value:
+            raise fail("expected a list")
+        if len(value) > spec.max_items:
+            raise fail(f"{len(value)} entries; at most {spec.max_items}")
+        return [_check(v, spec.item, path + (i,), lines, file) for i, v in enumerate(value)]
     if isinstance(spec, Num):
         return _number(value, spec, fail)
     if isinstance(spec, Str):
@@ -436,6 +498,7 @@ class Case:
     data: dict = field(repr=False)
     variables: tuple[Variable, ...] = ()
     irregularity: np.ndarray | None = field(default=None, repr=False)
+    conditions: tuple["Condition", ...] = ()
 
     @property
     def resolved(self) -> str:
@@ -488,7 +551,18 @@ class Case:
     def with_simulation(self, **settings) -> "Case":
         """A copy with some simulation settings replaced (convergence studies, tests)."""
         data = {**self.data, "simulation": {**self.data["simulation"], **settings}}
-        return Case(self.path, self.text, data, self.variables, self.irregularity)
+        conditions = tuple(c.with_simulation(settings) for c in self.conditions)
+        return Case(self.path, self.text, data, self.variables, self.irregularity, conditions)
+
+    @property
+    def condition_mode(self) -> str:
+        """worst, mean or each: how the objectives of the conditions combine."""
+        return (self.optimisation or {}).get("conditions") or "worst"
+
+    def condition_case(self, i: int) -> "Case":
+        """The case of condition i: one simulation, as the vti module runs it."""
+        c = self.conditions[i]
+        return Case(self.path, self.text, c.data, self.variables, c.irregularity)
 
     def check_design(self, x) -> np.ndarray:
         """Return x as floats if it is a valid design vector, else raise ValueError."""
@@ -503,6 +577,24 @@ class Case:
                 raise ValueError(f"{v.name} = {xi:g} must be a whole number")
         _check_layout_fits(self.data, x, self.variables)
         return x
+
+
+@dataclass(frozen=True)
+class Condition:
+    """One traffic condition: the vehicle, speed, direction and rail profile of one simulation
+    of every design. ``data`` is the whole case as that simulation sees it."""
+    name: str
+    weight: float
+    vehicle: str
+    speed: float
+    direction: str
+    data: dict = field(repr=False)
+    irregularity: np.ndarray | None = field(default=None, repr=False)
+
+    def with_simulation(self, settings: dict) -> "Condition":
+        data = {**self.data, "simulation": {**self.data["simulation"], **settings}}
+        return Condition(self.name, self.weight, self.vehicle, self.speed, self.direction, data,
+                         self.irregularity)
 
 
 _GROUPS = (  # design key, variable name stem, unit
@@ -661,24 +753,79 @@ def load_case(path: str | Path) -> Case:
             raise err(("optimisation", "initial_points"),
                       f"{opt['initial_points']} initial points exceed the budget of {opt['budget']}")
         worst = opt["asf"]["worst"]
-        if len(opt["objectives"]) > 1:
+        n_obj = len(opt["objectives"])
+        n_each = len(data["conditions"] or []) if opt["conditions"] == "each" else 1
+        if n_obj * n_each > 1:
             if worst is None:
                 raise err(("optimisation", "asf"), "missing key 'worst' (needed for two or more objectives)")
-            if len(worst) != len(opt["objectives"]):
+            if len(worst) not in (n_obj, n_obj * n_each):
+                also = (f" or {n_obj * n_each} (one per objective and condition)" if n_each > 1 else "")
                 raise err(("optimisation", "asf", "worst"),
-                          f"expected {len(opt['objectives'])} values (one per objective), got {len(worst)}")
+                          f"expected {n_obj} values (one per objective){also}, got {len(worst)}")
 
-    irregularity = None
-    if data["simulation"]["irregularity"]:
-        irr_path = (path.parent / data["simulation"]["irregularity"])
-        try:
-            irregularity = np.loadtxt(irr_path, delimiter=",", ndmin=2, dtype=float)
-        except (OSError, ValueError) as exc:
-            raise err(("simulation", "irregularity"), f"cannot read {irr_path}: {exc}") from None
-        if irregularity.shape[1] != 2 or irregularity.shape[0] < 2 or np.any(np.diff(irregularity[:, 0]) <= 0):
-            raise err(("simulation", "irregularity"),
-                      "expected two columns (position m, dip m) with increasing positions")
-    return Case(path=path, text=text, data=data, variables=variables, irregularity=irregularity)
+    irregularity = _load_irregularity(data["simulation"]["irregularity"], path, err,
+                                      ("simulation", "irregularity"))
+    conditions = _conditions(data, path, err, irregularity)
+    return Case(path=path, text=text, data=data, variables=variables, irregularity=irregularity,
+                conditions=conditions)
+
+
+def _load_irregularity(value, path: Path, err, at: tuple) -> np.ndarray | None:
+    """The rail profile (position m, dip m) a case names, or None for a smooth rail."""
+    if not value or value == "none":
+        return None
+    irr_path = path.parent / value
+    try:
+        irregularity = np.loadtxt(irr_path, delimiter=",", ndmin=2, dtype=float)
+    except (OSError, ValueError) as exc:
+        raise err(at, f"cannot read {irr_path}: {exc}") from None
+    if irregularity.shape[1] != 2 or irregularity.shape[0] < 2 or np.any(np.diff(irregularity[:, 0]) <= 0):
+        raise err(at, "expected two columns (position m, dip m) with increasing positions")
+    return irregularity
+
+
+def _conditions(data: dict, path: Path, err, case_irregularity) -> tuple[Condition, ...]:
+    """The traffic conditions of a case (none without a ``conditions:`` list)."""
+    vehicles = data.get("vehicles") or {}
+    listed = data.get("conditions") or []
+    if not listed:
+        if vehicles:
+            raise err(("vehicles",), "named vehicles are used by a conditions: list, and there is none")
+        if (data.get("optimisation") or {}).get("conditions") not in (None, "worst"):
+            raise err(("optimisation", "conditions"), "needs a conditions: list")
+        return ()
+    out, seen = [], set()
+    for i, c in enumerate(listed):
+        at = ("conditions", i)
+        if not SAFE_NAME.fullmatch(c["name"]):
+            raise err(at + ("name",), "1-64 letters, digits, '.', '-' and '_', starting with a letter "
+                                      "or digit (it names the condition's objectives and files)")
+        if c["name"] in seen:
+            raise err(at + ("name",), f"'{c['name']}' names two conditions")
+        seen.add(c["name"])
+        if c["vehicle"] == "case":
+            vehicle = dict(data["vehicle"])
+        elif c["vehicle"] in vehicles:
+            vehicle = dict(vehicles[c["vehicle"]])
+        else:
+            raise err(at + ("vehicle",), f"no vehicle '{c['vehicle']}' (vehicles: "
+                                         f"{', '.join(['case', *vehicles])})")
+        speed = c["speed"] if c["speed"] is not None else vehicle.get("speed")
+        if speed is None:
+            raise err(at + ("speed",), f"missing key 'speed' (vehicle '{c['vehicle']}' has none)")
+        vehicle["speed"] = speed
+        sim = dict(data["simulation"])
+        sim["direction"] = c["direction"]
+        irregularity = case_irregularity
+        if c["irregularity"] is not None:
+            sim["irregularity"] = c["irregularity"]
+            irregularity = _load_irregularity(c["irregularity"], path, err, at + ("irregularity",))
+        one = {k: v for k, v in data.items() if k not in ("vehicles", "conditions")}
+        one.update(vehicle=vehicle, simulation=sim)
+        _check_accuracy(one, lambda where, msg, at=at: err(at, f"{_dotted(where)}: {msg}"))
+        out.append(Condition(c["name"], float(c["weight"]), c["vehicle"], float(speed), c["direction"],
+                             one, irregularity))
+    return tuple(out)
 
 
 STEPS_PER_CONTACT_PERIOD = 5  # Newmark (average acceleration) shortens nothing, but lengthens the

@@ -37,6 +37,9 @@ class Problem:
     rho: float
     improvement: float
     worst: tuple[float, ...] | None
+    conditions: tuple[str, ...] = ()      # traffic conditions (none: the case's one simulation)
+    weights: tuple[float, ...] = ()
+    condition_mode: str = "worst"
 
     @classmethod
     def from_case(cls, case: Case) -> "Problem":
@@ -46,13 +49,20 @@ class Problem:
                             f"initial_points, ...); 'lccopt optimise' needs it")
         asf = opt["asf"] or {}
         worst = asf.get("worst")
+        conditions = tuple(c.name for c in case.conditions)
+        mode = case.condition_mode
+        objectives = tuple(opt["objectives"])
+        if conditions and mode == "each":  # objective-major: F_max@a, F_max@b, E_max@a, ...
+            if worst is not None and len(worst) == len(objectives):
+                worst = [w for w in worst for _ in conditions]
+            objectives = tuple(f"{k}@{c}" for k in objectives for c in conditions)
         return cls(
             names=tuple(case.names),
             lower=tuple(float(v) for v in case.lower),
             upper=tuple(float(v) for v in case.upper),
             integer=tuple(bool(v) for v in case.integer),
             reference=tuple(float(v) for v in case.reference),
-            objectives=tuple(opt["objectives"]),
+            objectives=objectives,
             budget=int(opt["budget"]),
             initial_points=int(opt["initial_points"]),
             seed=int(opt["seed"]),
@@ -60,6 +70,9 @@ class Problem:
             rho=float(asf.get("rho", 0.05) if asf.get("rho") is not None else 0.05),
             improvement=float(asf.get("improvement") if asf.get("improvement") is not None else 0.2),
             worst=None if worst is None else tuple(float(w) for w in worst),
+            conditions=conditions,
+            weights=tuple(c.weight for c in case.conditions),
+            condition_mode=mode,
         )
 
     # -- design space -----------------------------------------------------------------------
@@ -103,7 +116,8 @@ class Problem:
 
     def same_space(self, other: "Problem") -> bool:
         """Same variables, bounds, reference design and objectives (what a resume must keep)."""
-        keys = ("names", "lower", "upper", "integer", "reference", "objectives")
+        keys = ("names", "lower", "upper", "integer", "reference", "objectives", "conditions",
+                "weights", "condition_mode")
         return all(getattr(self, k) == getattr(other, k) for k in keys)
 
     # -- scalar value ------------------------------------------------------------------------
@@ -143,3 +157,28 @@ class Problem:
         from .optim.scalarise import asf
 
         return float(asf(self.objective_vector(objectives), reference_point, self.worst, rho=self.rho))
+
+    # -- traffic conditions ------------------------------------------------------------------
+    def combine(self, per_condition: list[dict]) -> dict:
+        """The objectives of one design from its conditions' objectives (in case order).
+
+        F_rms, F_max, E_rms, E_max combine by the case's rule: worst = the largest over the
+        conditions, mean = the weighted mean (each: the largest, for display; the optimiser
+        then minimises every F_max@name, ... of its own). Every condition's own values are
+        kept as F_max@name etc."""
+        return combine_conditions(per_condition, self.conditions, self.weights, self.condition_mode)
+
+
+def combine_conditions(per_condition: list[dict], names, weights, mode: str) -> dict:
+    """See :meth:`Problem.combine`."""
+    out: dict[str, float] = {}
+    keys = [k for k in per_condition[0] if "@" not in k]
+    w = np.asarray(weights, dtype=float)
+    for k in keys:
+        v = np.array([float(o[k]) for o in per_condition])
+        out[k] = float(np.sum(w * v) / np.sum(w)) if mode == "mean" else float(v.max())
+    for name, o in zip(names, per_condition):
+        for k in keys:
+            out[f"{k}@{name}"] = float(o[k])
+    return out
+

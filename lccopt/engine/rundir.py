@@ -336,6 +336,17 @@ def write_results(path: Path, table: Table, *, case, problem, meta: dict) -> Non
             col = e.create_dataset(k, data=np.array([float(r["objectives"].get(k, math.nan))
                                                      for r in rows], dtype=float))
             col.attrs["unit"] = "N" if k.startswith("F") else "J"
+        if problem.conditions:  # every condition's objectives (issue 10)
+            a["conditions"] = list(problem.conditions)
+            a["condition_weights"] = np.array(problem.weights, dtype=float)
+            a["condition_mode"] = problem.condition_mode
+            cg = e.create_group("conditions")
+            for c in problem.conditions:
+                g_c = cg.create_group(c)
+                for k in OBJECTIVE_NAMES:
+                    col = g_c.create_dataset(k, data=np.array(
+                        [float(r["objectives"].get(f"{k}@{c}", math.nan)) for r in rows], dtype=float))
+                    col.attrs["unit"] = "N" if k.startswith("F") else "J"
         e.create_dataset("value", data=np.array([r["value"] for r in rows], dtype=float))
         for k in ("status", "reason", "phase", "worker", "file"):
             e.create_dataset(k, data=[str(r[k]) for r in rows], dtype=sdt)

@@ -383,6 +383,10 @@ class Engine:
         self.journal, self.table, self.strategy = journal, table, strategy
         self.progress = progress
         self.meta = rd.meta()
+        if case.conditions:  # one task per (design, condition)
+            from .conditions import ConditionPool
+
+            executor = ConditionPool(executor, case, problem, rd.path)
         self.executor = executor
         self.strategy.budget = problem.budget
         self.ref_point = (table.reference or {}).get("point")

@@ -63,12 +63,14 @@ class Task:
     phase: str = ""
     restart: int = 0
     out_path: str | None = None  # local pool: the worker writes evals/NNNNNN.h5 itself
+    condition: int = -1          # traffic condition (engine/conditions.py); -1: the case as it is
 
 
 @dataclass
 class Outcome:
     """What came back for a task: ``objectives`` (ok) or ``error`` (failed)."""
     id: int
+    condition: int = -1           # the task's traffic condition
     objectives: dict | None = None
     info: dict = field(default_factory=dict)
     evaluation: Any = None        # the whole Evaluation when the worker did not write the file
@@ -80,28 +82,30 @@ class Outcome:
 
 
 def run_task(case, task: Task, evaluator: Callable, worker: str) -> Outcome:
-    """Evaluate one design; never raises (an exception becomes a failed Outcome)."""
+    """Evaluate one design (under one traffic condition); never raises (an exception becomes a
+    failed Outcome)."""
     import numpy as np
 
     t0 = time.perf_counter()
     try:
-        ev = evaluator(case, np.asarray(task.x, dtype=float))
+        one = case if task.condition < 0 else case.condition_case(task.condition)
+        ev = evaluator(one, np.asarray(task.x, dtype=float))
         objectives = {k: float(v) for k, v in ev.objectives.items()}
     except Exception as exc:  # noqa: BLE001 - every failure of a simulation is data
         tb = traceback.extract_tb(exc.__traceback__)
         where = f" ({os.path.basename(tb[-1].filename)}:{tb[-1].lineno})" if tb else ""
         msg = str(exc).strip().splitlines()[0] if str(exc).strip() else ""
-        return Outcome(task.id, error=f"{type(exc).__name__}: {msg}{where}"[:500],
+        return Outcome(task.id, condition=task.condition, error=f"{type(exc).__name__}: {msg}{where}"[:500],
                        wall_time=time.perf_counter() - t0, worker=worker)
     wall = time.perf_counter() - t0
-    out = Outcome(task.id, objectives=objectives, info=_plain(ev.info), wall_time=wall, worker=worker)
+    out = Outcome(task.id, condition=task.condition, objectives=objectives, info=_plain(ev.info), wall_time=wall, worker=worker)
     if task.out_path:
         try:
             from ..store import write_evaluation
 
             write_evaluation(task.out_path, ev, task.x, case.names,
                              attrs={"id": task.id, "phase": task.phase, "restart": task.restart,
-                                    "worker": worker, "wall_time": wall})
+                                    "worker": worker, "wall_time": wall, "condition": task.condition})
             out.file_written = True
         except Exception as exc:  # noqa: BLE001
             from ..errors import describe_os_error, environment_errno

@@ -1,7 +1,8 @@
 """Test evaluators for the run engine (pointed at by LCCOPT_EVALUATOR or the ``evaluator``
 argument): a cheap analytic stand-in for the simulator, and faulty variants.
 
-``evaluate``: deterministic smooth objectives of x (+ small time histories); sleeps
+``evaluate``: deterministic smooth objectives of x and the vehicle speed (+ small time
+histories; with ``LCCOPT_FAKE_LOG`` set, one line per simulation appended to it); sleeps
 ``LCCOPT_FAKE_DELAY`` seconds (default 0) to look like a simulation; with
 ``LCCOPT_FAKE_SPREAD`` = s (0 <= s < 1) the delay varies between (1-s) and (1+s) times that
 from point to point (a fixed function of x), so that results come back out of order.
@@ -29,6 +30,9 @@ def _objectives(case, x) -> dict:
     b = np.array([0.9, 0.8, 0.7, 0.1, 0.6, 0.4, 0.2, 0.3])[: len(u)]
     f = 5000.0 + 12000.0 * np.sum((u - a) ** 2) + 300 * np.sin(7 * u).sum()
     e = 0.1 + 0.5 * np.sum((u - b) ** 2) + 0.01 * np.cos(5 * u).sum()
+    # a traffic condition's speed scales the objectives (exactly 1 at the reference speed)
+    s = case.vehicle["speed"] / 38.88888888888889
+    f, e = f * s, e * s * s
     return {"F_rms": 49000.0 + 0.1 * f, "F_max": float(f), "E_rms": 1.5 + e, "E_max": float(e)}
 
 
@@ -40,6 +44,10 @@ def evaluate(case, x) -> Evaluation:
         time.sleep(delay * (1.0 + spread * (2.0 * u - 1.0)))
     x = case.check_design(x)
     obj = _objectives(case, x)
+    log = os.environ.get("LCCOPT_FAKE_LOG")
+    if log:  # one line per finished simulation (tests count what a resume runs again)
+        with open(log, "a") as fh:
+            fh.write(f"{case.vehicle['speed']:.6f} {' '.join(f'{v:g}' for v in x)}\n")
     t = np.linspace(0.0, 0.1, 200)
     force = 87000.0 + obj["F_max"] * np.sin(60 * t)
     return Evaluation(obj, {"time": t, "contact_force": force,
