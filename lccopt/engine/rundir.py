@@ -340,9 +340,10 @@ def write_results(path: Path, table: Table, *, case, problem, meta: dict) -> Non
             a["conditions"] = list(problem.conditions)
             a["condition_weights"] = np.array(problem.weights, dtype=float)
             a["condition_mode"] = problem.condition_mode
-            cg = e.create_group("conditions")
-            for c in problem.conditions:
+            cg = f.create_group("conditions")  # rows as in /evaluations
+            for c, w in zip(problem.conditions, problem.weights):
                 g_c = cg.create_group(c)
+                g_c.attrs["weight"] = w
                 for k in OBJECTIVE_NAMES:
                     col = g_c.create_dataset(k, data=np.array(
                         [float(r["objectives"].get(f"{k}@{c}", math.nan)) for r in rows], dtype=float))

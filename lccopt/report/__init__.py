@@ -9,6 +9,8 @@ Writes into ``RUN/report/`` (or ``--out DIR``):
                            point, chosen compromise (Fig. 9); drawn for single-objective runs too
     best-vs-reference.png  change of every objective and design variable, best vs reference
                            (Tables 5-7 as a picture; the numbers are in the summary)
+    conditions.png         each traffic condition's objectives, best vs reference (cases with
+                           a conditions: list)
     contact-force.png      contact force against wheel position, best and reference (ERS and
                            evaluation zone marked)
     sleeper-energy.png     energy dissipated under each zone sleeper, best and reference (Fig. 11)
@@ -32,8 +34,8 @@ from pathlib import Path
 
 from ..atomic import atomic_write_text
 from .data import FIGURES, FORMATS, _usage, load_run, pct, read_history
-from .figures import (fig_best_vs_reference, fig_contact_force, fig_objective_space, fig_search_history,
-                      fig_sensitivity, fig_sleeper_energy, fig_track_layout)
+from .figures import (fig_best_vs_reference, fig_conditions, fig_contact_force, fig_objective_space,
+                      fig_search_history, fig_sensitivity, fig_sleeper_energy, fig_track_layout)
 from .summary import build_summary, history_facts
 
 __all__ = ["write_report"]
@@ -73,6 +75,9 @@ def write_report(run: Path, format: str = "both", out: Path | None = None) -> Pa
     bi, ri = data.best_index(), data.ref_index()
     if bi is not None:
         figs["best-vs-reference"] = fig_best_vs_reference(data, bi, ri, out)
+        p = fig_conditions(data, bi, ri, out)
+        if p is not None:
+            figs["conditions"] = p
         hb, ib, nb = read_history(data, bi)
         hr, ir, nr = read_history(data, ri) if ri is not None else (None, {}, "the reference design was not "
                                                                        "evaluated successfully")

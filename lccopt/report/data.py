@@ -29,8 +29,8 @@ REF_COLOR, BEST_COLOR, FAIL_COLOR, FRONT_COLOR = (OKABE_ITO["orange"], OKABE_ITO
 ZONE_COLOR, TYPE_II_COLOR = OKABE_ITO["yellow"], OKABE_ITO["purple"]
 DPI = 110
 
-FIGURES = ("search-history", "objective-space", "best-vs-reference", "contact-force", "sleeper-energy",
-           "track-layout", "sensitivity")
+FIGURES = ("search-history", "objective-space", "best-vs-reference", "conditions", "contact-force",
+           "sleeper-energy", "track-layout", "sensitivity")
 
 
 
@@ -91,6 +91,8 @@ class RunData:
     created: str = ""
     updated: str = ""
     sessions_wall: float = math.nan
+    conditions: list[str] = field(default_factory=list)   # traffic conditions, in case order
+    cond_obj: dict = field(default_factory=dict)   # condition -> objective name -> array
 
     @property
     def n(self) -> int:
@@ -275,7 +277,8 @@ def load_run(path: Path) -> RunData:
         worst=d["worst"], rho=d["rho"], improvement=d["improvement"], n_pending=int(d["n_pending"]),
         finished=bool(d["finished"]), state=state, source=source, case=case, case_note=case_note,
         notes=notes, created=created, updated=d.get("updated", ""),
-        sessions_wall=float(sum(sessions)) if sessions else math.nan)
+        sessions_wall=float(sum(sessions)) if sessions else math.nan,
+        conditions=list(d.get("conditions", [])), cond_obj=d.get("cond_obj", {}))
 
 
 def _read_results(path: Path) -> dict:
@@ -310,6 +313,10 @@ def _read_results(path: Path) -> dict:
             "journal_seq": int(a.get("journal_seq", -1)), "created": _s(a.get("created", "")),
             "updated": _s(a.get("updated", "")),
             "resolved": _s(f["case/resolved"][()]) if "case/resolved" in f else None,
+            "conditions": [_s(c) for c in a.get("conditions", [])],
+            "cond_obj": {_s(c): {k: f["conditions"][_s(c)][k][()].astype(float)
+                                 for k in OBJECTIVE_NAMES if k in f["conditions"][_s(c)]}
+                         for c in a.get("conditions", []) if "conditions" in f},
         }
 
 
@@ -337,6 +344,9 @@ def _from_journal(run: Path, events: list[dict], res: dict | None) -> dict:
     obj = {k: np.array([float(r["objectives"].get(k, math.nan)) for r in rows], dtype=float)
            for k in OBJECTIVE_NAMES}
     status = np.array([r["status"] for r in rows], dtype=object)
+    conditions = list(dict.fromkeys(k.split("@", 1)[1] for r in rows for k in r["objectives"] if "@" in k))
+    cond_obj = {c: {k: np.array([float(r["objectives"].get(f"{k}@{c}", math.nan)) for r in rows])
+                    for k in OBJECTIVE_NAMES} for c in conditions}
     F = np.column_stack([obj[k] for k in objectives]) if n else np.zeros((0, len(objectives)))
     F = F.copy()
     F[status != "ok"] = math.nan
@@ -363,7 +373,7 @@ def _from_journal(run: Path, events: list[dict], res: dict | None) -> dict:
                                                                                    or math.nan),
         "n_pending": len(table.pending_ids()), "finished": table.finished,
         "created": head.get("time", ""), "updated": events[-1].get("time", "") if events else "",
-        "resolved": (res or {}).get("resolved"),
+        "resolved": (res or {}).get("resolved"), "conditions": conditions, "cond_obj": cond_obj,
     }
 
 

@@ -316,6 +316,50 @@ def fig_best_vs_reference(run: RunData, bi: int, ri: int | None, out: Path) -> P
     return _save(fig, out / "best-vs-reference.png")
 
 
+def fig_conditions(run: RunData, bi: int, ri: int | None, out: Path) -> Path | None:
+    """Each traffic condition's objectives, best design against the reference design (one
+    panel per objective; the run's combined value as a line: worst case or weighted mean)."""
+    if not run.conditions or ri is None:
+        return None
+    plt = _plt()
+    keys = [k for k in OBJECTIVE_NAMES if all(k in run.cond_obj[c] for c in run.conditions)]
+    m = len(run.conditions)
+    fig, axes = plt.subplots(2, 2, figsize=(9.5, 2.2 + 0.28 * m * 2), sharey=True)
+    y = np.arange(m)
+    mode = (run.case.condition_mode if run.case is not None else "worst")
+    for ax, k in zip(axes.ravel(), keys):
+        scale, unit = obj_display(k)
+        r = np.array([run.cond_obj[c][k][ri] for c in run.conditions]) * scale
+        b = np.array([run.cond_obj[c][k][bi] for c in run.conditions]) * scale
+        ax.barh(y - 0.2, r, height=0.38, color=REF_COLOR, label="reference design")
+        ax.barh(y + 0.2, b, height=0.38, color=BEST_COLOR, label=f"best (#{run.ids[bi]})")
+        for yi, (ri_, bi_) in enumerate(zip(r, b)):
+            if np.isfinite(ri_) and np.isfinite(bi_) and ri_:
+                ch = (bi_ - ri_) / abs(ri_) * 100
+                ax.text(bi_, yi + 0.2, f" {ch:+.0f} %" if abs(ch) >= 0.5 else " ±0 %", va="center", fontsize=7)
+        if k in run.obj:
+            for v, color in ((run.obj[k][ri] * scale, REF_COLOR), (run.obj[k][bi] * scale, BEST_COLOR)):
+                ax.axvline(v, color=color, lw=1.2, ls="--")
+        bold = k in run.objectives or any(o.startswith(k + "@") for o in run.objectives)
+        ax.set_title(f"{k} [{unit}]", fontweight="bold" if bold else "normal", fontsize=10)
+        ax.set_xlim(0, max(np.nanmax(r), np.nanmax(b)) * 1.25)
+        ax.grid(axis="y", visible=False)
+    for ax in axes[:, 0]:
+        ax.set_yticks(y, run.conditions)
+    axes[0, 0].invert_yaxis()
+    for ax in axes.ravel()[len(keys):]:
+        ax.set_visible(False)
+    how = {"worst": "worst case over the conditions", "mean": "weighted mean over the conditions",
+           "each": "worst case (each condition's objectives are optimised)"}[mode]
+    handles, labels = axes[0, 0].get_legend_handles_labels()
+    handles.append(plt.Line2D([], [], color="0.3", ls="--"))
+    labels.append(f"dashed: {how}")
+    fig.legend(handles, labels, loc="lower center", ncol=3, frameon=False, fontsize=8)
+    fig.suptitle("objectives per traffic condition (bold: the run's)", fontsize=11)
+    fig.tight_layout(rect=(0, 0.06, 1, 1))
+    return _save(fig, out / "conditions.png")
+
+
 def _zone_marks(ax, info: dict, xmax: float, label: bool = True):
     x_a, x_b = info.get("interface_entry"), info.get("interface_exit")
     if x_a is not None and x_b is not None:

@@ -230,6 +230,9 @@ def build_summary(run: RunData, figs: dict, notes: dict, facts: list[str] | None
         doc.fig(figs["best-vs-reference"], "Change of every objective (left) and where the design variables sit "
                 "within their bounds (right), best against reference.")
 
+    if run.conditions and ri is not None:
+        _conditions_section(doc, run, bi, ri, figs)
+
     # --- why
     doc.h(2, "Why it is better")
     doc.p(_why_text(run, bi, ri, notes))
@@ -310,4 +313,29 @@ def _why_text(run: RunData, bi: int, ri: int | None, notes: dict) -> str:
         text += " The best design is the reference design."
     return text.strip()
 
+
+def _conditions_section(doc: Doc, run: RunData, bi: int, ri: int, figs: dict) -> None:
+    """Every traffic condition's objectives, reference design against the best design."""
+    how = {"worst": "the worst case over the conditions", "mean": "their weighted mean",
+           "each": "each condition's objectives as objectives of their own"}
+    mode = run.case.condition_mode if run.case is not None else "worst"
+    doc.h(2, "Traffic conditions")
+    doc.p(f"Each design was simulated under {len(run.conditions)} conditions; the run minimised "
+          f"{how[mode]}.")
+    about = {c.name: c for c in (run.case.conditions if run.case is not None else ())}
+    rows = []
+    for c in run.conditions:
+        a = about.get(c)
+        row = [c, a.vehicle if a else "–", f"{a.speed * 3.6:.0f}" if a else "–", a.direction if a else "–",
+               f"{a.weight:g}" if a else "–"]
+        for k in ("F_max", "E_max"):
+            r, b = float(run.cond_obj[c][k][ri]), float(run.cond_obj[c][k][bi])
+            s_, _ = obj_display(k)
+            row.append(f"{fnum(r * s_, 3)} → {fnum(b * s_, 3)} ({pct(b, r)})")
+        rows.append(row)
+    doc.table(["condition", "vehicle", "km/h", "direction", "weight", "F_max [kN]", "E_max [J]"], rows,
+              "lrrlrrr")
+    if "conditions" in figs:
+        doc.fig(figs["conditions"], "Each condition's objectives, reference design against the best design; "
+                "dashed: the combined value.")
 
