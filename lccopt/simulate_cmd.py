@@ -30,6 +30,8 @@ def run_simulate(case_path: Path, design: str | None, out: Path | None, plots: b
 
     from .vti.simulate import evaluate
 
+    if case.conditions:
+        return _simulate_conditions(case, case_path, x, out, plots, evaluate)
     t0 = time.perf_counter()
     ev = evaluate(case, x)
     wall = time.perf_counter() - t0
@@ -53,6 +55,43 @@ def run_simulate(case_path: Path, design: str | None, out: Path | None, plots: b
         for p in plot_evaluation(ev, case, out):
             typer.echo(f"plot: {p}")
     return ev
+
+
+def _simulate_conditions(case, case_path: Path, x, out: Path, plots: bool, evaluate) -> Evaluation:
+    """A case with traffic conditions: one simulation per condition, their objectives and the
+    combination the optimiser would minimise; one file with every condition."""
+    from .problem import combine_conditions
+    from .store import write_condition_evaluations
+
+    names = [c.name for c in case.conditions]
+    typer.echo(f"case '{case.name}' ({case_path}), design {format_design(case, x)}")
+    keys = list(OBJECTIVE_DOC)
+    head = "".join(f"{k + ' [' + objective_display(k)[1] + ']':>12}" for k in keys)
+    typer.echo(f"{'condition':<22}{head}{'time':>7}")
+    evs = []
+    for i, c in enumerate(case.conditions):
+        t0 = time.perf_counter()
+        ev = evaluate(case.condition_case(i), x)
+        evs.append(ev)
+        vals = "".join(f"{v * objective_display(k)[0]:12.5g}" for k, v in ev.objectives.items())
+        typer.echo(f"{c.name[:21]:<22}{vals}{time.perf_counter() - t0:6.2f}s")
+        if ev.info.get("contact_loss_steps"):
+            typer.echo(f"WARNING: {c.name}: contact lost (force <= 0) in {ev.info['contact_loss_steps']} "
+                       f"steps", err=True)
+    combined = combine_conditions([e.objectives for e in evs], names, [c.weight for c in case.conditions],
+                                  case.condition_mode)
+    label = {"worst": "worst case", "mean": "weighted mean", "each": "worst case"}[case.condition_mode]
+    vals = "".join(f"{combined[k] * objective_display(k)[0]:12.5g}" for k in keys)
+    typer.echo(f"{label:<22}{vals}")
+    h5 = write_condition_evaluations(out / "simulation.h5", evs, x, case.names, names,
+                                     [c.weight for c in case.conditions], combined, {"case": case.resolved})
+    typer.echo(f"histories: {h5}")
+    if plots:
+        for c, ev in zip(case.conditions, evs):
+            (out / c.name).mkdir(exist_ok=True)
+            for p in plot_evaluation(ev, case.condition_case(names.index(c.name)), out / c.name):
+                typer.echo(f"plot: {p}")
+    return Evaluation(combined, evs[0].histories, evs[0].info)
 
 
 def plot_evaluation(ev: Evaluation, case, out: Path) -> list[Path]:

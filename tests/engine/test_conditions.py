@@ -156,3 +156,20 @@ def test_kill_9_mid_design_keeps_the_finished_conditions_and_resumes_to_the_same
     a, b = read_table(runs / "tc"), read_table(ref)
     for k in ("x", "F_max", "E_max", "value"):
         np.testing.assert_array_equal(a[k], b[k], err_msg=k)
+
+
+def test_simulate_runs_every_condition_and_prints_their_combination(tmp_path):
+    path = conditions_case(tmp_path, THREE, mode="mean")
+    r = cli_run("simulate", path, "--no-plots", "--out", tmp_path / "sim")
+    assert r.returncode == 0, r.stderr
+    lines = r.stdout.splitlines()
+    rows = {ln.split()[0]: [float(v) for v in ln.split()[1:5]] for ln in lines
+            if ln.split() and ln.split()[0] in ("v140", "v80", "v160")}
+    mean = next(ln for ln in lines if ln.startswith("weighted mean"))
+    fmax = np.array([rows[c][1] for c in ("v140", "v80", "v160")])
+    assert float(mean.split()[3]) == pytest.approx((fmax[0] + 2 * fmax[1] + fmax[2]) / 4, rel=1e-4)
+    assert max(len(ln) for ln in lines if not ln.startswith(("case ", "histories"))) <= 80
+    conds = read_conditions(tmp_path / "sim" / "simulation.h5")
+    assert list(conds) == ["v140", "v80", "v160"]
+    assert conds["v80"].objectives["F_max"] / 1e3 == pytest.approx(rows["v80"][1], rel=1e-4)
+    assert conds["v80"].info["speed"] == pytest.approx(22.22222222222222)
