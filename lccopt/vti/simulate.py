@@ -67,7 +67,10 @@ def evaluate(case: Case, x, *, legacy: bool = False) -> Evaluation:
     wheel_force = getattr(h, "wheel_force", None)
     if wheel_pos is None:                         # the legacy integrator: one wheel
         wheel_pos, wheel_force = h.position[:, None], h.contact_force[:, None]
-    in_zone_w = (wheel_pos >= zone_start) & (wheel_pos <= zone_end)
+    # a wheel within 1 nm of a zone end counts as in it: where a step falls exactly on an end
+    # (e.g. on a mirrored track) round-off must not decide
+    zone_lo, zone_hi = min(zone_start, zone_end) - 1e-9, max(zone_start, zone_end) + 1e-9
+    in_zone_w = (wheel_pos >= zone_lo) & (wheel_pos <= zone_hi)
     in_zone = in_zone_w[:, 0]
     # F_max also takes the force at the zone's exact ends (linear between the steps): the
     # force can still be rising or falling there, and otherwise F_max would depend on where

@@ -281,6 +281,8 @@ def build_track(case: Case, x: np.ndarray) -> TrackModel:
         "slab_bending_stiffness": ei_slab,
         "compound_damping": c_std,
         "type_ii_compound_damping": c_ii,
+        # rail and slab rotation dofs: they change sign when the track is mirrored (tests)
+        "rotation_dofs": np.concatenate([rail_th[rail_th >= 0]] + [th for _, th in slab_dofs]),
     }
     return TrackModel(
         element_length=le, window=window, node_x=node_x, rail_w=rail_w, rail_th=rail_th,
