@@ -13,6 +13,11 @@ side and one forward and one backward banded triangular solve, with Sherman-Morr
 between them (rows U⁻ᵀe_j of the wheel's element are solved once per element). The solution
 is the same as solving the coupled system outright, to round-off.
 
+A vehicle with k wheels on the rail (bogie, half car) gives k moving rank-one terms, applied
+together in the same factored form by a k x k Woodbury (capacitance) solve per step
+(:func:`integrate_wheels`); the vehicle may run either way (negative speed). Every wheel must
+stay on the modelled rail for the whole run (checked; the case's window is chosen so).
+
 Time histories are recorded per step. No flush of tiny values: in the reference track the
 smallest nonzero state value is ~1e-68, far above the denormal range; denormals appear only
 where a track end lies several hundred metres from the wheel (the exponential decay of the
