@@ -772,12 +772,13 @@ VEHICLE_KEYS = {  # keys a vehicle type needs beyond the three-dof ones
     "bogie": ("wheelbase", "bogie_pitch_inertia"),
     "half-car": ("wheelbase", "bogie_pitch_inertia", "carbody_pitch_inertia", "bogie_distance"),
 }
-RAIL_END_MARGIN = 1.0  # [m] every wheel stays this far from the pinned rail ends
+RAIL_END_MARGIN = 1.0  # [m] the leading wheel stays this far from the pinned rail ends
 
 
 def _check_vehicle_fits(data: dict, err) -> None:
-    """The vehicle type has its keys, and every wheel stays on the modelled rail for the whole
-    run in either direction, whatever the design (lccopt.vti.track.wheel_window)."""
+    """The vehicle type has its keys, and the leading wheel stays on the modelled rail for the
+    whole run in either direction, whatever the design (lccopt.vti.track.wheel_window; a
+    trailing wheel beyond a rail end rests on a rigid continuation of the rail)."""
     v, sim = data["vehicle"], data["simulation"]
     kind = v.get("type") or "three-dof"
     for key in VEHICLE_KEYS.get(kind, ()):
@@ -796,19 +797,20 @@ def _check_vehicle_fits(data: dict, err) -> None:
     far_span = spans["bounds"][1] * ELEMENT_UNIT        # the zone reaches farthest at the upper bounds
     zone_start = layout["entry_length"] - min(n_zone, n_near) * far_span \
         - max(0, n_zone - n_near) * layout["sleeper_spacing"]
+    x_b = layout["entry_length"] + sum(data["track"]["ers"]["slab_lengths"])
     if (sim.get("direction") or "enter") == "leave":
-        lowest, highest = zone_start - sim["run_out"] - length, zone_end + sim["run_in"] + length
+        lowest, highest = zone_start - sim["run_out"] - length, max(zone_end, x_b) + sim["run_in"]
     else:
-        lowest, highest = zone_start - sim["run_in"] - length, zone_end + sim["run_out"] + length
+        lowest, highest = zone_start - sim["run_in"], zone_end + sim["run_out"] + length
     if zone_start <= 0:
         lowest = RAIL_END_MARGIN    # the zone itself does not fit: the design check says so
     if lowest < RAIL_END_MARGIN or highest > total - RAIL_END_MARGIN:
         key = "run_out" if (highest > total - RAIL_END_MARGIN) == ((sim.get("direction") or "enter") == "enter") \
             else "run_in"
         raise err(("simulation", key),
-                  f"the wheels would run from {lowest:.3g} m to {highest:.3g} m, beyond the modelled rail "
-                  f"[0, {total:g}] m less {RAIL_END_MARGIN:g} m at each end (vehicle {length:g} m long): "
-                  f"shorten run_in/run_out or lengthen the track")
+                  f"the leading wheel would run from {lowest:.3g} m to {highest:.3g} m, beyond the "
+                  f"modelled rail [0, {total:g}] m less {RAIL_END_MARGIN:g} m at each end (vehicle "
+                  f"{length:g} m long): shorten run_in/run_out or lengthen the track")
 
 
 def parse_design(text: str, case: Case) -> np.ndarray:

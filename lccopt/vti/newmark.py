@@ -15,8 +15,9 @@ is the same as solving the coupled system outright, to round-off.
 
 A vehicle with k wheels on the rail (bogie, half car) gives k moving rank-one terms, applied
 together in the same factored form by a k x k Woodbury (capacitance) solve per step
-(:func:`integrate_wheels`); the vehicle may run either way (negative speed). Every wheel must
-stay on the modelled rail for the whole run (checked; the case's window is chosen so).
+(:func:`integrate_wheels`); the vehicle may run either way (negative speed). The leading
+wheel must stay on the modelled rail for the whole run (checked; the case's window is chosen
+so); a trailing wheel beyond a rail end rests on a rigid continuation of the rail.
 
 Time histories are recorded per step. No flush of tiny values: in the reference track the
 smallest nonzero state value is ~1e-68, far above the denormal range; denormals appear only
@@ -348,7 +349,8 @@ def integrate_wheels(track: TrackLike, dt: float, speed: float, x_start: float, 
     and element): δ = Sᵀy + SᵀS c, i.e. (I + SᵀS Κ) δ = Sᵀy + SᵀS c0 (the k x k capacitance
     system of Woodbury's identity), then u = U⁻¹(y + S c). Per step: one forward and one
     backward banded triangular solve, k dot products with the cached rows, a k x k solve.
-    All wheels must stay on the modelled rail (checked: the window is chosen so).
+    The leading wheel must stay on the modelled rail (checked); a trailing wheel beyond a rail
+    end rests on a rigid continuation of the rail (N_i = 0: its row of S vanishes, δ_i = 0).
     """
     M, C, K = track.M.tocsr(), track.C.tocsr(), track.K.tocsr()
     n = K.shape[0]
@@ -365,11 +367,17 @@ def integrate_wheels(track: TrackLike, dt: float, speed: float, x_start: float, 
     time = dt * np.arange(steps)
     lead = x_start + speed * time
     pos = lead[:, None] - sgn * np.asarray(vehicle.wheel_offsets, dtype=float)[None, :]
-    _check_on_rail(track, pos)
+    _check_on_rail(track, lead)
     elem, idx_all, vals_all = contact_vectors(track, pos.ravel())
     elem = elem.reshape(steps, k)
     idx_all = idx_all.reshape(steps, k, 4)
     vals_all = vals_all.reshape(steps, k, 4)
+    # a trailing wheel beyond a rail end rests on a rigid continuation of the rail: no track
+    # coupling (N = 0), its contact spring on the ground
+    off = (pos < track.node_x[0] - 1e-9) | (pos > track.node_x[-1] + 1e-9)
+    vals_all[off] = 0.0
+    idx_all[off] = 0
+    elem[off] = -1
     if irregularity is not None:
         r_all = np.array([irregularity(p) for p in pos.ravel()], dtype=float).reshape(steps, k)
     else:
@@ -457,6 +465,9 @@ def integrate_wheels(track: TrackLike, dt: float, speed: float, x_start: float, 
         idx, vals = idx_all[s], vals_all[s]
         for i in range(k):
             e = elem[s, i]
+            if e < 0:                      # off the modelled rail
+                Sm[i] = 0.0
+                continue
             if e != prev[i]:
                 _update_columns(chol, idx[i], scols[i], prev[i], e)
                 prev[i] = e

@@ -48,6 +48,10 @@ def test_multi_axle_vehicle_at_rest_carries_its_static_shares(kind):
     # the rail is pressed down under each wheel by the same amount (uniform track, equal loads,
     # wheels far enough apart that one's bowl hardly reaches the next)
     assert np.ptp(h.wheel_rail_displacement[0]) < 0.02 * h.wheel_rail_displacement[0].mean()
+    # trailing wheels beyond the rail's end rest on its rigid continuation: the same shares
+    h = integrate(beam, 5e-4, 0.0, 1.5, 100, vehicle=veh)
+    assert h.wheel_position[0, -1] < 0.0 and np.all(h.wheel_rail_displacement[:, -1] == 0.0)
+    assert np.max(np.abs(h.wheel_force - share)) < 1e-9 * share
 
 
 def direct_newmark(track, veh, dt, speed, x_start, steps, r_of):
@@ -180,17 +184,19 @@ def test_leave_on_a_mirrored_track_is_the_mirrored_enter(tmp_path, monkeypatch, 
         assert leave.objectives[k] == pytest.approx(v, rel=1e-9), k
 
 
-def test_leave_window_starts_in_the_ers_and_ends_with_the_last_wheel_past_the_zone(tmp_path):
-    """simulation.direction: leave on the real track: the leading wheel starts run_in before the
-    force zone's end in the ERS, runs towards -x, and the run ends when the last wheel is run_out
-    past the farthest zone sleeper; every wheel spends the same number of steps in the zone."""
+def test_leave_window_crosses_the_whole_ers_and_ends_with_the_last_wheel_past_the_zone(tmp_path):
+    """simulation.direction: leave on the real track: the leading wheel starts run_in beyond the
+    far edge of the ERS (on the exit ballast; the trailing wheels beyond the rail end, on its
+    rigid continuation), runs towards -x, and the run ends when the last wheel is run_out past
+    the farthest zone sleeper; every wheel spends the same number of steps in the zone."""
     case = cheap_case(tmp_path, CONFIGS / "vehicles/virm-half-car.yaml", "leave")
     track = build_track(case, case.reference)
     x_start, zone_start, zone_end, x_end = track.window
     sim, length = case.simulation, 19.0 + 2.5
     assert zone_end == pytest.approx(100.0 + 3.0)
     assert zone_start == pytest.approx(track.entry_sleeper_x[19])
-    assert x_start == pytest.approx(zone_end + sim["run_in"])
+    assert x_start == pytest.approx(112.0 + sim["run_in"])            # 100 m + 12 m of ERS
+    assert x_start + length > track.node_x[-1]                          # trailing wheels off the rail
     assert x_end == pytest.approx(zone_start - sim["run_out"] - length)
     ev = evaluate(case, case.reference)
     pos = ev.histories["wheel_positions"]
@@ -198,3 +204,5 @@ def test_leave_window_starts_in_the_ers_and_ends_with_the_last_wheel_past_the_zo
     assert pos[-1, -1] <= zone_start - sim["run_out"] + 1e-9          # the last wheel is run_out past
     counts = ev.histories["in_force_zone_wheels"].sum(axis=0)
     assert counts.min() > 0 and counts.max() - counts.min() <= 1
+    # the wheels off the rail at the start carry their static share on the rigid continuation
+    assert np.allclose(ev.histories["contact_force_wheels"][0], ev.info["static_wheel_load"], rtol=3e-3)
