@@ -110,19 +110,6 @@ class History:
             self.wheel_rail_displacement = self.rail_displacement[:, None]
 
 
-def _update_columns(chol, idx, scols, prev_elem, elem) -> None:
-    """Refresh the rows U⁻ᵀe_j of a wheel's element (``scols``, (4, n)) when it changed:
-    the next element (either way) shares a node, so that costs two rows."""
-    if elem == prev_elem + 1:
-        scols[:2] = scols[2:]
-        forward_columns(chol, idx[2:], scols[2:])
-    elif elem == prev_elem - 1:
-        scols[2:] = scols[:2]
-        forward_columns(chol, idx[:2], scols[:2])
-    else:
-        forward_columns(chol, idx, scols)
-
-
 def integrate(track: TrackLike, dt: float, speed: float, x_start: float, n_steps: int, *,
               vehicle=None, load: float = 0.0, irregularity: Callable[[float], float] | None = None,
               record_dofs: np.ndarray | None = None, initial: tuple | None = None,
@@ -457,6 +444,30 @@ def integrate_wheels(track: TrackLike, dt: float, speed: float, x_start: float, 
     scols = np.zeros((k, 4, n))
     Sm = np.zeros((k, n))
     prev = np.full(k, -10)
+    # rows U⁻ᵀe_j by dof: a trailing wheel meets the elements the leading one met (exact
+    # copies, not recomputed); rows behind the last wheel on the rail are dropped
+    rows: dict[int, np.ndarray] = {}
+
+    def fill(dst, dofs):
+        for r, j in zip(dst, dofs):
+            got = rows.get(int(j))
+            if got is None:
+                forward_columns(chol, [j], r[None, :])
+                rows[int(j)] = r.copy()
+            else:
+                r[:] = got
+
+    def refresh(i, e):
+        p = prev[i]
+        if e == p + 1:
+            scols[i, :2] = scols[i, 2:]
+            fill(scols[i, 2:], idx_all[s, i, 2:])
+        elif e == p - 1:
+            scols[i, 2:] = scols[i, :2]
+            fill(scols[i, :2], idx_all[s, i, :2])
+        else:
+            fill(scols[i], idx_all[s, i])
+        prev[i] = e
     tbsv = blas.dtbsv
     dot = np.dot
     solve = np.linalg.solve
@@ -469,9 +480,17 @@ def integrate_wheels(track: TrackLike, dt: float, speed: float, x_start: float, 
                 Sm[i] = 0.0
                 continue
             if e != prev[i]:
-                _update_columns(chol, idx[i], scols[i], prev[i], e)
-                prev[i] = e
+                refresh(i, e)
             dot(vals[i], scols[i], out=Sm[i])
+        if s % 64 == 0 and k > 1:
+            on = elem[s] >= 0
+            if on.any():
+                held = idx[on][vals[on] != 0.0]
+                if held.size:
+                    keep_from, keep_to = int(held.min()), int(held.max())
+                    behind = [j for j in rows if (j < keep_from if speed >= 0 else j > keep_to)]
+                    for j in behind:
+                        del rows[j]
         y = tbsv(kd, chol, rhs, trans=1, overwrite_x=1)
         g1 = dot(Sm, y)
         G2 = dot(Sm, Sm.T)
