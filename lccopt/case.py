@@ -197,6 +197,15 @@ class Items:
 
 
 @dataclass(frozen=True)
+class TextOrSection:
+    """Text (e.g. a file name) or a mapping checked against ``section``."""
+    doc: str
+    section: Section
+    default: Any = None
+    required: bool = True
+
+
+@dataclass(frozen=True)
 class StrList:
     doc: str
     choices: tuple
@@ -229,8 +238,13 @@ SCHEMA = Section({
     "name": Str("case name, also the run directory name (letters, digits, - and _)"),
     "description": Str("free text", required=False, default=""),
     "vehicle": Section({
-        "model": Str("paper: Eq. (A.3) as printed (bogie on two primary suspensions, the second "
-                     "wheelset a fixed point); quarter-car: one primary suspension per wheel",
+        "type": Str("three-dof: the paper's carbody-bogie-wheelset model (one wheel); bogie: one "
+                    "bogie side with both wheelsets on the modelled rail (bounce and pitch) under "
+                    "its carbody share; half-car: the carbody (bounce and pitch) on two such bogies "
+                    "(lccopt/vti/vehicle.py)", ("three-dof", "bogie", "half-car"),
+                    default="three-dof", required=False),
+        "model": Str("three-dof only. paper: Eq. (A.3) as printed (bogie on two primary suspensions, "
+                     "the second wheelset a fixed point); quarter-car: one primary suspension per wheel",
                      ("paper", "quarter-car"), default="paper", required=False),
         "speed": Num("running speed", "m/s", gt=0, le=150.0),
         "carbody_mass": Num("carbody mass carried by one wheel", "kg", gt=0),
@@ -243,7 +257,17 @@ SCHEMA = Section({
         "hertz_constant": Num("Hertz contact constant G", "m/N^(2/3)", gt=0),
         "hertz_load": Num("wheel load P used to linearise the Hertz spring", "N", gt=0),
         "gravity": Num("gravitational acceleration", "m/s^2", gt=0, default=9.81, required=False),
-    }, "the 3-dof vehicle on one rail (carbody, bogie, wheelset)"),
+        # bogie and half-car (per-wheel values above as for three-dof; lccopt/vti/vehicle.py)
+        "wheelbase": Num("bogie and half-car: distance between the two wheelsets of a bogie", "m",
+                         gt=0, le=20.0, required=False),
+        "bogie_pitch_inertia": Num("bogie and half-car: pitch inertia of the bogie frame on the "
+                                   "modelled rail (half the whole bogie's)", "kg m^2", gt=0, required=False),
+        "carbody_pitch_inertia": Num("half-car: pitch inertia of the carbody on the modelled rail "
+                                     "(half the whole carbody's)", "kg m^2", gt=0, required=False),
+        "bogie_distance": Num("half-car: distance between the two bogie centres", "m", gt=0, le=50.0,
+                              required=False),
+    }, "the vehicle on one rail: the 3-dof model, a bogie or a half car (masses and suspension "
+       "values per wheel, see lccopt/vti/vehicle.py)"),
     "track": Section({
         "rail": Section({
             "youngs_modulus": Num("rail Young's modulus", "Pa", gt=0),
@@ -311,8 +335,20 @@ SCHEMA = Section({
                                   "m", ge=0.01, le=0.6, default=0.3, required=False),
         "run_in": Num("distance run before the evaluation zone", "m", ge=0, le=1000.0),
         "run_out": Num("distance run after the force zone (sleepers settle)", "m", ge=0, le=1000.0),
-        "irregularity": Str("CSV file (position m, dip m) of the vertical rail profile, relative "
-                            "to the case file; none for a smooth rail", required=False, default=None),
+        "direction": Str("enter: the vehicle runs towards +x, from the designed entry ballast into "
+                         "the ERS; leave: towards -x, from the ERS onto the designed side (same zone)",
+                         ("enter", "leave"), default="enter", required=False),
+        "irregularity": TextOrSection(
+            "CSV file (position m, dip m) of the vertical rail profile, relative to the case file, or "
+            "a random profile from a standard spectrum (lccopt/vti/irregularity.py); none for a "
+            "smooth rail",
+            Section({
+                "spectrum": Str("erri-low, erri-high (ORE/ERRI B176), fra-4, fra-5, fra-6 (FRA classes)",
+                                ("erri-low", "erri-high", "fra-4", "fra-5", "fra-6")),
+                "seed": Num("random seed: the same profile for every design", integer=True, ge=0),
+                "wavelengths": NumList("[min, max] band of wavelengths generated", "m", length=2, gt=0),
+                "amplitude_scale": Num("factor on the profile", ge=0, default=1.0, required=False),
+            }), required=False, default=None),
     }),
     "optimisation": Section({
         "objectives": StrList("objectives to minimise; two or more are scalarised by the ASF", OBJECTIVES),
@@ -402,6 +438,12 @@ def _check(value: Any, spec: Any, path: tuple, lines: dict, file: str) -> Any:
         if len(value) > spec.max_items:
             raise fail(f"{len(value)} entries; at most {spec.max_items}")
         return [_check(v, spec.item, path + (i,), lines, file) for i, v in enumerate(value)]
+    if isinstance(spec, TextOrSection):
+        if isinstance(value, dict):
+            return _check(value, spec.section, path, lines, file)
+        if not isinstance(value, str):
+            raise fail(f"expected a file name or a mapping, got {value!r}")
+        return value
     if isinstance(spec, Num):
         return _number(value, spec, fail)
     if isinstance(spec, Str):
@@ -764,16 +806,25 @@ def load_case(path: str | Path) -> Case:
                           f"expected {n_obj} values (one per objective){also}, got {len(worst)}")
 
     irregularity = _load_irregularity(data["simulation"]["irregularity"], path, err,
-                                      ("simulation", "irregularity"))
+                                      ("simulation", "irregularity"), data)
     conditions = _conditions(data, path, err, irregularity)
     return Case(path=path, text=text, data=data, variables=variables, irregularity=irregularity,
                 conditions=conditions)
 
 
-def _load_irregularity(value, path: Path, err, at: tuple) -> np.ndarray | None:
-    """The rail profile (position m, dip m) a case names, or None for a smooth rail."""
+def _load_irregularity(value, path: Path, err, at: tuple, data: dict) -> np.ndarray | None:
+    """The rail profile (position m, dip m) a case names (a CSV file, or a random profile from
+    a spectrum: the same for every design), or None for a smooth rail."""
     if not value or value == "none":
         return None
+    if isinstance(value, dict):
+        from .vti import irregularity as irr    # numerical code, loaded only when needed
+
+        length = irr.track_length(data)
+        problem = irr.check_spec(value, length)
+        if problem:
+            raise err(at + (problem[0],), problem[1])
+        return irr.profile_of(value, length)
     irr_path = path.parent / value
     try:
         irregularity = np.loadtxt(irr_path, delimiter=",", ndmin=2, dtype=float)
@@ -819,10 +870,15 @@ def _conditions(data: dict, path: Path, err, case_irregularity) -> tuple[Conditi
         irregularity = case_irregularity
         if c["irregularity"] is not None:
             sim["irregularity"] = c["irregularity"]
-            irregularity = _load_irregularity(c["irregularity"], path, err, at + ("irregularity",))
+            irregularity = _load_irregularity(c["irregularity"], path, err, at + ("irregularity",), data)
         one = {k: v for k, v in data.items() if k not in ("vehicles", "conditions")}
         one.update(vehicle=vehicle, simulation=sim)
-        _check_accuracy(one, lambda where, msg, at=at: err(at, f"{_dotted(where)}: {msg}"))
+        def cond_err(where, msg, at=at, name=c["vehicle"]):
+            if where[:1] == ("vehicle",) and name != "case":   # a named vehicle's own key
+                return err(("vehicles", name) + where[1:], f"{msg} (in condition {c['name']})")
+            return err(at, f"{_dotted(where)}: {msg}")
+
+        _check_accuracy(one, cond_err)
         out.append(Condition(c["name"], float(c["weight"]), c["vehicle"], float(speed), c["direction"],
                              one, irregularity))
     return tuple(out)
@@ -852,6 +908,61 @@ def _check_accuracy(data: dict, err) -> None:
         raise err(("simulation", "time_step"),
                   f"{dt:g} s moves the wheel {step:.3g} m per step, more than one element "
                   f"({sim['element_length']:g} m): time_step <= {sim['element_length'] / v['speed']:.3g} s")
+    _check_vehicle_fits(data, err)
+    irr = sim.get("irregularity")
+    if isinstance(irr, dict):   # the shortest wave must be followed by the mesh and the time step
+        shortest = irr["wavelengths"][0]
+        need = max(4 * sim["element_length"], 5 * step)   # 4 elements, 5 steps per wave
+        if shortest < need * (1 - 1e-9):
+            raise err(("simulation", "irregularity", "wavelengths"),
+                      f"the shortest wavelength {shortest:g} m is below what the mesh and time step "
+                      f"resolve ({need:.3g} m: 4 elements of {sim['element_length']:g} m and 5 steps of "
+                      f"{step:.3g} m)")
+
+
+VEHICLE_KEYS = {  # keys a vehicle type needs beyond the three-dof ones
+    "bogie": ("wheelbase", "bogie_pitch_inertia"),
+    "half-car": ("wheelbase", "bogie_pitch_inertia", "carbody_pitch_inertia", "bogie_distance"),
+}
+RAIL_END_MARGIN = 1.0  # [m] the leading wheel stays this far from the pinned rail ends
+
+
+def _check_vehicle_fits(data: dict, err) -> None:
+    """The vehicle type has its keys, and the leading wheel stays on the modelled rail for the
+    whole run in either direction, whatever the design (lccopt.vti.track.wheel_window; a
+    trailing wheel beyond a rail end rests on a rigid continuation of the rail)."""
+    v, sim = data["vehicle"], data["simulation"]
+    kind = v.get("type") or "three-dof"
+    for key in VEHICLE_KEYS.get(kind, ()):
+        if v.get(key) is None:
+            raise err(("vehicle", key), f"missing key '{key}' (vehicle type {kind} needs it)")
+    if kind == "half-car" and v["bogie_distance"] <= v["wheelbase"]:
+        raise err(("vehicle", "bogie_distance"), f"{v['bogie_distance']:g} m must exceed the wheelbase "
+                                                 f"({v['wheelbase']:g} m): the bogies would overlap")
+    length = {"bogie": v.get("wheelbase") or 0.0,
+              "half-car": (v.get("bogie_distance") or 0.0) + (v.get("wheelbase") or 0.0)}.get(kind, 0.0)
+    layout = data["track"]["layout"]
+    total = layout["entry_length"] + sum(data["track"]["ers"]["slab_lengths"]) + layout["exit_length"]
+    zone_end = layout["entry_length"] + data["evaluation"]["force_zone_after_interface"]
+    spans = data["design"]["sleeper_spans"]
+    n_zone, n_near = data["evaluation"]["sleepers"], spans["count"]
+    far_span = spans["bounds"][1] * ELEMENT_UNIT        # the zone reaches farthest at the upper bounds
+    zone_start = layout["entry_length"] - min(n_zone, n_near) * far_span \
+        - max(0, n_zone - n_near) * layout["sleeper_spacing"]
+    x_b = layout["entry_length"] + sum(data["track"]["ers"]["slab_lengths"])
+    if (sim.get("direction") or "enter") == "leave":
+        lowest, highest = zone_start - sim["run_out"] - length, max(zone_end, x_b) + sim["run_in"]
+    else:
+        lowest, highest = zone_start - sim["run_in"], zone_end + sim["run_out"] + length
+    if zone_start <= 0:
+        lowest = RAIL_END_MARGIN    # the zone itself does not fit: the design check says so
+    if lowest < RAIL_END_MARGIN or highest > total - RAIL_END_MARGIN:
+        key = "run_out" if (highest > total - RAIL_END_MARGIN) == ((sim.get("direction") or "enter") == "enter") \
+            else "run_in"
+        raise err(("simulation", key),
+                  f"the leading wheel would run from {lowest:.3g} m to {highest:.3g} m, beyond the "
+                  f"modelled rail [0, {total:g}] m less {RAIL_END_MARGIN:g} m at each end (vehicle "
+                  f"{length:g} m long): shorten run_in/run_out or lengthen the track")
 
 
 def parse_design(text: str, case: Case) -> np.ndarray:

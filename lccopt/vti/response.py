@@ -8,8 +8,8 @@ import numpy as np
 
 OBJECTIVE_UNITS = {"F_rms": "N", "F_max": "N", "E_rms": "J", "E_max": "J"}
 OBJECTIVE_DOC = {  # short enough for one line of `lccopt simulate` on 80 columns
-    "F_rms": "rms of the wheel-rail contact force in the force zone",
-    "F_max": "max - min of the contact force in the force zone",
+    "F_rms": "rms of the wheel-rail contact forces in the force zone",
+    "F_max": "max - min of the contact forces in the force zone",
     "E_rms": "rms of the energy dissipated per zone sleeper",
     "E_max": "max - min of the energy dissipated per zone sleeper",
 }
@@ -24,8 +24,10 @@ def objective_display(k: str) -> tuple[float, str]:
 class Evaluation:
     """What one vehicle-track simulation of one design returns.
 
-    objectives: F_rms, F_max [N] of the contact force while the wheel is in the force zone;
-                E_rms, E_max [J] over the energies dissipated under the zone's sleepers.
+    objectives: F_rms, F_max [N] of the contact forces of all wheels, each while that wheel is
+                in the force zone (F_max also at each wheel's zone ends);
+                E_rms, E_max [J] over the energies dissipated under the zone's sleepers
+                during the whole run (until the last wheel is run_out past the zone).
     histories:  named arrays in SI units (see ``HISTORY_DOC``).
     info:       scalars describing the run (static load, contact stiffness, contact loss, ...).
     """
@@ -46,7 +48,13 @@ HISTORY_DOC = {
     "sleeper_energy": "energy dissipated in the support under each zone sleeper [J], same order",
     "sleeper_strengthened": "1 for a strengthened zone sleeper, else 0, same order",
     "sleeper_displacement": "displacement of each zone sleeper [m] against time (steps x sleepers)",
+    "wheel_positions": "position of every wheel [m] (steps x wheels), leading wheel first",
+    "contact_force_wheels": "contact force of every wheel [N] (steps x wheels), same order",
+    "in_force_zone_wheels": "1 where that wheel is inside the force zone, else 0 (steps x wheels)",
+    "irregularity_at_wheel": "rail irregularity (dip) under the leading wheel [m], when there is one",
 }
+# wheel_position, contact_force, wheel_displacement, rail_displacement and in_force_zone are
+# those of the leading wheel (the only one of the three-dof vehicle).
 
 
 def objectives_from(force_in_zone: np.ndarray, sleeper_energy: np.ndarray,

@@ -1,12 +1,15 @@
 """One vehicle-track simulation of one design: the entry point for workers.
 
-``evaluate(case, x)`` builds the track for design x, runs the quarter car over it from static
-equilibrium and returns the objectives and time histories as an :class:`Evaluation`.
+``evaluate(case, x)`` builds the track for design x, runs the case's vehicle (3-dof, bogie or
+half car: ``vehicle.type``) over it from static equilibrium and returns the objectives and
+time histories as an :class:`Evaluation`.
 
-The run: the wheel starts ``run_in`` before the evaluation zone, which begins at the farthest
-zone sleeper; the contact force is measured while the wheel is between that sleeper and
-``force_zone_after_interface`` into the ERS; the run ends ``run_out`` after that so the
-zone's sleepers have settled. Sleeper energies use mid-step velocities, which makes them
+The run (``simulation.direction``, lccopt.vti.track.wheel_window): ``enter``, the leading
+wheel starts ``run_in`` before the evaluation zone, which begins at the farthest zone
+sleeper, and runs towards +x; ``leave``, it starts ``run_in`` beyond the far edge of the ERS
+(on the exit ballast) and runs towards -x over the whole crossing. The contact force of every wheel is measured while that wheel is
+between the farthest zone sleeper and ``force_zone_after_interface`` into the ERS; the run
+ends when the last wheel is ``run_out`` past the zone so the zone's sleepers have settled. Sleeper energies use mid-step velocities, which makes them
 exactly the dissipation of Newmark's discrete energy balance.
 """
 
@@ -20,6 +23,7 @@ from ..case import Case
 from .newmark import integrate
 from .newmark_reference import integrate_reference
 from .response import Evaluation, objectives_from
+from .irregularity import irregularity_profile
 from .track import build_track
 from .vehicle import Vehicle
 
@@ -37,35 +41,59 @@ def evaluate(case: Case, x, *, legacy: bool = False) -> Evaluation:
     sim = case.simulation
     dt = sim["time_step"]
     x_start, zone_start, zone_end, x_end = track.window
-    n_steps = int(np.ceil((x_end - x_start) / (vehicle.speed * dt)))
+    leave = x_end < x_start                       # simulation.direction: leave (towards -x)
+    speed = -vehicle.speed if leave else vehicle.speed
+    n_steps = int(np.ceil(abs(x_end - x_start) / (vehicle.speed * dt)))
     n_zone = case.evaluation["sleepers"]
     zone_dofs = track.entry_sleeper_dof[:n_zone]
 
     irregularity = None
-    if case.irregularity is not None:
-        px, pr = case.irregularity[:, 0], case.irregularity[:, 1]
+    profile = irregularity_profile(case)
+    if profile is not None:
+        px, pr = profile[:, 0], profile[:, 1]
         irregularity = lambda pos: float(np.interp(pos, px, pr, left=0.0, right=0.0))
 
     run = integrate_reference if legacy else integrate
-    h = run(track, dt, vehicle.speed, x_start, n_steps, vehicle=vehicle,
+    if legacy and vehicle.n_wheels > 1:
+        raise ValueError("the legacy integrator runs the three-dof vehicle only")
+    h = run(track, dt, speed, x_start, n_steps, vehicle=vehicle,
             irregularity=irregularity, record_dofs=zone_dofs)
 
     v_mid = 0.5 * (h.dof_velocity[1:] + h.dof_velocity[:-1])
     energy = dt * track.entry_support_damping[:n_zone] * np.sum(v_mid ** 2, axis=0)
-    in_zone = (h.position >= zone_start) & (h.position <= zone_end)
+    # every wheel's force while that wheel is in the force zone (the same stretch of rail
+    # whichever way the vehicle runs)
+    wheel_pos = getattr(h, "wheel_position", None)
+    wheel_force = getattr(h, "wheel_force", None)
+    if wheel_pos is None:                         # the legacy integrator: one wheel
+        wheel_pos, wheel_force = h.position[:, None], h.contact_force[:, None]
+    # a wheel within 1 nm of a zone end counts as in it: where a step falls exactly on an end
+    # (e.g. on a mirrored track) round-off must not decide
+    zone_lo, zone_hi = min(zone_start, zone_end) - 1e-9, max(zone_start, zone_end) + 1e-9
+    in_zone_w = (wheel_pos >= zone_lo) & (wheel_pos <= zone_hi)
+    in_zone = in_zone_w[:, 0]
     # F_max also takes the force at the zone's exact ends (linear between the steps): the
     # force can still be rising or falling there, and otherwise F_max would depend on where
     # the last step before zone_end happens to fall (up to 2 % at 0.4 ms steps).
-    ends = None if legacy else np.interp([zone_start, zone_end], h.position, h.contact_force)
-    objectives = objectives_from(h.contact_force[in_zone], energy, force_ends=ends)
-    loss = h.contact_force <= 0.0
+    ends = None
+    if not legacy:
+        order = slice(None, None, -1) if leave else slice(None)   # np.interp wants increasing positions
+        ends = np.concatenate([np.interp([zone_start, zone_end], wheel_pos[order, i], wheel_force[order, i])
+                               for i in range(wheel_pos.shape[1])])
+    forces = wheel_force.T[in_zone_w.T]            # wheel by wheel, each in step order
+    objectives = objectives_from(forces, energy, force_ends=ends)
+    loss = wheel_force <= 0.0
+    loss_any = loss.any(axis=1)
     info = {
         "speed": vehicle.speed,
         "static_wheel_load": vehicle.static_wheel_load,
         "hertz_load": vehicle.hertz_load,
         "contact_stiffness": vehicle.contact_stiffness,
-        "contact_loss_steps": int(loss.sum()),
-        "contact_loss_first_position": float(h.position[loss][0]) if loss.any() else float("nan"),
+        "contact_loss_steps": int(loss_any.sum()),
+        "contact_loss_first_position": float(wheel_pos[loss][0]) if loss.any() else float("nan"),
+        "vehicle_type": getattr(vehicle, "type", "three-dof"),
+        "n_wheels": int(wheel_pos.shape[1]),
+        "direction": "leave" if leave else "enter",
         "n_dofs": track.n_dofs,
         "n_steps": n_steps,
         "time_step": dt,
@@ -83,7 +111,7 @@ def evaluate(case: Case, x, *, legacy: bool = False) -> Evaluation:
         "time": h.time,
         "wheel_position": h.position,
         "contact_force": h.contact_force,
-        "wheel_displacement": h.vehicle_displacement[:, 2],
+        "wheel_displacement": h.vehicle_displacement[:, vehicle.wheel_dofs[0]],
         "carbody_displacement": h.vehicle_displacement[:, 0],
         "rail_displacement": h.rail_displacement,
         "in_force_zone": in_zone.astype(np.int8),
@@ -94,5 +122,11 @@ def evaluate(case: Case, x, *, legacy: bool = False) -> Evaluation:
         "entry_sleeper_position": track.entry_sleeper_x,
         "entry_pad_stiffness": track.entry_pad_stiffness,
         "entry_strengthened": track.entry_strengthened.astype(np.int8),
+        "wheel_positions": wheel_pos,
+        "contact_force_wheels": wheel_force,
+        "in_force_zone_wheels": in_zone_w.astype(np.int8),
     }
+    if profile is not None:
+        histories["irregularity_at_wheel"] = np.interp(h.position, profile[:, 0], profile[:, 1],
+                                                       left=0.0, right=0.0)
     return Evaluation(objectives, histories, info)

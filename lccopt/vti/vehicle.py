@@ -1,14 +1,32 @@
-"""The 3-dof vehicle on one rail (Sec. 2.1.1, Eqs. A.1-A.3): carbody, bogie, wheelset.
+"""Vehicles on one rail: the paper's 3-dof model, a bogie and a half car (``vehicle.type``).
 
-Dofs (carbody, bogie, wheel), vertical, downward positive. Two readings (``vehicle.model``):
+Dofs are vertical, downward positive; pitch angles are positive nose down, so a point a
+distance s ahead of a body's centre moves z + s θ.
 
-* ``paper`` (default): Eqs. (A.2)-(A.3) as printed. The bogie row carries k_s2 + 2 k_s1 and
-  c_s2 + 2 c_s1: the bogie has two primary suspensions, one to the modelled wheelset and one
-  to the second wheelset, which is not modelled and stays where it is (a fixed point). The
-  bogie's and carbody's weight is then shared by the two primary suspensions, and the static
-  wheel load is m_w g + (m_c + m_b) g / 2 on a rigid rail.
-* ``quarter-car``: one primary suspension per wheel (k_s1 once in the bogie row); the whole
-  weight rests on the modelled wheel. Kept for the closed-form theory tests and comparisons.
+**The per-rail reading** (one rail is modelled; configs/reference.yaml explains it for the
+paper's vehicle). The case gives every mass and suspension value as the share of one wheel:
+``carbody_mass`` = m_c / 8 and ``bogie_mass`` = m_b / 4 for a 4-axle car (one bogie side carries
+two wheels), ``wheelset_mass`` = the *whole* wheelset mass on each modelled wheel (the paper's
+3-dof reading, Eq. A.1 with m_w = 1819 kg), ``primary_*`` per axle box = per wheel and
+``secondary_*`` per wheel (half the spring of one bogie side). The multi-axle vehicles are
+built from the same per-wheel values, so that they are the 3-dof vehicle made whole:
+
+* ``bogie``: one bogie side with its two wheels, both on the modelled rail; bogie bounce and
+  pitch, and the carbody share resting on that bogie side (bounce only: 2 x carbody_mass =
+  m_c / 4). Bogie side mass 2 x bogie_mass, secondary spring 2 x secondary_* (one air spring
+  per bogie side), ``bogie_pitch_inertia`` per rail, ``wheelbase``. 5 dofs
+  (carbody, bogie, bogie pitch, wheel 1, wheel 2).
+* ``half-car``: the carbody half on the modelled rail (4 x carbody_mass = m_c / 2, bounce and
+  pitch with ``carbody_pitch_inertia`` per rail) on two such bogies ``bogie_distance`` apart.
+  10 dofs (carbody, carbody pitch, bogie 1, pitch 1, bogie 2, pitch 2, wheels 1-4).
+
+Unlike the ``paper`` 3-dof model, no wheelset is a fixed point: every wheel of a bogie is
+modelled, so the static wheel load of the multi-axle vehicles is the whole share
+(m_w + bogie_mass + carbody_mass) g per wheel (96 kN for the VIRM values), where the paper's
+bogie puts half of the weight above the wheel on its unmodelled second wheelset (57 kN).
+
+Wheels are numbered from the front; ``wheel_offsets`` are their distances behind the
+leading wheel [m].
 """
 
 from __future__ import annotations
@@ -19,9 +37,55 @@ import numpy as np
 
 from ..case import Case
 
+VEHICLE_TYPES = ("three-dof", "bogie", "half-car")
+
+
+class _Common:
+    """What every vehicle offers the integrator and the simulation."""
+
+    @property
+    def contact_stiffness(self) -> float:
+        """Linearised Hertz spring k_w = 3/(2G) P^(1/3) [N/m]."""
+        return 1.5 / self.hertz_constant * self.hertz_load ** (1.0 / 3.0)
+
+    @property
+    def weight_load(self) -> np.ndarray:
+        """Gravity loads (Eq. A.11) [N] per dof (zero on pitch dofs)."""
+        return np.diag(self.M) * self.translational * self.gravity
+
+    @property
+    def n_wheels(self) -> int:
+        return len(self.wheel_dofs)
+
+    @property
+    def length(self) -> float:
+        """Distance from the leading to the last wheel [m]."""
+        return float(self.wheel_offsets[-1])
+
+    def rigid_track_frequencies(self) -> np.ndarray:
+        """Natural frequencies [Hz] with every wheel on a rigid rail through its Hertz spring."""
+        from scipy.linalg import eigh
+
+        k = self.K.copy()
+        k[self.wheel_dofs, self.wheel_dofs] += self.contact_stiffness
+        lam = eigh(k, self.M, eigvals_only=True)
+        return np.sqrt(lam) / (2 * np.pi)
+
 
 @dataclass(frozen=True)
-class Vehicle:
+class Vehicle(_Common):
+    """The paper's 3-dof vehicle (Sec. 2.1.1, Eqs. A.1-A.3): carbody, bogie, wheelset.
+
+    Two readings (``vehicle.model``):
+
+    * ``paper`` (default): Eqs. (A.2)-(A.3) as printed. The bogie row carries k_s2 + 2 k_s1 and
+      c_s2 + 2 c_s1: the bogie has two primary suspensions, one to the modelled wheelset and
+      one to the second wheelset, which is not modelled and stays where it is (a fixed
+      point). The bogie's and carbody's weight is then shared by the two primary
+      suspensions, and the static wheel load is m_w g + (m_c + m_b) g / 2 on a rigid rail.
+    * ``quarter-car``: one primary suspension per wheel (k_s1 once in the bogie row); the
+      whole weight rests on the modelled wheel. Kept for the closed-form theory tests.
+    """
     masses: np.ndarray      # (m_c, m_b, m_w) [kg]
     k_s1: float
     c_s1: float
@@ -33,9 +97,18 @@ class Vehicle:
     hertz_load: float       # P [N] at which the Hertz spring is linearised
     model: str = "paper"    # "paper" (Eq. A.3 as printed) or "quarter-car"
 
+    type = "three-dof"
+    wheel_dofs = np.array([2])
+    wheel_offsets = np.array([0.0])
+    translational = np.ones(3)
+
     @classmethod
-    def from_case(cls, case: Case) -> "Vehicle":
+    def from_case(cls, case: Case):
+        """The case's vehicle: this class for ``type: three-dof``, else a
+        :class:`MultiAxleVehicle` (so every caller of ``Vehicle.from_case`` gets the right one)."""
         v = case.vehicle
+        if (v.get("type") or "three-dof") != "three-dof":
+            return MultiAxleVehicle.from_case(case)
         return cls(np.array([v["carbody_mass"], v["bogie_mass"], v["wheelset_mass"]]),
                    v["primary_stiffness"], v["primary_damping"], v["secondary_stiffness"],
                    v["secondary_damping"], v["speed"], v["gravity"], v["hertz_constant"], v["hertz_load"],
@@ -75,15 +148,114 @@ class Vehicle:
         return float((m_w + (m_c + m_b) / self.primary_sets) * self.gravity)
 
     @property
-    def contact_stiffness(self) -> float:
-        """Linearised Hertz spring k_w = 3/(2G) P^(1/3) [N/m]."""
-        return 1.5 / self.hertz_constant * self.hertz_load ** (1.0 / 3.0)
+    def static_wheel_loads(self) -> np.ndarray:
+        return np.array([self.static_wheel_load])
 
-    def rigid_track_frequencies(self) -> np.ndarray:
-        """Natural frequencies [Hz] with the wheel on a rigid rail through the Hertz spring."""
-        from scipy.linalg import eigh
 
-        k = self.K.copy()
-        k[2, 2] += self.contact_stiffness
-        lam = eigh(k, self.M, eigvals_only=True)
-        return np.sqrt(lam) / (2 * np.pi)
+@dataclass(frozen=True)
+class MultiAxleVehicle(_Common):
+    """A bogie or a half car on one rail, every wheel on the modelled rail (module docstring).
+
+    Built from springs between points of rigid bodies: M, C, K are (n, n); ``wheel_dofs`` the
+    dof of each wheel, front first."""
+    type: str
+    M: np.ndarray
+    C: np.ndarray
+    K: np.ndarray
+    translational: np.ndarray   # 1 for a vertical dof, 0 for a pitch dof
+    wheel_dofs: np.ndarray
+    wheel_offsets: np.ndarray   # [m] behind the leading wheel
+    dof_names: tuple
+    speed: float
+    gravity: float
+    hertz_constant: float
+    hertz_load: float
+
+    @classmethod
+    def from_case(cls, case: Case) -> "MultiAxleVehicle":
+        v = case.vehicle
+        return cls.build(v["type"], carbody_mass=v["carbody_mass"], bogie_mass=v["bogie_mass"],
+                         wheelset_mass=v["wheelset_mass"], primary_stiffness=v["primary_stiffness"],
+                         primary_damping=v["primary_damping"], secondary_stiffness=v["secondary_stiffness"],
+                         secondary_damping=v["secondary_damping"], wheelbase=v["wheelbase"],
+                         bogie_pitch_inertia=v["bogie_pitch_inertia"],
+                         carbody_pitch_inertia=v.get("carbody_pitch_inertia"),
+                         bogie_distance=v.get("bogie_distance"), speed=v["speed"], gravity=v["gravity"],
+                         hertz_constant=v["hertz_constant"], hertz_load=v["hertz_load"])
+
+    @classmethod
+    def build(cls, type: str, *, carbody_mass, bogie_mass, wheelset_mass, primary_stiffness,
+              primary_damping, secondary_stiffness, secondary_damping, wheelbase, bogie_pitch_inertia,
+              carbody_pitch_inertia=None, bogie_distance=None, speed=0.0, gravity=9.81,
+              hertz_constant=5.13e-8, hertz_load=100e3) -> "MultiAxleVehicle":
+        """Per-wheel values as in the case (module docstring)."""
+        if type == "bogie":
+            names = ["carbody", "bogie", "bogie pitch", "wheel 1", "wheel 2"]
+            mass = [2 * carbody_mass, 2 * bogie_mass, bogie_pitch_inertia, wheelset_mass, wheelset_mass]
+            trans = [1, 1, 0, 1, 1]
+            bogies = [(1, 2, 0.0)]                   # (bounce dof, pitch dof, centre ahead of the carbody's)
+            carbody = (0, None)
+            wheels_of = [(3, 4)]
+            offsets = [0.0, wheelbase]
+        elif type == "half-car":
+            names = ["carbody", "carbody pitch", "bogie 1", "bogie 1 pitch", "bogie 2", "bogie 2 pitch",
+                     "wheel 1", "wheel 2", "wheel 3", "wheel 4"]
+            mass = [4 * carbody_mass, carbody_pitch_inertia, 2 * bogie_mass, bogie_pitch_inertia,
+                    2 * bogie_mass, bogie_pitch_inertia] + [wheelset_mass] * 4
+            trans = [1, 0, 1, 0, 1, 0, 1, 1, 1, 1]
+            bogies = [(2, 3, bogie_distance / 2), (4, 5, -bogie_distance / 2)]
+            carbody = (0, 1)
+            wheels_of = [(6, 7), (8, 9)]
+            offsets = [0.0, wheelbase, bogie_distance, bogie_distance + wheelbase]
+        else:
+            raise ValueError(f"unknown vehicle type {type!r} (expected one of {', '.join(VEHICLE_TYPES)})")
+        n = len(names)
+        K, C = np.zeros((n, n)), np.zeros((n, n))
+
+        def spring(k, c, g):
+            g = np.asarray(g, float)
+            K[:] += k * np.outer(g, g)
+            C[:] += c * np.outer(g, g)
+
+        def point(bounce, pitch, s):
+            g = np.zeros(n)
+            g[bounce] = 1.0
+            if pitch is not None:
+                g[pitch] = s
+            return g
+
+        for (bz, bp, centre), (w1, w2) in zip(bogies, wheels_of):
+            # secondary: the carbody point above the bogie centre to the bogie centre
+            spring(2 * secondary_stiffness, 2 * secondary_damping,
+                   point(*carbody, centre) - point(bz, bp, 0.0))
+            # primary: the bogie point above each wheel (wheelbase/2 ahead, behind) to the wheel
+            for w, s in ((w1, wheelbase / 2), (w2, -wheelbase / 2)):
+                g = point(bz, bp, s)
+                g[w] -= 1.0
+                spring(primary_stiffness, primary_damping, g)
+        return cls(type, np.diag(np.asarray(mass, float)), C, K, np.asarray(trans, float),
+                   np.array([names.index(f"wheel {i + 1}") for i in range(len(offsets))]),
+                   np.asarray(offsets, float), tuple(names), speed, gravity, hertz_constant, hertz_load)
+
+    @property
+    def static_wheel_loads(self) -> np.ndarray:
+        """Static contact force of each wheel [N] from the statics of the rigid bodies: each body
+        is carried by two supports symmetric about its centre (bogie: two wheels; carbody: two
+        bogies), so each takes half the load above it, whatever the stiffnesses."""
+        m = np.diag(self.M)
+        g = self.gravity
+        wheels = m[self.wheel_dofs]
+        if self.type == "bogie":
+            above = (m[0] + m[1]) / 2
+        else:
+            above = (m[0] / 2 + m[2]) / 2
+        return (wheels + above) * g
+
+    @property
+    def static_wheel_load(self) -> float:
+        return float(self.static_wheel_loads.mean())
+
+
+def vehicle_from_case(case: Case):
+    """The vehicle of a case, whatever its type."""
+    return Vehicle.from_case(case)

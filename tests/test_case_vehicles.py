@@ -1,0 +1,138 @@
+"""Case keys of the traffic physics: vehicle.type and its keys, simulation.direction and the
+spectrum form of simulation.irregularity; one line (file:line: key: message) for each
+problem; the bundled vehicle cases load and simulate."""
+
+import h5py
+import numpy as np
+import pytest
+
+from lccopt.case import CaseError, load_case
+from lccopt.vti.simulate import evaluate
+from tests.conftest import CHEAP_SIMULATION, CONFIGS
+
+REFERENCE = CONFIGS / "reference.yaml"
+HALF_CAR = CONFIGS / "vehicles" / "virm-half-car.yaml"
+
+
+def case_error(tmp_path, text):
+    p = tmp_path / "bad.yaml"
+    p.write_text(text)
+    with pytest.raises(CaseError) as exc:
+        load_case(p)
+    msg = str(exc.value)
+    assert "\n" not in msg
+    return p, msg
+
+
+def line_of(text, needle):
+    return next(i for i, l in enumerate(text.splitlines(), 1) if needle in l)
+
+
+SPECTRUM = "  irregularity: {{spectrum: {spectrum}, seed: 3, wavelengths: [{lo}, {hi}]}}\n"
+
+BAD = [  # (extra YAML after extends/name, key in the message, words, the line holding the needle)
+    ("vehicle:\n  type: tram\n", "vehicle.type", "must be one of three-dof, bogie, half-car", "type: tram"),
+    ("vehicle:\n  type: bogie\n  wheelbase: 2.5\n", "vehicle.bogie_pitch_inertia",
+     "missing key 'bogie_pitch_inertia' (vehicle type bogie needs it)", "vehicle:"),
+    ("vehicle:\n  type: half-car\n  wheelbase: 2.5\n  bogie_pitch_inertia: 1400\n  carbody_pitch_inertia: 1.6e6\n",
+     "vehicle.bogie_distance", "missing key 'bogie_distance'", "vehicle:"),
+    ("vehicle:\n  type: half-car\n  wheelbase: 2.5\n  bogie_pitch_inertia: 1400\n  carbody_pitch_inertia: 1.6e6\n"
+     "  bogie_distance: 2.0\n", "vehicle.bogie_distance", "must exceed the wheelbase", "bogie_distance: 2.0"),
+    ("vehicle:\n  wheelbase: -2.5\n", "vehicle.wheelbase", "must be > 0", "wheelbase: -2.5"),
+    ("simulation:\n  direction: backwards\n", "simulation.direction", "must be one of enter, leave",
+     "direction: backwards"),
+    ("simulation:\n" + SPECTRUM.format(spectrum="fra-9", lo=1, hi=50), "simulation.irregularity.spectrum",
+     "must be one of erri-low", "irregularity:"),
+    ("simulation:\n" + SPECTRUM.format(spectrum="erri-low", lo=50, hi=1), "simulation.irregularity.wavelengths",
+     "must increase", "irregularity:"),
+    ("simulation:\n" + SPECTRUM.format(spectrum="erri-low", lo=1, hi=500), "simulation.irregularity.wavelengths",
+     "exceeds the track", "irregularity:"),
+    ("simulation:\n" + SPECTRUM.format(spectrum="erri-low", lo=0.1, hi=50), "simulation.irregularity.wavelengths",
+     "below what the mesh and time step resolve", "irregularity:"),
+    ("simulation:\n" + SPECTRUM.format(spectrum="erri-low", lo=10.2, hi=10.25), "simulation.irregularity.wavelengths",
+     "holds no wavelength", "irregularity:"),
+    ("simulation:\n  irregularity: {spectrum: erri-low, wavelengths: [1, 50]}\n", "simulation.irregularity",
+     "missing key 'seed'", "irregularity:"),
+    ("simulation:\n  irregularity: [1, 2]\n", "simulation.irregularity", "expected a file name or a mapping",
+     "irregularity:"),
+    ("simulation:\n  direction: leave\n  run_in: 40.0\n", "simulation.run_in", "beyond the modelled rail",
+     "run_in: 40.0"),
+]
+
+
+@pytest.mark.parametrize("extra,key,words,needle", BAD, ids=[b[1] + ":" + b[2][:20] for b in BAD])
+def test_bad_traffic_keys_name_file_line_and_key(tmp_path, extra, key, words, needle):
+    text = f"extends: {REFERENCE}\nname: bad\n" + extra
+    p, msg = case_error(tmp_path, text)
+    assert msg.startswith(f"{p}:{line_of(text, needle)}: {key}: "), msg
+    assert words in msg, msg
+
+
+def test_spectrum_irregularity_is_resolved_at_load_time_and_the_same_for_every_design(tmp_path):
+    p = tmp_path / "c.yaml"
+    p.write_text(f"extends: {REFERENCE}\nname: rough\n"
+                 + "simulation:\n" + SPECTRUM.format(spectrum="erri-high", lo=1.0, hi=40.0))
+    case = load_case(p)
+    assert case.simulation["irregularity"]["amplitude_scale"] == 1.0
+    prof = case.irregularity
+    assert prof.shape[1] == 2 and prof[0, 0] == 0.0 and prof[-1, 0] == pytest.approx(134.0)
+    assert np.array_equal(load_case(p).irregularity, prof)            # deterministic
+    cheap = case.with_simulation(time_step=1e-3, element_length=0.1, far_element_length=0.1, run_in=3.0,
+                                 run_out=1.0)
+    x2 = cheap.reference.copy()
+    x2[4:7] = [7, 7, 7]                                                # another mesh
+    for x in (cheap.reference, x2):
+        ev = evaluate(cheap, x)
+        pos = ev.histories["wheel_position"]
+        assert np.allclose(ev.histories["irregularity_at_wheel"], np.interp(pos, prof[:, 0], prof[:, 1]))
+    smooth = evaluate(load_case(REFERENCE).with_simulation(time_step=1e-3, element_length=0.1,
+                                                         far_element_length=0.1, run_in=3.0, run_out=1.0),
+                      cheap.reference)
+    assert ev.objectives["F_max"] > smooth.objectives["F_max"]
+
+
+def test_the_csv_irregularity_still_loads(tmp_path):
+    np.savetxt(tmp_path / "p.csv", np.c_[[0.0, 50.0, 134.0], [0.0, 1e-4, 0.0]], delimiter=",")
+    p = tmp_path / "c.yaml"
+    p.write_text(f"extends: {REFERENCE}\nname: csv\nsimulation:\n  irregularity: p.csv\n")
+    case = load_case(p)
+    assert case.simulation["irregularity"] == "p.csv" and case.irregularity.shape == (3, 2)
+
+
+@pytest.mark.parametrize("name,kind,wheels,load", [
+    ("virm-bogie.yaml", "bogie", 2, (1819 + 943 + 7047.25) * 9.8),
+    ("virm-half-car.yaml", "half-car", 4, (1819 + 943 + 7047.25) * 9.8),
+    ("freight-22.5t.yaml", "half-car", 4, (1200 + 575 + 10075) * 9.81),
+])
+@pytest.mark.parametrize("direction", ["enter", "leave"])
+def test_bundled_vehicle_cases_load_and_simulate(tmp_path, name, kind, wheels, load, direction):
+    p = tmp_path / "c.yaml"
+    p.write_text(f"extends: {CONFIGS / 'vehicles' / name}\nname: t\n" + CHEAP_SIMULATION
+                 + f"  direction: {direction}\n")
+    case = load_case(p)
+    assert case.vehicle["type"] == kind
+    ev = evaluate(case, case.reference)
+    assert ev.info["n_wheels"] == wheels and ev.info["direction"] == direction
+    assert ev.info["static_wheel_load"] == pytest.approx(load)
+    f = ev.histories["contact_force_wheels"]
+    assert f.shape == (ev.info["n_steps"] + 1, wheels)
+    assert np.allclose(f[0], load, rtol=3e-3)          # static start (the Hertz spring in series)
+    assert ev.objectives["F_rms"] == pytest.approx(load, rel=0.05)
+    assert 0 < ev.objectives["F_max"] < load and ev.objectives["E_max"] > 0
+    assert ev.info["contact_loss_steps"] == 0
+
+
+def test_simulate_command_runs_a_half_car(tmp_path):
+    import os
+    import subprocess
+    import sys
+
+    p = tmp_path / "c.yaml"
+    p.write_text(f"extends: {HALF_CAR}\nname: hc\n" + CHEAP_SIMULATION)
+    # this interpreter's lccopt (the one under test), whatever `lccopt` is on PATH
+    proc = subprocess.run([sys.executable, "-m", "lccopt.cli", "simulate", str(p), "--out", str(tmp_path / "out")],
+                          capture_output=True, text=True, timeout=300, env={**os.environ, "MPLBACKEND": "Agg"})
+    assert proc.returncode == 0, proc.stderr
+    with h5py.File(tmp_path / "out" / "simulation.h5") as f:
+        assert f["histories/contact_force_wheels"].shape[1] == 4
+        assert f["info"].attrs["vehicle_type"] == "half-car"
