@@ -400,7 +400,9 @@ def main(argv=None) -> int:
     ap.add_argument("--report-only", action="store_true", help="only print the tables of --out")
     ap.add_argument("--quick", action="store_true",
                     help="budgets 20 40, 3 seeds, methods lccopt random unless given")
-    ap.add_argument("--timing", action="store_true", help="only time lccopt's ask(1) at 400 points")
+    ap.add_argument("--timing", "--timing-only", action="store_true",
+                    help="only time lccopt's ask(1) at 400 points")
+    ap.add_argument("--no-pysot", action="store_true", help="leave pySOT out of the methods")
     ap.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE",
                     help="override a Strategy setting, e.g. --set n_branches=0")
     args = ap.parse_args(argv)
@@ -414,7 +416,7 @@ def main(argv=None) -> int:
         if args.seeds == ["20"]:
             args.seeds = ["3"]
         args.methods = args.methods or ["lccopt", "random"]
-    methods = args.methods or list(METHODS)
+    methods = [m for m in (args.methods or METHODS) if not (args.no_pysot and m == "pysot")]
     seeds = _seeds(args.seeds)
     budgets = sorted(set(args.budgets))
     n = max(budgets)
