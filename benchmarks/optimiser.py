@@ -1,24 +1,45 @@
-"""Benchmark of lccopt's optimiser on mixed-integer problems of the paper's size.
+"""Benchmark of lccopt's optimiser against pySOT, Optuna and random search (issue 9).
 
-Compares, at equal budgets of evaluations, the median (over seeds) best value found by
+Methods (all sequential: one evaluation at a time, each sees every earlier result):
 
-* lccopt     -- lccopt.optim.strategy.Strategy (MSRS/DYCORS + local surrogate search)
-* pysot      -- pySOT 0.3.3 DYCORSStrategy with a cubic RBF + linear tail, 20-point
-                symmetric LHS, 100*d candidates (its documented set-up), if it imports
-* random     -- uniform random search (integer-aware)
-* lhs        -- one Latin hypercube of the whole budget
+* lccopt      -- lccopt.optim.strategy.Strategy (MSRS/DYCORS + local surrogate search),
+                 20-point initial design, default settings
+* pysot       -- pySOT 0.3.3 DYCORSStrategy with a cubic RBF + linear tail, 20-point
+                 symmetric LHS, 100*d candidates (its documented set-up)
+* optuna-tpe  -- Optuna 5's default sampler (TPESampler, default arguments), integers as
+                 suggest_int, continuous variables as suggest_float
+* optuna-gp   -- Optuna 5's GPSampler (default arguments; needs torch)
+* random      -- uniform random search (integer-aware)
 
-and times lccopt's ``ask`` at 400 evaluated points in 8 dimensions.
+Problems: lccopt.optim.problems.BENCHMARK (22 problems with known optima; see there).
 
-    python benchmarks/optimiser.py                      # full: budgets 100 200 400, 10 seeds
-    python benchmarks/optimiser.py --quick              # budget 100, 3 seeds, no pySOT
-    python benchmarks/optimiser.py --budgets 100 --seeds 5 --problems ackley8 gear
-    python benchmarks/optimiser.py --timing-only
+Budgets: ONE run of max(budgets) evaluations per (problem, method, seed); the value at a
+smaller budget b is the best of its first b evaluations (best so far). This is valid for
+sequential methods, but it is the anytime performance of a run planned for max(budgets):
+lccopt's and pySOT's DYCORS perturbation probability shrinks with the planned budget, so a run
+given a budget of 100 from the start would not propose exactly the same points.
+
+Per cell (problem, budget): median and interquartile range [q25, q75] over seeds per method;
+lccopt against the best other method (lowest median in that cell): two-sided Mann-Whitney U
+(scipy.stats.mannwhitneyu) at alpha 0.05 on the per-seed values -- win or loss when
+significant (direction by the U statistic), tie otherwise; and the issue's criterion,
+lccopt median <= best other median.
+
+    python benchmarks/optimiser.py --out results.json                 # everything (hours)
+    python benchmarks/optimiser.py --quick --problems gear ackley8 --out q.json
+    python benchmarks/optimiser.py --methods optuna-gp --seeds 5 --budgets 100 200 --resume --out r.json
+    python benchmarks/optimiser.py --report-only --out r.json          # tables from the JSON
+    python benchmarks/optimiser.py --timing                           # lccopt ask(1) time only
+
+With --resume, runs already in the --out JSON (same problem, method, seed, at least as many
+evaluations) are reused, so a long benchmark can be run in parts; the tables always cover
+every stored run of the selected problems and methods.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import logging
 import os
 import statistics
@@ -36,40 +57,39 @@ import numpy as np  # noqa: E402
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 
 from lccopt.optim import problems  # noqa: E402
-from lccopt.optim.sampling import latin_hypercube  # noqa: E402
 from lccopt.optim.strategy import Strategy  # noqa: E402
 
-DEFAULT_PROBLEMS = [f"{n}8" for n in problems.PAPER_SIZE] + ["gear", "nvs09"]
+METHODS = ("lccopt", "pysot", "optuna-tpe", "optuna-gp", "random")
+ALPHA = 0.05
+FORMAT = "lccopt-benchmark-optimiser/1"
 
 
-# -- methods: each returns the best value found in `budget` evaluations ---------------------
-def run_lccopt(p: problems.Problem, budget: int, seed: int, settings: dict) -> float:
-    s = Strategy(p.space, budget=budget, n_initial=20, seed=seed, **settings)
+# -- methods: each returns the values of its n evaluations, in order ----------------------------
+def run_lccopt(p: problems.Problem, n: int, seed: int, settings: dict) -> list[float]:
+    s = Strategy(p.space, budget=n, n_initial=20, seed=seed, **settings)
+    vals = []
     while not s.done:
         props = s.ask(1)
         if not props:
             break
         for pr in props:
-            s.tell(pr.id, p(pr.x))
-    return s.best[1]
+            v = p(pr.x)
+            s.tell(pr.id, v)
+            vals.append(v)
+    return vals  # shorter than n only if a finite space was exhausted
 
 
-def run_random(p: problems.Problem, budget: int, seed: int, settings: dict) -> float:
+def run_random(p: problems.Problem, n: int, seed: int, settings: dict) -> list[float]:
     sp = p.space
     rng = np.random.default_rng(seed)
     lo = np.where(sp.int_mask, sp.lb - 0.5, sp.lb)
     hi = np.where(sp.int_mask, sp.ub + 0.5, sp.ub)
-    X = sp.snap(lo + rng.random((budget, sp.dim)) * (hi - lo))
-    return float(p(X).min())
-
-
-def run_lhs(p: problems.Problem, budget: int, seed: int, settings: dict) -> float:
-    X = latin_hypercube(p.space, budget, np.random.default_rng(seed))
-    return float(p(X).min())
+    X = sp.snap(lo + rng.random((n, sp.dim)) * (hi - lo))
+    return [float(v) for v in p(X)]
 
 
 def _pysot_runner():
-    """The pySOT DYCORS runner, or None with the reason if pySOT does not work here."""
+    """The pySOT DYCORS runner, or (None, reason) if pySOT does not work here."""
     try:
         logging.getLogger("pySOT").setLevel(logging.ERROR)
         logging.getLogger("poap").setLevel(logging.ERROR)
@@ -78,7 +98,7 @@ def _pysot_runner():
         from pySOT.optimization_problems import OptimizationProblem
         from pySOT.strategy import DYCORSStrategy
         from pySOT.surrogate import CubicKernel, LinearTail, RBFInterpolant
-    except Exception as exc:  # any import failure just drops the column
+    except Exception as exc:  # any import failure just drops the method
         return None, f"{type(exc).__name__}: {exc}"
 
     class Wrapped(OptimizationProblem):
@@ -88,31 +108,247 @@ def _pysot_runner():
             self.int_var = np.flatnonzero(sp.int_mask)
             self.cont_var = np.flatnonzero(~sp.int_mask)
             self.p = p
+            self.values = []
 
         def eval(self, x):
-            return self.p(np.asarray(x, dtype=float))
+            v = self.p(np.asarray(x, dtype=float))
+            self.values.append(v)
+            return v
 
-    def run(p: problems.Problem, budget: int, seed: int, settings: dict) -> float:
+    def run(p: problems.Problem, n: int, seed: int, settings: dict) -> list[float]:
         np.random.seed(seed)  # pySOT draws from numpy's global generator
         op = Wrapped(p)
         d = op.dim
         rbf = RBFInterpolant(dim=d, lb=op.lb, ub=op.ub, kernel=CubicKernel(), tail=LinearTail(d))
-        slhd = SymmetricLatinHypercube(dim=d, num_pts=20)
         ctl = SerialController(objective=op.eval)
-        ctl.strategy = DYCORSStrategy(max_evals=budget, opt_prob=op, asynchronous=False,
-                                      exp_design=slhd, surrogate=rbf, num_cand=100 * d,
-                                      batch_size=1)
+        # pySOT rejects a design whose rounded points do not fit the linear tail ("No valid
+        # design found, increase num_pts?"), e.g. 20 points on {-1, 0, 1}^12: then, and only
+        # then, a larger symmetric LHS (noted in the results as pysot_design).
+        for num_pts in (20, 2 * (d + 1), 4 * (d + 1)):
+            try:
+                slhd = SymmetricLatinHypercube(dim=d, num_pts=num_pts)
+                ctl.strategy = DYCORSStrategy(max_evals=n, opt_prob=op, asynchronous=False,
+                                              exp_design=slhd, surrogate=rbf,
+                                              num_cand=100 * d, batch_size=1)
+                break
+            except ValueError as exc:
+                if "No valid design" not in str(exc) or num_pts == 4 * (d + 1):
+                    raise
+        run.design[p.name] = num_pts
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            res = ctl.run()
-        return float(res.value)
+            ctl.run()
+        return op.values[:n]
 
-    # Smoke test: pySOT 0.3.3 is old; fail here rather than in the middle of the table.
-    try:
+    run.design = {}
+    try:  # smoke test: fail here rather than in the middle of the benchmark
         run(problems.gear(), 25, 0, {})
     except Exception as exc:
         return None, f"{type(exc).__name__}: {exc}"
     return run, None
+
+
+def _optuna_runner(kind: str):
+    """Optuna's TPE (its default sampler) or GP sampler, or (None, reason)."""
+    try:
+        import optuna
+        optuna.logging.set_verbosity(optuna.logging.ERROR)
+        if kind == "gp":
+            import torch  # noqa: F401  (GPSampler needs it; fail here, not mid-run)
+            torch.set_num_threads(1)
+    except Exception as exc:
+        return None, f"{type(exc).__name__}: {exc}"
+
+    def run(p: problems.Problem, n: int, seed: int, settings: dict) -> list[float]:
+        sp = p.space
+        names, lb, ub, im = sp.names, sp.lb, sp.ub, sp.int_mask
+        sampler = (optuna.samplers.TPESampler(seed=seed) if kind == "tpe"
+                   else optuna.samplers.GPSampler(seed=seed))
+        vals = []
+
+        def objective(trial):
+            x = np.array([trial.suggest_int(nm, int(lo), int(hi)) if m
+                          else trial.suggest_float(nm, lo, hi)
+                          for nm, lo, hi, m in zip(names, lb, ub, im)], dtype=float)
+            v = p(x)
+            vals.append(v)
+            return v
+
+        study = optuna.create_study(direction="minimize", sampler=sampler)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            study.optimize(objective, n_trials=n)
+        return vals
+
+    try:
+        run(problems.gear(), 12, 0, {})
+    except Exception as exc:
+        return None, f"{type(exc).__name__}: {exc}"
+    return run, None
+
+
+def load_methods(wanted: list[str]) -> tuple[dict, dict]:
+    """Runners of the wanted methods that work here, and a note for each one that does not."""
+    runners, notes = {}, {}
+    for m in wanted:
+        if m == "lccopt":
+            runners[m] = run_lccopt
+        elif m == "random":
+            runners[m] = run_random
+        else:
+            fn, why = (_pysot_runner() if m == "pysot"
+                       else _optuna_runner("tpe" if m == "optuna-tpe" else "gp"))
+            if fn is None:
+                notes[m] = f"skipped: {why}"
+                print(f"# {m}: skipped ({why})", flush=True)
+            else:
+                runners[m] = fn
+    return runners, notes
+
+
+# -- results file ---------------------------------------------------------------------------------
+def _key(problem: str, method: str, seed: int) -> str:
+    return f"{problem}|{method}|{seed}"
+
+
+def load_results(path: str | None) -> dict:
+    if path and os.path.exists(path):
+        with open(path) as fh:
+            data = json.load(fh)
+        if data.get("format") != FORMAT:
+            raise SystemExit(f"{path}: not a results file of this benchmark ({data.get('format')!r})")
+        return data
+    return {"format": FORMAT, "runs": {}, "sessions": []}
+
+
+def save_results(path: str | None, data: dict) -> None:
+    if not path:
+        return
+    tmp = path + ".tmp"
+    with open(tmp, "w") as fh:
+        json.dump(data, fh, indent=0, sort_keys=True)
+    os.replace(tmp, path)
+
+
+def record(vals: list[float], n: int, seconds: float) -> dict:
+    """Best so far after every evaluation is too bulky for JSON; keep it every 10
+    evaluations (and at n), which covers the budgets 100/200/400 and any multiple of 10."""
+    best = np.minimum.accumulate(np.asarray(vals, dtype=float)) if vals else np.array([np.inf])
+    marks = sorted(set(range(10, n + 1, 10)) | {n})
+    return {"n": n, "n_evaluated": len(vals), "seconds": round(seconds, 3),
+            "best_at": {str(b): float(best[min(b, len(best)) - 1]) for b in marks}}
+
+
+def best_at(run: dict, b: int) -> float | None:
+    if run["n"] < b:
+        return None
+    if str(b) in run["best_at"]:
+        return run["best_at"][str(b)]
+    if run["n_evaluated"] < b:  # exhausted finite space: nothing more to find
+        return run["best_at"][str(run["n"])]
+    return None
+
+
+# -- statistics -------------------------------------------------------------------------------------
+def quartiles(v) -> tuple[float, float, float]:
+    q25, q50, q75 = np.percentile(np.asarray(v, dtype=float), [25, 50, 75])
+    return float(q50), float(q25), float(q75)
+
+
+def compare(a, b) -> tuple[str, float]:
+    """'win'/'tie'/'loss' of sample a (lower is better) against b, and the p value."""
+    from scipy.stats import mannwhitneyu
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    if np.array_equal(np.unique(a), np.unique(b)) and len(np.unique(a)) == 1:
+        return "tie", 1.0  # every value the same on both sides
+    res = mannwhitneyu(a, b, alternative="two-sided")
+    p = float(res.pvalue)
+    if not p < ALPHA:
+        return "tie", p
+    # U of a counts pairs with a > b (ties half): large U means a is worse (larger).
+    return ("loss" if res.statistic > len(a) * len(b) / 2 else "win"), p
+
+
+def cells(data: dict, probs: list[str], methods: list[str], budgets: list[int]) -> list[dict]:
+    out = []
+    for name in probs:
+        for b in budgets:
+            samples = {}
+            for m in methods:
+                v = [best_at(r, b) for k, r in data["runs"].items()
+                     if k.startswith(f"{name}|{m}|")]
+                v = [x for x in v if x is not None]
+                if v:
+                    samples[m] = v
+            cell = {"problem": name, "budget": b, "samples": samples,
+                    "stats": {m: quartiles(v) for m, v in samples.items()}}
+            others = [m for m in samples if m != "lccopt"]
+            if "lccopt" in samples and others:
+                best = min(others, key=lambda m: cell["stats"][m][0])
+                res, p = compare(samples["lccopt"], samples[best])
+                cell.update(best_other=best, result=res, p=p,
+                            criterion=cell["stats"]["lccopt"][0] <= cell["stats"][best][0])
+            out.append(cell)
+    return out
+
+
+# -- report -----------------------------------------------------------------------------------------
+def _fmt(v: float) -> str:
+    if v == 0:
+        return "0"
+    return f"{v:.3g}" if 1e-3 <= abs(v) < 1e5 else f"{v:.2e}"
+
+
+def report(data: dict, probs: list[str], methods: list[str], budgets: list[int]) -> str:
+    cs = cells(data, probs, methods, budgets)
+    lines = []
+    present = [m for m in methods if any(m in c["samples"] for c in cs)]
+    for b in budgets:
+        lines += [f"#### budget {b}", "",
+                  "Median [q25, q75] of the best value over seeds (n = seeds). `vs` = the best other "
+                  "method (lowest median); `test` = lccopt against it, Mann-Whitney U, two-sided, "
+                  f"alpha {ALPHA}; `<=` = lccopt median <= best other median.", "",
+                  "| problem | kind | f* | " + " | ".join(present) + " | vs | test (p) | <= |",
+                  "|---|---|---|" + "---|" * len(present) + "---|---|---|"]
+        for c in (c for c in cs if c["budget"] == b):
+            p = problems.get(c["problem"])
+            row = [c["problem"], p.category, _fmt(p.f_opt)]
+            for m in present:
+                if m in c["stats"]:
+                    q50, q25, q75 = c["stats"][m]
+                    row.append(f"{_fmt(q50)} [{_fmt(q25)}, {_fmt(q75)}] n={len(c['samples'][m])}")
+                else:
+                    row.append("-")
+            if "result" in c:
+                row += [c["best_other"], f"{c['result']} ({c['p']:.2g})", "yes" if c["criterion"] else "no"]
+            else:
+                row += ["-", "-", "-"]
+            lines.append("| " + " | ".join(row) + " |")
+        lines.append("")
+    lines += ["#### summary", "",
+              "| budget | cells | lccopt median <= best other median | wins | ties | losses |",
+              "|---|---|---|---|---|---|"]
+    for b in budgets:
+        bc = [c for c in cs if c["budget"] == b and "result" in c]
+        if not bc:
+            continue
+        n_ok = sum(c["criterion"] for c in bc)
+        w, t, l_ = (sum(c["result"] == r for c in bc) for r in ("win", "tie", "loss"))
+        lines.append(f"| {b} | {len(bc)} | {n_ok} ({100 * n_ok / len(bc):.0f} %) | {w} | {t} | {l_} |")
+    lines += ["", "By kind of problem (all budgets): cells with lccopt median <= best other median; W/T/L", "",
+              "| kind | cells | <= | W/T/L |", "|---|---|---|---|"]
+    for cat in problems.CATEGORIES:
+        bc = [c for c in cs if "result" in c and problems.get(c["problem"]).category == cat]
+        if bc:
+            w, t, l_ = (sum(c["result"] == r for c in bc) for r in ("win", "tie", "loss"))
+            lines.append(f"| {cat} | {len(bc)} | {sum(c['criterion'] for c in bc)} | {w}/{t}/{l_} |")
+    lines += ["", "Best other method per cell: " + ", ".join(
+        f"{m} {sum(c.get('best_other') == m for c in cs)}" for m in present if m != "lccopt"), ""]
+    secs = {m: [r["seconds"] for k, r in data["runs"].items()
+                if k.split("|")[1] == m and k.split("|")[0] in probs] for m in present}
+    lines.append("Mean wall time per run (s): " + ", ".join(
+        f"{m} {statistics.mean(v):.1f} ({len(v)} runs)" for m, v in secs.items() if v))
+    return "\n".join(lines) + "\n"
 
 
 # -- timing -------------------------------------------------------------------------------------
@@ -136,68 +372,92 @@ def time_ask(n_points: int = 400, repeats: int = 30, seed: int = 0) -> dict:
 
 
 # -- main -----------------------------------------------------------------------------------------
-def _fmt(v: float) -> str:
-    return f"{v:.4g}"
+def _seeds(spec: list[str]) -> list[int]:
+    """'20' -> 0..19; '10-19' -> 10..19; several items are joined."""
+    out = []
+    for s in spec:
+        if "-" in s:
+            a, b = s.split("-")
+            out += range(int(a), int(b) + 1)
+        else:
+            out += range(int(s))
+    return sorted(set(out))
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--problems", nargs="+", default=list(problems.BENCHMARK),
+                    help="default: all of problems.BENCHMARK")
+    ap.add_argument("--methods", nargs="+", default=None, choices=METHODS,
+                    help=f"default: {' '.join(METHODS)} (--quick: lccopt random)")
+    ap.add_argument("--seeds", nargs="+", default=["20"],
+                    help="N (seeds 0..N-1) or A-B (seeds A..B); default 20")
     ap.add_argument("--budgets", type=int, nargs="+", default=[100, 200, 400])
-    ap.add_argument("--seeds", type=int, default=10, help="number of seeds (0..n-1)")
-    ap.add_argument("--problems", nargs="+", default=DEFAULT_PROBLEMS,
-                    help=f"default: {' '.join(DEFAULT_PROBLEMS)}")
-    ap.add_argument("--no-pysot", action="store_true", help="skip the pySOT comparison")
-    ap.add_argument("--quick", action="store_true", help="budget 100, 3 seeds, no pySOT")
-    ap.add_argument("--timing-only", action="store_true")
+    ap.add_argument("--out", default=None, help="JSON file of the raw results (per run)")
+    ap.add_argument("--resume", action="store_true",
+                    help="reuse the runs already in --out instead of running them again")
+    ap.add_argument("--report-only", action="store_true", help="only print the tables of --out")
+    ap.add_argument("--quick", action="store_true",
+                    help="budgets 20 40, 3 seeds, methods lccopt random unless given")
+    ap.add_argument("--timing", "--timing-only", action="store_true",
+                    help="only time lccopt's ask(1) at 400 points")
+    ap.add_argument("--no-pysot", action="store_true", help="leave pySOT out of the methods")
     ap.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE",
                     help="override a Strategy setting, e.g. --set n_branches=0")
     args = ap.parse_args(argv)
+    if args.timing:
+        t = time_ask()
+        print(f"ask(1) at {t['n']} evaluated points ({t['fitted']} in the surrogate), 8-D: median "
+              f"{t['median_ms']:.1f} ms, max {t['max_ms']:.1f} ms (goal < 50 ms)")
+        return 0
     if args.quick:
-        args.budgets, args.seeds, args.no_pysot = [100], 3, True
+        args.budgets = [20, 40]
+        if args.seeds == ["20"]:
+            args.seeds = ["3"]
+        args.methods = args.methods or ["lccopt", "random"]
+    methods = [m for m in (args.methods or METHODS) if not (args.no_pysot and m == "pysot")]
+    seeds = _seeds(args.seeds)
+    budgets = sorted(set(args.budgets))
+    n = max(budgets)
+    for name in args.problems:
+        problems.get(name)  # unknown names fail now
     settings = {k: eval(v, {}) for k, v in (kv.split("=", 1) for kv in args.set)}
+    if settings and args.resume:
+        raise SystemExit("--set and --resume together would mix settings in one file")
 
-    print(f"# numpy {np.__version__}; settings override: {settings or 'none'}", flush=True)
-    if not args.timing_only:
-        methods = {"lccopt": run_lccopt}
-        pysot_note = "skipped (--no-pysot)"
-        if not args.no_pysot:
-            runner, why = _pysot_runner()
-            if runner is None:
-                pysot_note = f"unavailable: {why}"
-            else:
-                methods["pysot"] = runner
-                pysot_note = "pySOT DYCORSStrategy"
-        methods.update({"random": run_random, "lhs": run_lhs})
-        print(f"# pySOT: {pysot_note}")
-        print(f"# seeds 0..{args.seeds - 1}; median best value over seeds (gap = median - f*)\n")
-        wins = total = 0
-        for budget in args.budgets:
-            cols = list(methods)
-            print(f"## budget {budget}\n")
-            print("| problem | f* | " + " | ".join(f"{m} median (gap)" for m in cols) + " |")
-            print("|---|---|" + "---|" * len(cols))
-            for name in args.problems:
-                p = problems.get(name)
-                med = {}
-                t_used = {}
-                for m, fn in methods.items():
-                    t0 = time.perf_counter()
-                    vals = [fn(p, budget, seed, settings) for seed in range(args.seeds)]
-                    t_used[m] = time.perf_counter() - t0
-                    med[m] = float(np.median(vals))
-                cells = [f"{_fmt(med[m])} ({_fmt(med[m] - p.f_opt)})" for m in cols]
-                if "pysot" in med:
-                    total += 1
-                    wins += med["lccopt"] <= med["pysot"]
-                print(f"| {p.name} | {_fmt(p.f_opt)} | " + " | ".join(cells) + " |", flush=True)
-                print(f"<!-- {p.name} b={budget} seconds: "
-                      + ", ".join(f"{m} {t:.1f}" for m, t in t_used.items()) + " -->", flush=True)
-            print()
-        if total:
-            print(f"lccopt median <= pySOT DYCORS median in {wins} of {total} problem/budget cells\n")
-    t = time_ask()
-    print(f"ask(1) at {t['n']} evaluated points ({t['fitted']} in the surrogate), 8-D: median {t['median_ms']:.1f} ms, "
-          f"max {t['max_ms']:.1f} ms (goal < 50 ms)")
+    data = load_results(args.out) if (args.resume or args.report_only) else load_results(None)
+    if not args.report_only:
+        runners, notes = load_methods(methods)
+        session = {"started": time.strftime("%Y-%m-%d %H:%M:%S"), "argv": sys.argv[1:],
+                   "numpy": np.__version__, "settings": settings, "skipped": notes}
+        data["sessions"].append(session)
+        print(f"# {len(args.problems)} problems x {len(runners)} methods x {len(seeds)} seeds, "
+              f"{n} evaluations per run; numpy {np.__version__}", flush=True)
+        t_start = time.perf_counter()
+        for name in args.problems:
+            p = problems.get(name)
+            for m, fn in runners.items():
+                done = 0
+                t0 = time.perf_counter()
+                for seed in seeds:
+                    k = _key(name, m, seed)
+                    old = data["runs"].get(k)
+                    if old is not None and old["n"] >= n:
+                        continue
+                    t1 = time.perf_counter()
+                    vals = fn(p, n, seed, settings)
+                    data["runs"][k] = record(vals, n, time.perf_counter() - t1)
+                    if hasattr(fn, "design"):  # pySOT: size of the initial design used
+                        data["runs"][k]["pysot_design"] = fn.design.get(name)
+                    done += 1
+                    save_results(args.out, data)
+                if done:
+                    print(f"# {name} {m}: {done} runs, {time.perf_counter() - t0:.1f} s", flush=True)
+        session["seconds"] = round(time.perf_counter() - t_start, 1)
+        save_results(args.out, data)
+    print()
+    print(report(data, args.problems, methods, budgets))
     return 0
 
 

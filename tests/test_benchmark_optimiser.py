@@ -1,0 +1,50 @@
+"""benchmarks/optimiser.py --quick runs end to end (lccopt and random only: no pySOT or
+Optuna needed) and writes a well-formed table and JSON; --resume reuses the stored runs."""
+
+import json
+import os
+import subprocess
+import sys
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+SCRIPT = os.path.join(ROOT, "benchmarks", "optimiser.py")
+
+
+def _run(*args):
+    env = {**os.environ, "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
+    r = subprocess.run([sys.executable, SCRIPT, *args], capture_output=True, text=True,
+                       timeout=120, env=env, cwd=ROOT)
+    assert r.returncode == 0, r.stderr
+    return r.stdout
+
+
+def test_quick_benchmark_table_and_json(tmp_path):
+    out = tmp_path / "r.json"
+    text = _run("--quick", "--problems", "gear", "trap_int6", "--methods", "lccopt", "random",
+                "--out", str(out))
+    data = json.loads(out.read_text())
+    assert data["format"] == "lccopt-benchmark-optimiser/1"
+    assert len(data["runs"]) == 2 * 2 * 3  # problems x methods x seeds
+    for key, run in data["runs"].items():
+        prob, method, seed = key.split("|")
+        assert prob in ("gear", "trap_int6") and method in ("lccopt", "random")
+        assert run["n"] == 40 and run["n_evaluated"] == 40
+        b20, b40 = run["best_at"]["20"], run["best_at"]["40"]
+        assert b40 <= b20  # best so far never gets worse
+    # one table per budget, a row per problem, the summary with W/T/L
+    for b in (20, 40):
+        assert f"#### budget {b}" in text
+    rows = [ln for ln in text.splitlines() if ln.startswith("| gear |") or ln.startswith("| trap_int6 |")]
+    assert len(rows) == 4
+    ncol = text.splitlines()[[i for i, ln in enumerate(text.splitlines()) if ln.startswith("| problem |")][0]].count("|")
+    assert all(r.count("|") == ncol for r in rows)
+    assert "| budget | cells | lccopt median <= best other median | wins | ties | losses |" in text
+    summary = [ln for ln in text.splitlines() if ln.startswith("| 40 | 2 |")]
+    assert len(summary) == 1
+    w, t, l_ = (int(v) for v in summary[0].strip("| ").split(" | ")[3:6])
+    assert w + t + l_ == 2
+    # resume: nothing is run again, the same runs come back
+    text2 = _run("--quick", "--problems", "gear", "trap_int6", "--methods", "lccopt", "random",
+                 "--out", str(out), "--resume")
+    assert "runs," not in text2  # no "# <problem> <method>: N runs" lines
+    assert json.loads(out.read_text())["runs"] == data["runs"]
