@@ -173,3 +173,18 @@ def test_simulate_runs_every_condition_and_prints_their_combination(tmp_path):
     assert list(conds) == ["v140", "v80", "v160"]
     assert conds["v80"].objectives["F_max"] / 1e3 == pytest.approx(rows["v80"][1], rel=1e-4)
     assert conds["v80"].info["speed"] == pytest.approx(22.22222222222222)
+
+
+def test_conditions_on_dask_give_the_process_pools_evaluations_and_files(tmp_path):
+    distributed = pytest.importorskip("distributed")
+    path = conditions_case(tmp_path, THREE, budget=8)
+    local = read_table(optimise(path, workers=2, runs=tmp_path / "local", evaluator=FAKE, progress=False))
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                  dashboard_address=None) as cluster:
+        run = optimise(path, scheduler=cluster.scheduler_address, runs=tmp_path / "dask", evaluator=FAKE,
+                       progress=False)
+    dask = read_table(run)
+    for k in ("x", "F_max", "E_max", "value"):
+        np.testing.assert_array_equal(local[k], dask[k], err_msg=k)
+    conds = read_conditions(run / dask["file"][2])   # written by the parent from the evaluations
+    assert list(conds) == ["v140", "v80", "v160"] and "contact_force" in conds["v80"].histories
