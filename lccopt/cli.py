@@ -63,9 +63,10 @@ def check(case: Path = typer.Argument(..., help="case file (YAML)")) -> None:
     names = ", ".join(f"{v.name}{'∈Z' if v.integer else ''} [{v.lower:g}, {v.upper:g}]" for v in c.variables)
     typer.echo(f"{case}: ok: case '{c.name}', {len(c.variables)} design variables: {names}")
     if c.conditions:
-        typer.echo(f"  {len(c.conditions)} traffic conditions ({c.condition_mode}): " + ", ".join(
-            f"{t.name} ({t.vehicle}, {t.speed * 3.6:.0f} km/h, {t.direction}"
-            + (f", weight {t.weight:g}" if c.condition_mode == "mean" else "") + ")" for t in c.conditions))
+        typer.echo(f"  {len(c.conditions)} traffic conditions, combined by '{c.condition_mode}':")
+        for t in c.conditions:
+            typer.echo(f"    {t.name}: {t.vehicle}, {t.speed * 3.6:.0f} km/h, {t.direction}"
+                       + (f", weight {t.weight:g}" if c.condition_mode == "mean" else ""))
 
 
 @app.command()
