@@ -1,0 +1,40 @@
+"""lccopt's default against a variant on the stored benchmark, cell by cell.
+
+    python benchmarks/optimiser.py --methods lccopt --seeds 0-9 --set capping=False --out v.json
+    python benchmarks/optimiser_compare.py v.json
+
+Per budget: cells where the variant's median is better / worse than the default's (from
+benchmarks/results/optimiser.json, seeds 0-9), and the cells where a two-sided Mann-Whitney U
+test (alpha 0.05) finds a difference (+ better, - worse).
+"""
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+from scipy.stats import mannwhitneyu
+
+BASE = Path(__file__).resolve().parent / "results" / "optimiser.json"
+base = json.load(open(BASE))["runs"]
+var = json.load(open(sys.argv[1]))["runs"]
+
+
+def vals(runs, prob, b):
+    return np.array([v["best_at"][str(b)] for k, v in runs.items()
+                     if k.split("|")[0] == prob and k.split("|")[1] == "lccopt" and int(k.split("|")[2]) < 10])
+
+
+probs = sorted({k.split("|")[0] for k in var})
+for b in (100, 200, 400):
+    better = worse = 0
+    rows = []
+    for p in probs:
+        a, v = vals(base, p, b), vals(var, p, b)
+        ma, mv = np.median(a), np.median(v)
+        better += mv < ma
+        worse += mv > ma
+        pval = mannwhitneyu(v, a).pvalue if not np.array_equal(np.sort(a), np.sort(v)) else 1.0
+        if pval < 0.05:
+            rows.append(("+" if mv < ma else "-") + p)
+    print(f"budget {b}: variant median better in {better} cells, worse in {worse}; "
+          f"significant: {' '.join(rows) or 'none'}")
