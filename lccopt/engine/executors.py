@@ -194,7 +194,7 @@ class LocalPool:
             if s.task is not None and now - s.started > self.timeout:
                 task = s.task
                 self._kill(s)
-                out.append(Outcome(task.id, condition=task.condition, error=f"timed out after {self.timeout:g} s (worker killed)",
+                out.append(Outcome.of(task, error=f"timed out after {self.timeout:g} s (worker killed)",
                                    wall_time=now - s.started, worker=f"local-{s.index}"))
                 s.task = None
                 self._spawn(s)
@@ -214,7 +214,7 @@ class LocalPool:
                         s.task = None
                 elif msg[0] == "crashed":  # the evaluation killed its (forked) process
                     if s.task is not None:
-                        out.append(Outcome(s.task.id, condition=s.task.condition, error=msg[1], wall_time=time.monotonic() - s.started,
+                        out.append(Outcome.of(s.task, error=msg[1], wall_time=time.monotonic() - s.started,
                                            worker=f"local-{s.index}"))
                         s.task = None
                 elif msg[0] == "fatal":
@@ -227,7 +227,7 @@ class LocalPool:
                 s.proc.wait(5)
             reason = _death_reason(s.proc.returncode)
             if s.task is not None:
-                out.append(Outcome(s.task.id, condition=s.task.condition, error=reason, wall_time=time.monotonic() - s.started,
+                out.append(Outcome.of(s.task, error=reason, wall_time=time.monotonic() - s.started,
                                    worker=f"local-{s.index}"))
                 s.task = None
             if not s.ready:
@@ -258,7 +258,7 @@ def dask_task(case, task: Task, spec) -> Outcome:
         try:
             fn = _DASK_EVALUATORS[key] = load_evaluator(spec)
         except Exception as exc:  # noqa: BLE001
-            return Outcome(task.id, condition=task.condition, error=f"cannot load the evaluator {spec!r} on {name}: {exc}",
+            return Outcome.of(task, error=f"cannot load the evaluator {spec!r} on {name}: {exc}",
                            worker=name)
     return run_task(case, task, fn, name)
 
@@ -346,12 +346,12 @@ class DaskExecutor:
                         reason = f"{type(exc).__name__}: {exc}"
                     except Exception as e:  # noqa: BLE001 - cancelled
                         reason = f"{type(e).__name__}: {e}"
-                    out.append(Outcome(task.id, condition=task.condition, error=f"Dask task failed: {reason}"[:500],
+                    out.append(Outcome.of(task, error=f"Dask task failed: {reason}"[:500],
                                        wall_time=now - t0, worker="dask"))
             elif now - t0 > self.timeout:
                 del self._futures[fut]
                 fut.cancel()
-                out.append(Outcome(task.id, condition=task.condition, error=f"timed out after {self.timeout:g} s (Dask task cancelled)",
+                out.append(Outcome.of(task, error=f"timed out after {self.timeout:g} s (Dask task cancelled)",
                                    wall_time=now - t0, worker="dask"))
         return out
 

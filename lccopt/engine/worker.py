@@ -80,6 +80,11 @@ class Outcome:
     wall_time: float = float("nan")
     worker: str = ""
 
+    @classmethod
+    def of(cls, task: "Task", **fields) -> "Outcome":
+        """The outcome of ``task`` (its id and traffic condition)."""
+        return cls(task.id, condition=task.condition, **fields)
+
 
 def run_task(case, task: Task, evaluator: Callable, worker: str) -> Outcome:
     """Evaluate one design (under one traffic condition); never raises (an exception becomes a
@@ -95,10 +100,10 @@ def run_task(case, task: Task, evaluator: Callable, worker: str) -> Outcome:
         tb = traceback.extract_tb(exc.__traceback__)
         where = f" ({os.path.basename(tb[-1].filename)}:{tb[-1].lineno})" if tb else ""
         msg = str(exc).strip().splitlines()[0] if str(exc).strip() else ""
-        return Outcome(task.id, condition=task.condition, error=f"{type(exc).__name__}: {msg}{where}"[:500],
+        return Outcome.of(task, error=f"{type(exc).__name__}: {msg}{where}"[:500],
                        wall_time=time.perf_counter() - t0, worker=worker)
     wall = time.perf_counter() - t0
-    out = Outcome(task.id, condition=task.condition, objectives=objectives, info=_plain(ev.info), wall_time=wall, worker=worker)
+    out = Outcome.of(task, objectives=objectives, info=_plain(ev.info), wall_time=wall, worker=worker)
     if task.out_path:
         try:
             from ..store import write_evaluation
