@@ -121,9 +121,18 @@ def plot_evaluation(ev: Evaluation, case, out: Path) -> list[Path]:
     fig, ax = plt.subplots(figsize=(9, 4.6))
     mark(ax)
     f = h["contact_force"] / 1e3
-    ax.plot(x, f, lw=0.9, color=OKABE_ITO["blue"], label="contact force")
-    zone = (x >= info["zone_start"]) & (x <= info["zone_end"])
-    lo, hi = float(f[zone].min()), float(f[zone].max())
+    fw = h.get("contact_force_wheels")
+    if fw is not None and fw.ndim == 2 and fw.shape[1] > 1:  # trailing wheels, each at its position
+        xw, inw = h["wheel_positions"], h["in_force_zone_wheels"].astype(bool)
+        for j in range(1, fw.shape[1]):
+            ax.plot(xw[:, j], fw[:, j] / 1e3, lw=0.6, color=OKABE_ITO["sky"], alpha=0.7,
+                    label="trailing wheels" if j == 1 else None)
+        lo, hi = float(fw[inw].min()) / 1e3, float(fw[inw].max()) / 1e3   # F_max: all wheels
+    else:
+        zone = (x >= info["zone_start"]) & (x <= info["zone_end"])
+        lo, hi = float(f[zone].min()), float(f[zone].max())
+    ax.plot(x, f, lw=0.9, color=OKABE_ITO["blue"], label="contact force (leading wheel)"
+            if fw is not None and fw.ndim == 2 and fw.shape[1] > 1 else "contact force")
     ax.hlines([lo, hi], info["zone_start"], info["zone_end"], color=OKABE_ITO["blue"], lw=0.7, ls="--")
     range_bracket(ax, 0, lo, hi, OKABE_ITO["blue"], "F_max")
     ax.axhline(info["static_wheel_load"] / 1e3, color="k", ls=":", lw=0.8, label="static wheel load")
