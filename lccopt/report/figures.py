@@ -413,16 +413,27 @@ def fig_contact_force(run: RunData, best: tuple, ref: tuple, bi: int, out: Path)
     if "zone_start" in info:  # the run-in from static equilibrium is not of interest
         x0 = max(x0, float(info["zone_start"]) - 2.0)
     zone = (info.get("zone_start", x0), info.get("zone_end", xmax))
+    # a run over traffic conditions: the files' top-level histories are its first condition's
+    first = run.conditions[0] if run.conditions else None
+    fmax_of = (lambda i: run.cond_obj[first]["F_max"][i]) if first else (lambda i: run.obj["F_max"][i])
+    ri = run.ref_index()
     curves = []
     if hr is not None and "contact_force" in hr and "wheel_position" in hr:
-        curves.append((hr, REF_COLOR, "reference design", run.ref_objectives.get("F_max", math.nan), 0))
+        f_ref = fmax_of(ri) if first and ri is not None else run.ref_objectives.get("F_max", math.nan)
+        curves.append((hr, REF_COLOR, "reference design", f_ref, 0))
     if hb is not None and "contact_force" in hb and "wheel_position" in hb:
-        curves.append((hb, BEST_COLOR, f"best #{run.ids[bi]}", run.obj["F_max"][bi], 1))
+        curves.append((hb, BEST_COLOR, f"best #{run.ids[bi]}", fmax_of(bi), 1))
     for h, color, lab, fmax, row in curves:
         xw, f = h["wheel_position"], h["contact_force"] / 1e3
         ax.plot(xw, f, color=color, lw=1.1, label=f"{lab}: F_max = {fnum(fmax / 1e3, 4)} kN (max - min in the zone)")
         in_zone = (xw >= zone[0]) & (xw <= zone[1])
-        if in_zone.any():
+        fw = h.get("contact_force_wheels")
+        if fw is not None and fw.ndim == 2 and fw.shape[1] > 1 and "in_force_zone_wheels" in h:
+            inw = np.asarray(h["in_force_zone_wheels"]).astype(bool)   # F_max is over all wheels
+            lo, hi = float(fw[inw].min()) / 1e3, float(fw[inw].max()) / 1e3
+            ax.hlines([lo, hi], zone[0], zone[1], color=color, lw=0.7, ls="--", zorder=2)
+            range_bracket(ax, row, lo, hi, color, "F_max")
+        elif in_zone.any():
             lo, hi = float(f[in_zone].min()), float(f[in_zone].max())
             ax.hlines([lo, hi], zone[0], zone[1], color=color, lw=0.7, ls="--", zorder=2)
             range_bracket(ax, row, lo, hi, color, "F_max")
@@ -438,7 +449,8 @@ def fig_contact_force(run: RunData, best: tuple, ref: tuple, bi: int, out: Path)
                 ha="left", fontsize=8)
     speed = speed_text(info, run.case)
     ax.set(xlabel="wheel position along the track [m]", ylabel="wheel-rail contact force [kN]",
-           title="Contact force: best against reference design" + (f", vehicle at {speed}" if speed else ""))
+           title="Contact force: best against reference design" + (f", vehicle at {speed}" if speed else "")
+                 + (f"\ncondition {first} (leading wheel; every condition: conditions.png)" if first else ""))
     ax.set_xlim(x0, xmax)
     shown = [h["contact_force"][h["wheel_position"] >= x0] / 1e3 for h, _ in have]
     lo, hi = min(float(v.min()) for v in shown), max(float(v.max()) for v in shown)
