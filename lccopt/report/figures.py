@@ -494,7 +494,8 @@ def fig_sleeper_energy(run: RunData, best: tuple, ref: tuple, bi: int, out: Path
                 Line2D([], [], ls="", marker="o", markerfacecolor="white", color="0.3",
                        label="standard sleeper (open)")]
     ax.set(xlabel="sleeper number (1 = next to the interface)", ylabel="energy dissipated in the support [J]",
-           title="Energy dissipated under each sleeper of the evaluation zone (cf. paper Fig. 11)",
+           title="Energy dissipated under each sleeper of the evaluation zone (cf. paper Fig. 11)"
+                 + (f"\ncondition {run.conditions[0]} (every condition: conditions.png)" if run.conditions else ""),
            xlim=(0.5, n + 0.5))
     ax.set_xticks(np.arange(1, n + 1))
     fig.legend(handles=handles, loc="lower center", ncol=2, frameon=False)
