@@ -21,44 +21,20 @@ def write_evaluation(path: str | Path, evaluation: Evaluation, x, names, attrs: 
     """Write one evaluation atomically (tmp + fsync + rename); return the path."""
     path = Path(path)
     with atomic_path(path) as tmp, h5py.File(tmp, "w") as f:
-        d = f.create_dataset("design", data=np.asarray(x, dtype=float))
-        d.attrs["names"] = list(names)
-        obj = f.create_group("objectives")
-        for k, v in evaluation.objectives.items():
-            obj.attrs[k] = v
-            obj.attrs[k + "_unit"] = OBJECTIVE_UNITS.get(k, "")
-        _write_histories(f.create_group("histories"), evaluation.histories)
-        info = f.create_group("info")
-        for k, v in {**evaluation.info, **(attrs or {})}.items():
-            info.attrs[k] = v
+        _write_design(f, x, names)
+        _write_group(f, evaluation, attrs)
     return path
 
 
 def read_evaluation(path: str | Path) -> tuple[np.ndarray, Evaluation]:
     """Read a file written by :func:`write_evaluation`; return (x, evaluation)."""
     with h5py.File(path, "r") as f:
-        x = f["design"][()]
-        objectives = {k: float(v) for k, v in f["objectives"].attrs.items() if not k.endswith("_unit")}
-        histories = {k: f["histories"][k][()] for k in f["histories"]}
-        info = {k: (v.item() if hasattr(v, "item") else v) for k, v in f["info"].attrs.items()}
-    return x, Evaluation(objectives, histories, info)
+        return f["design"][()], _read_group(f)
 
 
 # Traffic conditions (engine/conditions.py): one file per design holds every condition under
 # /conditions/<name>/{objectives,histories,info}; the top level keeps the combined objectives
 # and the first condition's histories and info, so readers of one-condition files read it too.
-
-def _condition_attrs(f, names, weights, objectives: dict, attrs: dict) -> None:
-    obj = f.require_group("objectives")
-    for k, v in objectives.items():
-        obj.attrs[k] = v
-        obj.attrs[k + "_unit"] = OBJECTIVE_UNITS.get(k.split("@")[0], "")
-    f.attrs["conditions"] = list(names)
-    f.attrs["weights"] = np.asarray(weights, dtype=float)
-    info = f.require_group("info")
-    for k, v in attrs.items():
-        info.attrs[k] = v
-
 
 def merge_condition_files(path: str | Path, parts, names, weights, objectives: dict,
                           attrs: dict) -> Path:
@@ -73,8 +49,9 @@ def merge_condition_files(path: str | Path, parts, names, weights, objectives: d
                 g = f.require_group("conditions").create_group(name)
                 for key in ("objectives", "histories", "info"):
                     src.copy(src[key], g, name=key)
-                g.attrs["weight"], g.attrs["index"] = float(weights[i]), i
-        _condition_attrs(f, names, weights, objectives, attrs)
+        _write_objectives(f.create_group("objectives"), objectives)
+        _set_attrs(f["info"], attrs)
+        _condition_attrs(f, names, weights)
     return path
 
 
@@ -83,33 +60,13 @@ def write_condition_evaluations(path: str | Path, evaluations, x, design_names, 
     """Write the evaluations of one design under every condition (in order) as one file."""
     path = Path(path)
     with atomic_path(path) as tmp, h5py.File(tmp, "w") as f:
-        for i, (ev, name) in enumerate(zip(evaluations, names)):
-            groups = [f.require_group("conditions").create_group(name)]
-            if i == 0:
-                d = f.create_dataset("design", data=np.asarray(x, dtype=float))
-                d.attrs["names"] = list(design_names)
-                groups.append(f)
-            for g in groups:
-                if g is not f:
-                    og = g.create_group("objectives")
-                    for k, v in ev.objectives.items():
-                        og.attrs[k] = v
-                        og.attrs[k + "_unit"] = OBJECTIVE_UNITS.get(k, "")
-                    g.attrs["weight"], g.attrs["index"] = float(weights[i]), i
-                _write_histories(g.create_group("histories"), ev.histories)
-                ig = g.create_group("info")
-                for k, v in ev.info.items():
-                    ig.attrs[k] = v
-        _condition_attrs(f, names, weights, objectives, attrs)
+        _write_design(f, x, design_names)
+        first = evaluations[0]
+        _write_group(f, Evaluation(objectives, first.histories, first.info), attrs)
+        for ev, name in zip(evaluations, names):
+            _write_group(f.require_group("conditions").create_group(name), ev)
+        _condition_attrs(f, names, weights)
     return path
-
-
-def _write_histories(hist, histories: dict) -> None:
-    for k, v in histories.items():
-        ds = hist.create_dataset(k, data=np.asarray(v), compression="gzip", compression_opts=4,
-                                 shuffle=True)
-        if k in HISTORY_DOC:
-            ds.attrs["description"] = HISTORY_DOC[k]
 
 
 def read_conditions(path: str | Path) -> dict[str, Evaluation]:
@@ -118,11 +75,48 @@ def read_conditions(path: str | Path) -> dict[str, Evaluation]:
     with h5py.File(path, "r") as f:
         if "conditions" not in f:
             return {}
-        out = {}
-        for name in f.attrs["conditions"]:
-            g = f["conditions"][name]
-            objectives = {k: float(v) for k, v in g["objectives"].attrs.items() if not k.endswith("_unit")}
-            histories = {k: g["histories"][k][()] for k in g["histories"]}
-            info = {k: (v.item() if hasattr(v, "item") else v) for k, v in g["info"].attrs.items()}
-            out[str(name)] = Evaluation(objectives, histories, info)
-    return out
+        return {str(name): _read_group(f["conditions"][name]) for name in f.attrs["conditions"]}
+
+
+# -- one evaluation in an HDF5 group --------------------------------------------------------------
+
+def _write_design(f, x, names) -> None:
+    d = f.create_dataset("design", data=np.asarray(x, dtype=float))
+    d.attrs["names"] = list(names)
+
+
+def _write_group(g, evaluation: Evaluation, attrs: dict | None = None) -> None:
+    """objectives (attributes, with units), histories (datasets) and info (attributes)."""
+    _write_objectives(g.create_group("objectives"), evaluation.objectives)
+    hist = g.create_group("histories")
+    for k, v in evaluation.histories.items():
+        ds = hist.create_dataset(k, data=np.asarray(v), compression="gzip", compression_opts=4,
+                                 shuffle=True)
+        if k in HISTORY_DOC:
+            ds.attrs["description"] = HISTORY_DOC[k]
+    _set_attrs(g.create_group("info"), {**evaluation.info, **(attrs or {})})
+
+
+def _write_objectives(g, objectives: dict) -> None:
+    for k, v in objectives.items():           # F_max, or F_max@<condition>
+        g.attrs[k] = v
+        g.attrs[k + "_unit"] = OBJECTIVE_UNITS.get(k.split("@")[0], "")
+
+
+def _set_attrs(g, attrs: dict) -> None:
+    for k, v in attrs.items():
+        g.attrs[k] = v
+
+
+def _condition_attrs(f, names, weights) -> None:
+    f.attrs["conditions"] = list(names)
+    f.attrs["weights"] = np.asarray(weights, dtype=float)
+    for i, (name, w) in enumerate(zip(names, weights)):
+        f["conditions"][name].attrs["weight"], f["conditions"][name].attrs["index"] = float(w), i
+
+
+def _read_group(g) -> Evaluation:
+    objectives = {k: float(v) for k, v in g["objectives"].attrs.items() if not k.endswith("_unit")}
+    histories = {k: g["histories"][k][()] for k in g["histories"]}
+    info = {k: (v.item() if hasattr(v, "item") else v) for k, v in g["info"].attrs.items()}
+    return Evaluation(objectives, histories, info)
