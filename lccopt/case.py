@@ -927,6 +927,16 @@ VEHICLE_KEYS = {  # keys a vehicle type needs beyond the three-dof ones
 RAIL_END_MARGIN = 1.0  # [m] the leading wheel stays this far from the pinned rail ends
 
 
+def vehicle_length(vehicle: dict) -> float:
+    """Distance from the leading to the last wheel of a vehicle section [m] (keys checked)."""
+    kind = vehicle.get("type") or "three-dof"
+    if kind == "bogie":
+        return float(vehicle["wheelbase"])
+    if kind == "half-car":
+        return float(vehicle["bogie_distance"] + vehicle["wheelbase"])
+    return 0.0
+
+
 def _check_vehicle_fits(data: dict, err) -> None:
     """The vehicle type has its keys, and the leading wheel stays on the modelled rail for the
     whole run in either direction, whatever the design (lccopt.vti.track.wheel_window; a
@@ -939,8 +949,7 @@ def _check_vehicle_fits(data: dict, err) -> None:
     if kind == "half-car" and v["bogie_distance"] <= v["wheelbase"]:
         raise err(("vehicle", "bogie_distance"), f"{v['bogie_distance']:g} m must exceed the wheelbase "
                                                  f"({v['wheelbase']:g} m): the bogies would overlap")
-    length = {"bogie": v.get("wheelbase") or 0.0,
-              "half-car": (v.get("bogie_distance") or 0.0) + (v.get("wheelbase") or 0.0)}.get(kind, 0.0)
+    length = vehicle_length(v)
     layout = data["track"]["layout"]
     total = layout["entry_length"] + sum(data["track"]["ers"]["slab_lengths"]) + layout["exit_length"]
     zone_end = layout["entry_length"] + data["evaluation"]["force_zone_after_interface"]

@@ -28,6 +28,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..errors import describe_os_error, environment_errno
+from ..store import merge_condition_files, read_evaluation, write_condition_evaluations
 from .worker import Outcome, Task
 
 
@@ -113,8 +115,6 @@ class ConditionPool:
         path = self.run_path / part_name(task.id, c)
         if task.out_path is None or not path.is_file():
             return None
-        from ..store import read_evaluation
-
         try:
             x, ev = read_evaluation(path)
         except Exception:  # noqa: BLE001 - damaged: simulate again
@@ -147,8 +147,6 @@ class ConditionPool:
                                             for k, v in parts[c].info.items()
                                             if k in ("wall_time", "contact_loss_steps")}}
         out = Outcome(task.id, objectives=objectives, info=info, wall_time=wall, worker=workers)
-        from ..store import merge_condition_files, write_condition_evaluations
-
         target = self.run_path / f"evals/{task.id:06d}.h5"
         attrs = {"id": task.id, "phase": task.phase, "restart": task.restart, "worker": workers,
                  "wall_time": wall}
@@ -164,8 +162,6 @@ class ConditionPool:
                                             objectives, attrs)
             out.file_written = True
         except Exception as exc:  # noqa: BLE001
-            from ..errors import describe_os_error, environment_errno
-
             if environment_errno(exc) is not None:
                 return Outcome(task.id, fault=f"cannot write {target}: {describe_os_error(exc)}",
                                wall_time=wall, worker=workers)

@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 
-from ..case import ELEMENT_UNIT, Case
+from ..case import ELEMENT_UNIT, Case, vehicle_length
 from .assembly import Assembler, beam_stiffness, hermite_gram
 
 # dof kinds, in their order at one position
@@ -79,16 +79,6 @@ def entry_sleeper_positions(x_a: float, spans_elements: np.ndarray, spacing: flo
     far = near[-1] - spacing * np.arange(1, int(near[-1] / spacing + 1e-9) + 1)
     pos = np.concatenate([near, far])
     return pos[pos > 1e-9]
-
-
-def vehicle_length(vehicle: dict) -> float:
-    """Distance from the leading to the last wheel of the case's vehicle [m]."""
-    kind = vehicle.get("type") or "three-dof"
-    if kind == "bogie":
-        return float(vehicle["wheelbase"])
-    if kind == "half-car":
-        return float(vehicle["bogie_distance"] + vehicle["wheelbase"])
-    return 0.0
 
 
 def wheel_window(case: Case, entry_x: np.ndarray) -> tuple[float, float, float, float]:

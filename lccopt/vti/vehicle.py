@@ -254,8 +254,3 @@ class MultiAxleVehicle(_Common):
     @property
     def static_wheel_load(self) -> float:
         return float(self.static_wheel_loads.mean())
-
-
-def vehicle_from_case(case: Case):
-    """The vehicle of a case, whatever its type."""
-    return Vehicle.from_case(case)
