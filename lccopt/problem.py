@@ -94,14 +94,18 @@ class Problem:
         return DesignSpace(names=list(self.names), lower=list(self.lower), upper=list(self.upper),
                            integer=list(self.integer), given=[list(self.reference)])
 
-    def strategy(self, budget: int | None = None, composite: bool | None = None):
+    def strategy(self, budget: int | None = None, composite: bool | None = None,
+                 uniform: bool = False):
         """The optimiser; multi-objective: a composite surrogate (one RBF per objective, scored
-        by the ASF, see ``aggregate``) unless composite=False."""
-        from .optim.strategy import Strategy
+        by the ASF, see ``aggregate``) unless composite=False. uniform=True: the uniform
+        candidates of lccopt before issue 9 (to carry on a run it started)."""
+        from .optim.strategy import Strategy, legacy_uniform
 
-        return Strategy(self.space(), budget=self.budget if budget is None else int(budget),
+        space = self.space()
+        extra = {"n_uniform": legacy_uniform(space)} if uniform else {}
+        return Strategy(space, budget=self.budget if budget is None else int(budget),
                         n_initial=self.initial_points, seed=self.seed,
-                        composite=self.multi if composite is None else bool(composite))
+                        composite=self.multi if composite is None else bool(composite), **extra)
 
     def aggregate(self, reference_point, worst=None, rho=None):
         """The value as a function of objective vectors F (n, k), for the composite surrogate:

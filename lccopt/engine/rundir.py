@@ -104,7 +104,10 @@ class RunDir:
                         "seed": problem.seed, "versions": meta["versions"],
                         # which surrogate proposes: a resume must rebuild the same one (runs of
                         # lccopt before the composite surrogate have no such key: scalar)
-                        "surrogate": "composite" if problem.multi else "scalar"}
+                        "surrogate": "composite" if problem.multi else "scalar",
+                        # candidates: DYCORS only (runs before issue 9 had no such key and
+                        # also drew uniform candidates)
+                        "candidates": "dycors"}
                 fh.write((json.dumps(line, separators=(",", ":")) + "\n").encode())
                 fh.flush()
                 os.fsync(fh.fileno())

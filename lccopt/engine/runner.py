@@ -292,7 +292,8 @@ def restore(problem: Problem, events: list[dict], snapshot: dict | None):
     if strategy is None:
         budget0 = events[0].get("budget", problem.budget) if events else problem.budget
         composite = bool(events) and events[0].get("surrogate") == "composite"
-        strategy = problem.strategy(budget=budget0, composite=composite)
+        uniform = bool(events) and events[0].get("candidates") != "dycors"
+        strategy = problem.strategy(budget=budget0, composite=composite, uniform=uniform)
         start = 0
     replayer = Replay(strategy, problem.multi, problem)
     for ev in events[:start]:  # what the snapshot already reflects: results held back, the lag

@@ -103,13 +103,14 @@ def test_a_multi_objective_run_of_before_the_composite_surrogate_resumes_with_it
     assert _events(new)[0]["surrogate"] == "composite"
     # the older lccopt: the scalar surrogate, and no key in the journal
     real_strategy = Problem.strategy
-    monkeypatch.setattr(Problem, "strategy", lambda self, budget=None, composite=None:
-                        real_strategy(self, budget, composite=False))
+    monkeypatch.setattr(Problem, "strategy", lambda self, budget=None, composite=None, uniform=False:
+                        real_strategy(self, budget, composite=False, uniform=True))
     old = optimise(case, workers=1, runs=tmp_path / "old", evaluator=FAKE, progress=False)
     monkeypatch.setattr(Problem, "strategy", real_strategy)
     lines = (old / "journal.jsonl").read_text().splitlines()
     first = json.loads(lines[0])
     first.pop("surrogate")
+    first.pop("candidates")
     (old / "journal.jsonl").write_text("\n".join([json.dumps(first, separators=(",", ":"))] + lines[1:]) + "\n")
     (old / "state.json").unlink(missing_ok=True)
     events = _events(old)
@@ -120,3 +121,31 @@ def test_a_multi_objective_run_of_before_the_composite_surrogate_resumes_with_it
     case.write_text(case.read_text().replace("budget: 12", "budget: 16"))
     resume(old, workers=1, allow_changed_case=True, evaluator=FAKE, progress=False)
     assert len(read_table(old)["id"]) == 16
+
+
+def test_a_run_of_before_dycors_only_candidates_resumes_with_its_uniform_candidates(tmp_path, monkeypatch):
+    """Since issue 9 the candidates are DYCORS perturbations only (the journal's first line says
+    so); a run of an older lccopt (no such key) also drew uniform candidates, and is replayed
+    and carried on with them."""
+    case = write_case(tmp_path, "older1", objectives=("F_max",), budget=14, initial=4, seed=2)
+    pb = Problem.from_case(load_case(case))
+    new = optimise(case, workers=1, runs=tmp_path / "new", evaluator=FAKE, progress=False)
+    assert _events(new)[0]["candidates"] == "dycors"
+    real_strategy = Problem.strategy
+    monkeypatch.setattr(Problem, "strategy", lambda self, budget=None, composite=None, uniform=False:
+                        real_strategy(self, budget, composite, uniform=True))
+    old = optimise(case, workers=1, runs=tmp_path / "old", evaluator=FAKE, progress=False)
+    monkeypatch.setattr(Problem, "strategy", real_strategy)
+    lines = (old / "journal.jsonl").read_text().splitlines()
+    first = json.loads(lines[0])
+    first.pop("candidates")
+    (old / "journal.jsonl").write_text("\n".join([json.dumps(first, separators=(",", ":"))] + lines[1:]) + "\n")
+    (old / "state.json").unlink(missing_ok=True)
+    assert any(p == "random" for _, _, p, _ in _asked(old)), "the old run drew uniform candidates"
+    assert not any(p == "random" for _, _, p, _ in _asked(new))
+    replayed, table = restore(pb, _events(old), None)     # no JournalError: the same proposals
+    assert replayed.done and table.n_done == 14
+    assert replayed.settings["n_uniform"] > 0
+    case.write_text(case.read_text().replace("budget: 14", "budget: 18"))
+    resume(old, workers=1, allow_changed_case=True, evaluator=FAKE, progress=False)
+    assert len(read_table(old)["id"]) == 18

@@ -69,10 +69,13 @@ def test_budget_counts_failures_and_ask_stops():
 
 
 def test_all_phases_occur():
+    """By default the candidates are DYCORS perturbations and the local search (no uniform
+    points); with n_uniform > 0 uniform points compete too."""
     p = problems.paper_size("rastrigin")
     s = run_serial(Strategy(p.space, budget=120, seed=3), p)
-    phases = {r["phase"] for r in s.history}
-    assert phases == set(PHASES)
+    assert {r["phase"] for r in s.history} == set(PHASES) - {"random"}
+    s = run_serial(Strategy(p.space, budget=120, seed=3, n_uniform=80), p)
+    assert {r["phase"] for r in s.history} == set(PHASES)
 
 
 # -- beats random search and Latin hypercube ---------------------------------------------------------
