@@ -177,23 +177,21 @@ class Section:
 
 
 @dataclass(frozen=True)
-class Named:
+class _Collection:
+    """Several values of one spec (``item``), at most ``max_items``."""
+    item: Any
+    doc: str = ""
+    max_items: int = 50
+    required: bool = False
+    default: Any = None
+
+
+class Named(_Collection):
     """A mapping of user-chosen names (``SAFE_NAME``) to values of one spec (``vehicles:``)."""
-    item: Any
-    doc: str = ""
-    max_items: int = 50
-    required: bool = False
-    default: Any = None
 
 
-@dataclass(frozen=True)
-class Items:
+class Items(_Collection):
     """A list of values of one spec (``conditions:``)."""
-    item: Any
-    doc: str = ""
-    max_items: int = 50
-    required: bool = False
-    default: Any = None
 
 
 @dataclass(frozen=True)

@@ -50,6 +50,18 @@ def assert_same_evaluations(a: dict, b: dict, columns=COLUMNS) -> None:
             assert list(va.ravel()) == list(vb.ravel()), k
 
 
+def optimise_on_local_dask(case: Path, runs: Path, evaluator: str, n_workers: int = 1) -> Path:
+    """``optimise`` on a local Dask cluster of n_workers single-threaded worker processes;
+    the run directory (skips the test when distributed is not installed)."""
+    distributed = pytest.importorskip("distributed")
+    from lccopt.engine.runner import optimise
+
+    with distributed.LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
+                                  dashboard_address=None) as cluster:
+        return optimise(case, scheduler=cluster.scheduler_address, runs=runs, evaluator=evaluator,
+                        progress=False)
+
+
 def cli(*args, env: dict | None = None, cwd: Path | None = None, **kw) -> subprocess.Popen:
     e = {**os.environ, "PYTHONPATH": str(REPO), **(env or {})}
     # What the `lccopt` console script runs (python -m lccopt.cli would make a second copy of

@@ -17,7 +17,7 @@ from lccopt.engine.runner import optimise, resume
 from lccopt.problem import Problem
 from lccopt.store import read_conditions
 from tests.engine import fakesim
-from tests.engine.conftest import FAKE, cli, cli_run, read_table, write_case
+from tests.engine.conftest import FAKE, cli, cli_run, optimise_on_local_dask, read_table, write_case
 
 V140 = 38.88888888888889
 
@@ -176,13 +176,10 @@ def test_simulate_runs_every_condition_and_prints_their_combination(tmp_path):
 
 
 def test_conditions_on_dask_give_the_process_pools_evaluations_and_files(tmp_path):
-    distributed = pytest.importorskip("distributed")
+    pytest.importorskip("distributed")
     path = conditions_case(tmp_path, THREE, budget=8)
     local = read_table(optimise(path, workers=2, runs=tmp_path / "local", evaluator=FAKE, progress=False))
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                  dashboard_address=None) as cluster:
-        run = optimise(path, scheduler=cluster.scheduler_address, runs=tmp_path / "dask", evaluator=FAKE,
-                       progress=False)
+    run = optimise_on_local_dask(path, tmp_path / "dask", FAKE, n_workers=2)
     dask = read_table(run)
     for k in ("x", "F_max", "E_max", "value"):
         np.testing.assert_array_equal(local[k], dask[k], err_msg=k)

@@ -7,17 +7,14 @@ import pytest
 from lccopt.engine.runner import optimise
 from lccopt.store import read_evaluation
 
-from .conftest import FAKE, assert_same_evaluations, read_table, write_case
+from .conftest import FAKE, assert_same_evaluations, optimise_on_local_dask, read_table, write_case
 
 
 def test_dask_local_cluster_same_evaluations_as_process_pool(tmp_path):
-    distributed = pytest.importorskip("distributed")
+    pytest.importorskip("distributed")
     case = write_case(tmp_path, "dk", budget=10, initial=5, seed=3)
     local = read_table(optimise(case, workers=1, runs=tmp_path / "local", evaluator=FAKE, progress=False))
-    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
-                                  dashboard_address=None) as cluster:
-        run = optimise(case, scheduler=cluster.scheduler_address, runs=tmp_path / "dask", evaluator=FAKE,
-                       progress=False)
+    run = optimise_on_local_dask(case, tmp_path / "dask", FAKE)
     dask = read_table(run)
     assert_same_evaluations(local, dask)
     assert all(w.startswith("tcp://") for w in dask["worker"])
@@ -33,13 +30,10 @@ def test_dask_runs_the_real_simulator_like_the_process_pool(tmp_path):
 
     from .conftest import REAL
 
-    distributed = pytest.importorskip("distributed")
+    pytest.importorskip("distributed")
     case = write_case(tmp_path, "dr", budget=4, initial=4, seed=5)
     local = read_table(optimise(case, workers=1, runs=tmp_path / "local", evaluator=REAL, progress=False))
-    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
-                                  dashboard_address=None) as cluster:
-        run = optimise(case, scheduler=cluster.scheduler_address, runs=tmp_path / "dask", evaluator=REAL,
-                       progress=False)
+    run = optimise_on_local_dask(case, tmp_path / "dask", REAL)
     dask = read_table(run)
     assert list(dask["status"]) == ["ok"] * 4
     np.testing.assert_array_equal(local["x"], dask["x"])
