@@ -152,8 +152,8 @@ def mirrored(track):
         entry_sleeper_x=L - track.entry_sleeper_x, exit_sleeper_x=L - track.exit_sleeper_x)
 
 
-def cheap_case(tmp_path, base, direction="enter"):
-    text = f"extends: {base}\nname: t\n" + CHEAP_SIMULATION + f"  direction: {direction}\n"
+def cheap_case(tmp_path, base, direction="enter", extra=""):
+    text = f"extends: {base}\nname: t\n" + extra + CHEAP_SIMULATION + f"  direction: {direction}\n"
     (tmp_path / "c.yaml").write_text(text)
     return load_case(tmp_path / "c.yaml")
 
@@ -189,11 +189,14 @@ def test_leave_window_crosses_the_whole_ers_and_ends_with_the_last_wheel_past_th
     far edge of the ERS (on the exit ballast; the trailing wheels beyond the rail end, on its
     rigid continuation), runs towards -x, and the run ends when the last wheel is run_out past
     the farthest zone sleeper; every wheel spends the same number of steps in the zone."""
-    case = cheap_case(tmp_path, CONFIGS / "vehicles/virm-half-car.yaml", "leave")
+    # the paper's 22 m of exit ballast (the half car's case has 40 m), so that the trailing
+    # wheels start beyond the rail end
+    case = cheap_case(tmp_path, CONFIGS / "vehicles/virm-half-car.yaml", "leave",
+                      "track:\n  layout:\n    exit_length: 22.0\n")
     track = build_track(case, case.reference)
     x_start, zone_start, zone_end, x_end = track.window
     sim, length = case.simulation, 19.0 + 2.5
-    assert zone_end == pytest.approx(100.0 + 3.0)
+    assert zone_end == pytest.approx(100.0 + 12.0)                    # the far edge of the ERS
     assert zone_start == pytest.approx(track.entry_sleeper_x[19])
     assert x_start == pytest.approx(112.0 + sim["run_in"])            # 100 m + 12 m of ERS
     assert x_start + length > track.node_x[-1]                          # trailing wheels off the rail
