@@ -8,8 +8,10 @@
 Prints, per design, the model's F_rms, F_max, E_rms, E_max against the paper's (Tables 6, 7)
 with signed errors; the score (mean |ln(model/paper)| over the 8 Table 7 values and the
 reference F_rms and E_rms: 0 is a perfect match, 0.1 about 10 % off on average); the static
-rail deflection on the ballast track and on the ERS; and the orderings the paper's design
-advice rests on. Exit status 1 if a check of issue 8 fails (score <= 0.45, ballast stiffer
+rail deflection on the ballast track and on the ERS; the orderings the paper's design
+advice rests on; and F_rms of the paper's min-F_rms design against the Type II strip length
+x_l, with the case's force zone and with one ending 3 m into the ERS (the reading before:
+Table 5's x_l = 120 then changes nothing). Exit status 1 if a check of issue 8 fails (score <= 0.45, ballast stiffer
 than the ERS, Table 7 F_max order).
 """
 
@@ -72,6 +74,15 @@ def with_changes(case, model: str | None = None, strengthened: float | None = No
         for k, b in base.items():
             t["strengthened_sleeper"][k] = b + strengthened * (ref[k] - b)
     return c
+
+
+def f_rms_against_strip(case, zone_end: float, strips=(0, 30, 60, 90, 120)) -> list[float]:
+    """F_rms [N] of the min-F_rms design (Table 5) for each Type II strip length x_l, with the
+    force zone ending ``zone_end`` into the ERS."""
+    c = copy.deepcopy(case)
+    c.data["evaluation"]["force_zone_after_interface"] = zone_end
+    d = DESIGNS["min F_rms (T5)"]
+    return [evaluate(c, design_vector([*d[:-1], xl])).objectives["F_rms"] for xl in strips]
 
 
 def static_deflection(case, x, where: str) -> float:
@@ -140,6 +151,15 @@ def main(argv=None) -> int:
     print()
     for k, ok in checks.items():
         print(f"  [{'x' if ok else ' '}] {k}")
+    strips = (0, 30, 60, 90, 120)
+    zone = case.evaluation["force_zone_after_interface"]
+    print(f"\nF_rms [kN] of the min-F_rms design (Table 5: x_l = 120) against x_l, force zone "
+          f"ending {zone:g} m (the case) and 3 m into the ERS:")
+    print("| zone end | " + " | ".join(f"x_l = {xl}" for xl in strips) + " |")
+    print("|---|" + "---|" * len(strips))
+    for z in dict.fromkeys((zone, 3.0)):
+        print(f"| {z:g} m | " + " | ".join(f"{f / 1e3:.3f}" for f in f_rms_against_strip(case, z, strips))
+              + " |")
     if args.strengthened:
         print("\nE_max [J] against the strengthened-sleeper increments (factor x the case's "
               "assumed mass/support increase over NS90):")
