@@ -30,7 +30,7 @@ from lccopt.vti.simulate import evaluate  # noqa: E402
 
 DESIGNS = {  # name -> design in --design units (pads MN/m)
     "reference": "1120,1120,1120,8,6,6,4,0",
-    "one-condition optimum (moo seed 1)": "865,1200,185,0,6,6,3,0",
+    "one-condition optimum (moo seed 1)": "459.4,584.5,166.8,0,6,6,3,0",
     "paper MOO (Table 7)": "214,155,50,5,6,7,3,0",
 }
 
