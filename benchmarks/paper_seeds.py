@@ -7,7 +7,9 @@ For each case (configs/<case>.yaml: single-F_max and single-E_max with 200 evalu
 with 400) and each seed, runs ``lccopt optimise`` on a copy of the case with that seed into
 ``RUNS/<case>-s<seed>/`` (a finished run is reused, an unfinished one resumed, so the script
 can be stopped and started again). ``--long N`` adds one run of each case with N evaluations
-(seed 1000) that only serves to find a better best-known value.
+(seed 1000) that only serves to find a better best-known value; ``--known CASE=VALUE`` gives a
+better value found elsewhere (benchmarks/paper_best_known.py re-evaluates the best designs of
+any runs, e.g. of an earlier model or version, on the current model).
 
 Per case it prints the reference design's value, the best-known value (the best over all runs,
 the long one included), the median and worst seed, and each seed's regret ratio
@@ -88,7 +90,10 @@ def main() -> None:
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--runs", default="bench-runs/paper-seeds")
     ap.add_argument("--long", type=int, default=0, help="budget of one extra long run per case (0: none)")
+    ap.add_argument("--known", nargs="*", default=[], metavar="CASE=VALUE",
+                    help="best-known values found elsewhere (benchmarks/paper_best_known.py)")
     args = ap.parse_args()
+    known = {k: float(v) for k, _, v in (item.partition("=") for item in args.known)}
     runs = Path(args.runs)
     seeds = seeds_arg(args.seeds)
     rows = []
@@ -96,7 +101,8 @@ def main() -> None:
         results = {s: run_values(run_one(case, s, runs, args.workers)) for s in seeds}
         long = run_values(run_one(case, 1000, runs, args.workers, args.long)) if args.long else None
         f_ref = results[seeds[0]]["reference"]
-        f_best = min([r["best"] for r in results.values()] + ([long["best"]] if long else []))
+        f_best = min([r["best"] for r in results.values()] + ([long["best"]] if long else [])
+                     + ([known[case]] if case in known else []))
         regret = {s: (r["best"] - f_best) / (f_ref - f_best) for s, r in results.items()}
         vals = sorted(r["best"] for r in results.values())
         rows.append((case, f_ref, f_best, statistics.median(vals), vals[-1],
@@ -107,6 +113,8 @@ def main() -> None:
             print(f"  seed {s}: {r['best']:.5g}  regret {regret[s]:.3f}  #{r['id']}  ({objs})")
         if long:
             print(f"  long run ({long['n']} evaluations, seed 1000): {long['best']:.5g}")
+        if case in known:
+            print(f"  known from elsewhere (--known): {known[case]:.5g}")
     print(f"\n| case | reference | best known | median seed | worst seed | median regret | worst regret |")
     print("|---|---|---|---|---|---|---|")
     for case, f_ref, f_best, med, worst, mreg, wreg, _, _ in rows:
