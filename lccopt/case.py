@@ -964,12 +964,13 @@ def _check_vehicle_fits(data: dict, err) -> None:
     if zone_start <= 0:
         lowest = RAIL_END_MARGIN    # the zone itself does not fit: the design check says so
     if lowest < RAIL_END_MARGIN or highest > total - RAIL_END_MARGIN:
-        key = "run_out" if (highest > total - RAIL_END_MARGIN) == ((sim.get("direction") or "enter") == "enter") \
-            else "run_in"
+        beyond_exit = highest > total - RAIL_END_MARGIN
+        key = "run_out" if beyond_exit == ((sim.get("direction") or "enter") == "enter") else "run_in"
         raise err(("simulation", key),
                   f"the leading wheel would run from {lowest:.3g} m to {highest:.3g} m, beyond the "
                   f"modelled rail [0, {total:g}] m less {RAIL_END_MARGIN:g} m at each end (vehicle "
-                  f"{length:g} m long): shorten run_in/run_out or lengthen the track")
+                  f"{length:g} m long): shorten run_in/run_out or lengthen track.layout."
+                  f"{'exit_length' if beyond_exit else 'entry_length'}")
 
 
 def parse_design(text: str, case: Case) -> np.ndarray:

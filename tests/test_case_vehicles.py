@@ -55,8 +55,11 @@ BAD = [  # (extra YAML after extends/name, key in the message, words, the line h
      "missing key 'seed'", "irregularity:"),
     ("simulation:\n  irregularity: [1, 2]\n", "simulation.irregularity", "expected a file name or a mapping",
      "irregularity:"),
-    ("simulation:\n  direction: leave\n  run_in: 40.0\n", "simulation.run_in", "beyond the modelled rail",
-     "run_in: 40.0"),
+    ("simulation:\n  direction: leave\n  run_in: 40.0\n", "simulation.run_in",
+     "beyond the modelled rail [0, 134] m less 1 m at each end (vehicle 0 m long): shorten "
+     "run_in/run_out or lengthen track.layout.exit_length", "run_in: 40.0"),
+    ("simulation:\n  run_in: 99.0\n", "simulation.run_in", "or lengthen track.layout.entry_length",
+     "run_in: 99.0"),
 ]
 
 
