@@ -13,8 +13,9 @@ highest and lowest value in the zone and their difference.
 Each run is a plain ask/evaluate/tell loop, one evaluation at a time, of the case's budget
 (configs/<case>.yaml, the given seed), once with the scalar surrogate lccopt uses for a single
 objective and once with the composite one. Prints the best value per seed and variant, the
-medians and the worst seeds. Not the engine: a run of ``lccopt optimise`` with two workers
-proposes other points (it proposes with one result still pending).
+medians and the worst seeds. Not the engine: ``lccopt optimise`` with k workers proposes each
+point with the last k results still pending (lccopt/engine/schedule.py), so its runs
+propose other points.
 """
 
 from __future__ import annotations
