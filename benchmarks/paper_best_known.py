@@ -20,6 +20,7 @@ Give the printed values to ``paper_seeds.py --known``.
 from __future__ import annotations
 
 import argparse
+import functools
 import os
 import sys
 from concurrent.futures import ProcessPoolExecutor
@@ -35,7 +36,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from lccopt.case import load_case  # noqa: E402
-from lccopt.optim.scalarise import asf, improvement_target  # noqa: E402
+from lccopt.problem import Problem  # noqa: E402
 from lccopt.vti.simulate import evaluate  # noqa: E402
 
 MODEL = ROOT / "configs" / "reference.yaml"
@@ -55,8 +56,13 @@ def candidates(run: Path, top: int) -> list[tuple[tuple, str]]:
     return [(tuple(float(c) for c in x[i]), f"{run.parent.name}/{run.name} #{int(ids[i])}") for i in sorted(picked)]
 
 
+@functools.cache
+def model():
+    return load_case(MODEL)   # once per worker process
+
+
 def objectives(x: tuple) -> tuple[float, float]:
-    o = evaluate(load_case(MODEL), np.array(x)).objectives
+    o = evaluate(model(), np.array(x)).objectives
     return o["F_max"], o["E_max"]
 
 
@@ -72,16 +78,15 @@ def main(argv=None) -> None:
             for x, where in candidates(run, args.top):
                 found.setdefault(x, where)
     designs = list(found)
-    ref_x = tuple(float(v) for v in load_case(MODEL).reference)
+    ref_x = tuple(float(v) for v in model().reference)
     with ProcessPoolExecutor(args.processes) as pool:
         objs = list(pool.map(objectives, [ref_x] + designs, chunksize=8))
     ref, F = np.array(objs[0]), np.array(objs[1:])
-    moo = load_case(ROOT / "configs" / "moo.yaml").optimisation["asf"]
-    point = improvement_target(ref, moo.get("improvement", 0.2))
+    moo = Problem.from_case(load_case(ROOT / "configs" / "moo.yaml"))   # objectives [F_max, E_max]
     values = {
         "single-F_max": F[:, 0],
         "single-E_max": F[:, 1],
-        "moo": asf(F, point, moo["worst"], rho=moo.get("rho", 0.05)),
+        "moo": moo.aggregate(moo.reference_point({"F_max": ref[0], "E_max": ref[1]}))(F),
     }
     print(f"{len(designs)} designs from {len(args.runs)} runs evaluated on {MODEL.name} "
           f"(reference design: F_max {ref[0]:.5g} N, E_max {ref[1]:.5g} J)")
