@@ -4,7 +4,7 @@
     python benchmarks/optimiser_compare.py v.json
 
 Per budget: cells where the variant's median is better / worse than the default's (from
-benchmarks/results/optimiser.json, seeds 0-9), and the cells where a two-sided Mann-Whitney U
+benchmarks/results/optimiser.json, on the seeds the variant file has), and the cells where a two-sided Mann-Whitney U
 test (alpha 0.05) finds a difference (+ better, - worse).
 """
 import json
@@ -19,9 +19,12 @@ base = json.load(open(BASE))["runs"]
 var = json.load(open(sys.argv[1]))["runs"]
 
 
+SEEDS = {int(k.split("|")[2]) for k in var}
+
+
 def vals(runs, prob, b):
     return np.array([v["best_at"][str(b)] for k, v in runs.items()
-                     if k.split("|")[0] == prob and k.split("|")[1] == "lccopt" and int(k.split("|")[2]) < 10])
+                     if k.split("|")[0] == prob and k.split("|")[1] == "lccopt" and int(k.split("|")[2]) in SEEDS])
 
 
 probs = sorted({k.split("|")[0] for k in var})

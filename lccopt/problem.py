@@ -7,7 +7,9 @@ Pure and small: no files, no processes. The run engine asks it for
 * ``value(objectives, reference_point)``: the objective itself for a single-objective case,
   the augmented Chebyshev ASF of the paper's Eq. (7) for two or more objectives,
 * ``aggregate(reference_point)``: the same ASF as a function of objective vectors, which the
-  composite surrogate of a multi-objective run (``strategy()``) scores its candidates with,
+  composite surrogate of a multi-objective run (``strategy()``) scores its candidates with;
+  for a case that minimises E_max alone, ``sleeper_energy_spread``: E_max from the sleepers'
+  energies, which its composite surrogate fits one by one (``surrogate``, ``outputs``),
 * ``reference_point(reference_objectives)``: f^r = (1 - improvement) * f(x_ref), the paper's
   "20 % better than the reference design" (only for two or more objectives).
 """
@@ -81,6 +83,23 @@ class Problem:
         return len(self.names)
 
     @property
+    def surrogate(self) -> str:
+        """What the optimiser's surrogate fits (recorded in the journal's first line):
+
+        * ``composite``: two or more objectives, one RBF each, scored by the ASF;
+        * ``sleeper-energies``: E_max alone with no traffic conditions, one RBF per zone
+          sleeper's energy, scored by their max - min (E_max itself). Each sleeper's energy
+          is smooth in the design where E_max has a kink wherever another sleeper becomes
+          the highest or the lowest (benchmarks/RESULTS-optimiser.md has the measurement);
+        * ``scalar``: one RBF of the value (F_max, whose high and low are themselves maxima
+          over time, measured worse with its parts fitted apart; and every traffic case)."""
+        if self.multi:
+            return "composite"
+        if self.objectives == ("E_max",) and not self.conditions:
+            return "sleeper-energies"
+        return "scalar"
+
+    @property
     def multi(self) -> bool:
         return len(self.objectives) > 1
 
@@ -96,22 +115,38 @@ class Problem:
 
     def strategy(self, budget: int | None = None, composite: bool | None = None,
                  uniform: bool = False):
-        """The optimiser; multi-objective: a composite surrogate (one RBF per objective, scored
-        by the ASF, see ``aggregate``) unless composite=False. uniform=True: the uniform
-        candidates of lccopt before issue 9 (to carry on a run it started)."""
+        """The optimiser; a composite surrogate (see ``surrogate``) unless composite=False (or
+        True: a run started with one). uniform=True: the uniform candidates of lccopt before
+        issue 9 (to carry on a run it started)."""
         from .optim.strategy import Strategy, legacy_uniform
 
         space = self.space()
         extra = {"n_uniform": legacy_uniform(space)} if uniform else {}
-        return Strategy(space, budget=self.budget if budget is None else int(budget),
-                        n_initial=self.initial_points, seed=self.seed,
-                        composite=self.multi if composite is None else bool(composite), **extra)
+        if composite is None:
+            composite = self.surrogate != "scalar"
+        strategy = Strategy(space, budget=self.budget if budget is None else int(budget),
+                            n_initial=self.initial_points, seed=self.seed,
+                            composite=bool(composite), **extra)
+        if not self.multi:
+            strategy.set_aggregate(self.aggregate(None))
+        return strategy
+
+    def outputs(self, objectives: dict, parts=None) -> list[float] | None:
+        """What the composite surrogate fits for one evaluation: the objective vector
+        (two or more objectives), the sleepers' energies (``parts``, E_max alone), or None."""
+        if self.multi:
+            return [float(v) for v in self.objective_vector(objectives or {})]
+        if self.surrogate == "sleeper-energies" and parts is not None:
+            return [float(v) for v in parts]
+        return None
 
     def aggregate(self, reference_point, worst=None, rho=None):
-        """The value as a function of objective vectors F (n, k), for the composite surrogate:
-        the ASF with this reference point (and worst, rho: the case's unless given); None
-        for a single objective."""
-        if not self.multi or reference_point is None:
+        """The value as a function of output vectors F (n, k), for the composite surrogate:
+        the ASF with this reference point (and worst, rho: the case's unless given);
+        ``sleeper_energy_spread`` for E_max alone; else None."""
+        if not self.multi:
+            return sleeper_energy_spread if self.surrogate == "sleeper-energies" else None
+        if reference_point is None:
             return None
         from .optim.scalarise import ASF
 
@@ -171,6 +206,12 @@ class Problem:
         then minimises every F_max@name, ... of its own). Every condition's own values are
         kept as F_max@name etc."""
         return combine_conditions(per_condition, self.conditions, self.weights, self.condition_mode)
+
+
+def sleeper_energy_spread(F) -> np.ndarray:
+    """E_max (max - min over the zone's sleepers) of each row of sleeper energies F (n, k)."""
+    F = np.asarray(F, dtype=float)
+    return F.max(axis=1) - F.min(axis=1)
 
 
 def combine_conditions(per_condition: list[dict], names, weights, mode: str) -> dict:

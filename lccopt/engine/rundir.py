@@ -102,9 +102,10 @@ class RunDir:
                 line = {"seq": 0, "event": "run", "time": now_iso(), "case_sha256": meta["case_sha256"],
                         "budget": problem.budget, "objectives": list(problem.objectives),
                         "seed": problem.seed, "versions": meta["versions"],
-                        # which surrogate proposes: a resume must rebuild the same one (runs of
-                        # lccopt before the composite surrogate have no such key: scalar)
-                        "surrogate": "composite" if problem.multi else "scalar",
+                        # which surrogate proposes (Problem.surrogate): a resume must rebuild
+                        # the same one (runs of lccopt before the composite surrogate have no
+                        # such key: scalar; before issue 9's sleeper energies, E_max: scalar)
+                        "surrogate": problem.surrogate,
                         # candidates: DYCORS only (runs before issue 9 had no such key and
                         # also drew uniform candidates)
                         "candidates": "dycors"}
@@ -251,6 +252,8 @@ class Table:
             r["wall_time"] = ev.get("wall_time", math.nan)
             r["worker"] = ev.get("worker", "")
             r["file"] = ev.get("file", "")
+            if "parts" in ev:  # the sleepers' energies (composite surrogate of E_max)
+                r["parts"] = ev["parts"]
         elif kind == "reference":
             self.reference = {k: v for k, v in ev.items() if k not in ("seq", "event")}
         elif kind == "finished":

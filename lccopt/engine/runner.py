@@ -291,10 +291,12 @@ def restore(problem: Problem, events: list[dict], snapshot: dict | None):
             strategy = None
     if strategy is None:
         budget0 = events[0].get("budget", problem.budget) if events else problem.budget
-        composite = bool(events) and events[0].get("surrogate") == "composite"
+        composite = bool(events) and events[0].get("surrogate") in ("composite", "sleeper-energies")
         uniform = bool(events) and events[0].get("candidates") != "dycors"
         strategy = problem.strategy(budget=budget0, composite=composite, uniform=uniform)
         start = 0
+    elif not problem.multi:  # not part of the state (for E_max alone: sleeper_energy_spread)
+        strategy.set_aggregate(problem.aggregate(None))
     replayer = Replay(strategy, problem.multi, problem)
     for ev in events[:start]:  # what the snapshot already reflects: results held back, the lag
         replayer.note(ev)
@@ -321,7 +323,7 @@ class Replay:
     def outputs(self, ev: dict):
         if self.problem is None:
             return None
-        return [float(v) for v in self.problem.objective_vector(ev.get("objectives") or {})]
+        return self.problem.outputs(ev.get("objectives") or {}, ev.get("parts"))
 
     def note(self, ev: dict) -> None:
         kind = ev["event"]
@@ -586,7 +588,7 @@ class Engine:
             return None
         if r["status"] != "ok":
             return ("failed", r["reason"])
-        return ("ok", r["value"], [float(v) for v in self.problem.objective_vector(r["objectives"])])
+        return ("ok", r["value"], self.problem.outputs(r["objectives"], r.get("parts")))
 
     def _release(self) -> None:
         """Tell the optimiser the results it may see now (in id order; see schedule.py)."""
@@ -640,6 +642,8 @@ class Engine:
                 self.ref_point = point
                 self.strategy.set_aggregate(pb.aggregate(point))
             value = pb.value(objectives, self.ref_point)
+            if pb.surrogate == "sleeper-energies" and o.parts is not None:
+                common["parts"] = o.parts  # what the composite surrogate fits (and a replay tells)
             self.table.apply(j.append("evaluated", value=value, **common))
         else:
             self.table.apply(j.append("failed", reason=error, **common))

@@ -72,6 +72,7 @@ class Outcome:
     id: int
     condition: int = -1           # the task's traffic condition
     objectives: dict | None = None
+    parts: list | None = None     # the zone sleepers' energies (composite surrogate of E_max)
     info: dict = field(default_factory=dict)
     evaluation: Any = None        # the whole Evaluation when the worker did not write the file
     file_written: bool = False
@@ -96,6 +97,8 @@ def run_task(case, task: Task, evaluator: Callable, worker: str) -> Outcome:
         one = case if task.condition < 0 else case.condition_case(task.condition)
         ev = evaluator(one, np.asarray(task.x, dtype=float))
         objectives = {k: float(v) for k, v in ev.objectives.items()}
+        energy = (ev.histories or {}).get("sleeper_energy")
+        parts = None if energy is None else [float(v) for v in np.ravel(energy)]
     except Exception as exc:  # noqa: BLE001 - every failure of a simulation is data
         tb = traceback.extract_tb(exc.__traceback__)
         where = f" ({os.path.basename(tb[-1].filename)}:{tb[-1].lineno})" if tb else ""
@@ -103,7 +106,8 @@ def run_task(case, task: Task, evaluator: Callable, worker: str) -> Outcome:
         return Outcome.of(task, error=f"{type(exc).__name__}: {msg}{where}"[:500],
                        wall_time=time.perf_counter() - t0, worker=worker)
     wall = time.perf_counter() - t0
-    out = Outcome.of(task, objectives=objectives, info=_plain(ev.info), wall_time=wall, worker=worker)
+    out = Outcome.of(task, objectives=objectives, parts=parts, info=_plain(ev.info), wall_time=wall,
+                     worker=worker)
     if task.out_path:
         try:
             from ..store import write_evaluation

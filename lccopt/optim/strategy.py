@@ -91,6 +91,7 @@ def _default_settings(space: DesignSpace) -> dict:
         "dist_tol": 1e-3,                  # duplicate radius (unit box, times sqrt(d_cont))
         "composite": False,                # one RBF per told output, scored by the aggregate
         "composite_capping": True,         # median-cap each output before fitting (composite)
+        "restart_keeps_points": False,     # a restart's surrogate also fits earlier restarts' points
     }
 
 
@@ -258,6 +259,8 @@ class Strategy:
         if ok:
             ib = min(range(len(ok)), key=lambda i: (ok[i]["value"], ok[i]["id"]))
             ctx.best = ok[ib]["x"]
+        if self.settings["restart_keeps_points"] and ok:
+            ok = sorted((r for r in recs if r["status"] == "ok"), key=lambda r: r["id"])
         if len(ok) >= 2:
             X = sp.to_unit(np.array([r["x"] for r in ok]))
             f = np.array([r["value"] for r in ok])

@@ -228,8 +228,44 @@ def test_multi_objective_runs_use_the_composite_surrogate_and_replay_it(tmp_path
             rep(ev)
     # the old behaviour stays available
     assert pb.strategy(composite=False).settings["composite"] is False
-    single = write_case(tmp_path, "single-c", objectives=("E_max",), budget=8, initial=4)
+    single = write_case(tmp_path, "single-c", objectives=("F_max",), budget=8, initial=4)
+    assert Problem.from_case(load_case(single)).surrogate == "scalar"
     assert Problem.from_case(load_case(single)).strategy().settings["composite"] is False
+
+
+def test_e_max_alone_fits_the_sleepers_energies_and_replays_them(tmp_path):
+    """E_max alone: the evaluated lines carry the sleepers' energies, the optimiser is told
+    them and scores by their max - min; a replay needs them (without: other proposals), and a
+    journal that names the scalar surrogate (a run of lccopt before) is carried on with it."""
+    from lccopt.engine.runner import Replay
+    from lccopt.problem import sleeper_energy_spread
+
+    case = write_case(tmp_path, "energies", objectives=("E_max",), budget=16, initial=5)
+    run = optimise(case, workers=2, runs=tmp_path, evaluator=FAKE, progress=False)
+    pb = Problem.from_case(load_case(case))
+    events, _, _ = read_journal(run / "journal.jsonl")
+    assert events[0]["surrogate"] == "sleeper-energies"
+    evaluated = [e for e in events if e["event"] == "evaluated"]
+    assert len(evaluated) == 16
+    for e in evaluated:
+        assert len(e["parts"]) == 5
+        assert max(e["parts"]) - min(e["parts"]) == pytest.approx(e["objectives"]["E_max"], rel=1e-12)
+    strategy, table = restore(pb, events, None)
+    assert strategy.settings["composite"] is True
+    assert strategy.aggregate is sleeper_energy_spread
+    told = {e["id"]: e["parts"] for e in evaluated}
+    for r in strategy.history:
+        assert r["status"] == "ok" and r["outputs"] == told[r["id"]]
+    stripped = [{k: v for k, v in e.items() if k != "parts"} for e in events]
+    with pytest.raises(JournalError, match="optimiser proposes"):
+        restore(pb, stripped, None)
+    old = [{**events[0], "surrogate": "scalar"}]
+    assert restore(pb, old, None)[0].settings["composite"] is False
+    # a snapshot restores the aggregate too (it is not part of the state)
+    snap = {"seq": events[-1]["seq"], "strategy": strategy.state_dict()}
+    again, _ = restore(pb, events, snap)
+    assert again.aggregate is sleeper_energy_spread
+    assert Replay(again, False, pb).outputs(evaluated[0]) == evaluated[0]["parts"]
 
 
 def test_changed_worst_values_are_journalled_and_replayed(tmp_path):
