@@ -164,6 +164,28 @@ def test_repeated_failures_force_restart():
     assert {r["phase"] for r in h if r["restart"] == 1} >= {"initial"}
 
 
+def test_restart_keeps_points_fits_every_point_after_a_restart():
+    """The setting (off by default; a measured variant, benchmarks/RESULTS-optimiser.md): after a
+    restart the surrogate is fitted to every evaluated point, while the perturbations centre
+    on the new restart's best point; off, it sees the restart's own points only."""
+    p = problems.paper_size("ackley")
+    assert Strategy(p.space, budget=20).settings["restart_keeps_points"] is False
+    seen = {}
+    for keep in (True, False):
+        s = Strategy(p.space, budget=90, n_initial=10, seed=5, fail_tol=1, sigma_min=0.05,
+                     restart_keeps_points=keep)
+        while s.restart == 0 or s._queue:  # into the second restart's adaptive phase
+            for pr in s.ask(1):
+                s.tell(pr.id, p(pr.x))
+        ctx = s._prepare()
+        ok = [r for r in s.history if r["status"] == "ok"]
+        own = [r for r in ok if r["restart"] == s.restart]
+        seen[keep] = len(ctx.rbf.X)
+        assert seen[keep] == (len(ok) if keep else len(own))
+        assert np.array_equal(ctx.best, min(own, key=lambda r: (r["value"], r["id"]))["x"])
+    assert seen[True] > seen[False]
+
+
 # -- state and resume --------------------------------------------------------------------------------------
 def drive(s, fun, steps, workers, pending, save_every=None, tmp_path=None):
     """Deterministic asynchronous engine: keep `workers` busy, finish them out of order.
