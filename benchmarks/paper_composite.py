@@ -41,14 +41,8 @@ from paper_seeds import seeds_arg  # noqa: E402
 
 from lccopt.case import load_case  # noqa: E402
 from lccopt.optim.strategy import Strategy  # noqa: E402
-from lccopt.problem import Problem  # noqa: E402
+from lccopt.problem import Problem, sleeper_energy_spread  # noqa: E402
 from lccopt.vti.simulate import evaluate  # noqa: E402
-
-
-def spread(F) -> np.ndarray:
-    """E_max from rows of sleeper energies F (n, 20): max - min of each row."""
-    F = np.asarray(F, dtype=float)
-    return F.max(axis=1) - F.min(axis=1)
 
 
 def high_minus_low(F) -> np.ndarray:
@@ -78,8 +72,7 @@ def parts(ev, objective: str, f_parts: str = "high-low") -> list[float]:
         return [low + ev.objectives["F_max"], low]   # F_max also takes the zone's exact ends
     # the force's high and low while the wheels are over each of SEGMENTS equal stretches
     lo, hi = sorted((ev.info["zone_start"], ev.info["zone_end"]))
-    where = np.minimum(((h["wheel_positions"][inside] - lo) / (hi - lo) * SEGMENTS).astype(int), SEGMENTS - 1)
-    where = np.clip(where, 0, SEGMENTS - 1)
+    where = np.clip(((h["wheel_positions"][inside] - lo) / (hi - lo) * SEGMENTS).astype(int), 0, SEGMENTS - 1)
     highs = np.full(SEGMENTS, low)
     lows = np.full(SEGMENTS, float(force.max()))
     np.maximum.at(highs, where, force)
@@ -95,7 +88,7 @@ def run(job: tuple) -> tuple[str, bool, int, float]:
     strategy = Strategy(problem.space(), budget=problem.budget, n_initial=problem.initial_points,
                         seed=seed, composite=composite)
     if composite:
-        strategy.set_aggregate(spread if objective == "E_max" else
+        strategy.set_aggregate(sleeper_energy_spread if objective == "E_max" else
                                high_minus_low if f_parts == "high-low" else highs_minus_lows)
     best = np.inf
     while not strategy.done:

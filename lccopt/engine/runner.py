@@ -291,7 +291,7 @@ def restore(problem: Problem, events: list[dict], snapshot: dict | None):
             strategy = None
     if strategy is None:
         budget0 = events[0].get("budget", problem.budget) if events else problem.budget
-        composite = bool(events) and events[0].get("surrogate") in ("composite", "sleeper-energies")
+        composite = bool(events) and events[0].get("surrogate", "scalar") != "scalar"
         uniform = bool(events) and events[0].get("candidates") != "dycors"
         strategy = problem.strategy(budget=budget0, composite=composite, uniform=uniform)
         start = 0
