@@ -53,6 +53,9 @@ PHASES = ("initial", "adaptive", "random", "local")
 # finding unused points (so that a nearly exhausted grid is still searched to the end).
 _ENUMERATE_LIMIT = 200_000
 
+# Least unit-box distance between the starts of the local search's global branches.
+_START_SEPARATION = 0.25
+
 
 @dataclass
 class Proposal:
@@ -79,6 +82,7 @@ def _default_settings(space: DesignSpace) -> dict:
         "uniform_weights": [0.3],          # weights of the cycle at which they compete
         "n_branches": 3,                   # integer assignments tried by the local search
         "local_maxiter": 30,               # L-BFGS-B iterations per branch
+        "n_global_starts": 0,              # relaxed surrogate minimisations from other good points
         "sigma_init": 0.2,
         "sigma_max": 0.2,
         "sigma_min": 0.2 * 0.5 ** 6,       # restart when sigma falls below this
@@ -92,6 +96,7 @@ def _default_settings(space: DesignSpace) -> dict:
         "composite": False,                # one RBF per told output, scored by the aggregate
         "composite_capping": True,         # median-cap each output before fitting (composite)
         "restart_keeps_points": False,     # a restart's surrogate also fits earlier restarts' points
+        "clip_to_bounds": False,           # a step past a bound stops on it (else: reflected)
     }
 
 
@@ -259,6 +264,7 @@ class Strategy:
         if ok:
             ib = min(range(len(ok)), key=lambda i: (ok[i]["value"], ok[i]["id"]))
             ctx.best = ok[ib]["x"]
+            ctx.starts = self._global_starts(ok, ib)
         if self.settings["restart_keeps_points"] and ok:
             ok = sorted((r for r in recs if r["status"] == "ok"), key=lambda r: r["id"])
         if len(ok) >= 2:
@@ -271,6 +277,24 @@ class Strategy:
                 ctx.rbf = self._rbf.fit(X, f)
             ctx.local = self._local_search(ctx)
         return ctx
+
+    def _global_starts(self, ok: list, ib: int) -> list:
+        """Best points of the restart, in value order, each at least _START_SEPARATION (unit
+        box) from the best point and from one another: starts of the global branches."""
+        n = int(self.settings["n_global_starts"])
+        if n <= 0:
+            return []
+        order = sorted(range(len(ok)), key=lambda i: (ok[i]["value"], ok[i]["id"]))
+        chosen = [self.space.to_unit(ok[ib]["x"])]
+        starts = []
+        for i in order:
+            u = self.space.to_unit(ok[i]["x"])
+            if min(np.linalg.norm(u - c) for c in chosen) >= _START_SEPARATION:
+                chosen.append(u)
+                starts.append(ok[i]["x"])
+                if len(starts) >= n:
+                    break
+        return starts
 
     def _composite(self, X: np.ndarray, ok: list) -> "_CompositeSurrogate | None":
         """One RBF per output of the ok points, or None (setting off, no aggregate, outputs
@@ -362,8 +386,11 @@ class Strategy:
             step[:, self._int] = np.rint(step[:, self._int] * scale[self._int])
         X = best[None, :] + np.where(mask, step, 0.0)
         lb, ub = sp.lb, sp.ub
-        X = np.where(X < lb, 2 * lb - X, X)  # reflect back into the box
-        X = np.where(X > ub, 2 * ub - X, X)
+        if self.settings["clip_to_bounds"]:  # optima on a bound get candidates on it
+            X = np.clip(X, lb, ub)
+        else:
+            X = np.where(X < lb, 2 * lb - X, X)  # reflect back into the box
+            X = np.where(X > ub, 2 * ub - X, X)
         return sp.snap(X)
 
     def _uniform(self, m: int) -> np.ndarray:
@@ -379,6 +406,7 @@ class Strategy:
         the best point's, the rounded minimiser of the relaxed (all-continuous) surrogate,
         and the best unused unit-step neighbours of the best point by surrogate value. On
         each branch the continuous part is minimised with L-BFGS-B from the best point.
+        With ``n_global_starts``, the same from good points away from the best as well.
         """
         sp, rbf, best = self.space, ctx.rbf, ctx.best
         s = self.settings
@@ -405,10 +433,11 @@ class Strategy:
 
         cont = np.flatnonzero(self._cont)
         ints = np.flatnonzero(self._int & self._free)
-        branches = [best[ints]]
+        free = np.flatnonzero(self._free)
+        branches = [(best[ints], best)]  # (integer assignment, start of the continuous part)
         if len(ints):
-            relaxed = sp.snap(sp.from_unit(minimise(bu, np.flatnonzero(self._free))))
-            branches.append(relaxed[ints])
+            relaxed = sp.snap(sp.from_unit(minimise(bu, free)))
+            branches.append((relaxed[ints], best))
             nb = np.repeat(best[None, :], 2 * len(ints), axis=0)
             nb[np.arange(len(ints)), ints] += 1.0
             nb[len(ints) + np.arange(len(ints)), ints] -= 1.0
@@ -417,20 +446,32 @@ class Strategy:
             if len(cont) == 0:
                 nb = nb[~ctx.is_taken(nb)]
             order = np.argsort(rbf(sp.to_unit(nb)), kind="stable")
-            branches += [nb[j, ints] for j in order]
+            branches += [(nb[j, ints], best) for j in order]
         pts, seen = [], set()
-        for b in branches:
+        for b, start in branches:
             key = tuple(np.asarray(b).tolist())
             if key in seen:
                 continue
             seen.add(key)
-            x0 = best.copy()
-            x0[ints] = b
-            u = sp.to_unit(x0)
-            pts.append(sp.snap(sp.from_unit(minimise(u, cont))))
+            pts.append(self._local_branch(b, start, ints, cont, minimise))
             if len(pts) >= s["n_branches"] + 1:
                 break
+        # Global starts (n_global_starts): the relaxed surrogate minimised from good evaluated
+        # points away from the best, rounded, then the continuous part minimised: a second
+        # valley the surrogate already shows is proposed, not only the one around the best.
+        for x0 in ctx.starts[: int(s["n_global_starts"])]:
+            relaxed = sp.snap(sp.from_unit(minimise(sp.to_unit(x0), free)))
+            x = self._local_branch(relaxed[ints], relaxed, ints, cont, minimise)
+            if not any(np.array_equal(x, p) for p in pts):
+                pts.append(x)
         return np.array(pts).reshape(-1, sp.dim)
+
+    def _local_branch(self, b, start, ints, cont, minimise) -> np.ndarray:
+        """The continuous part minimised on the surrogate with the integers fixed at b."""
+        sp = self.space
+        x0 = np.asarray(start, dtype=float).copy()
+        x0[ints] = b
+        return sp.snap(sp.from_unit(minimise(sp.to_unit(x0), cont)))
 
     # -- tell -----------------------------------------------------------------------------------
     def _find(self, x_or_id) -> dict:
@@ -651,6 +692,7 @@ class _Context:
         self.best: np.ndarray | None = None
         self.rbf: CubicRBF | None = None
         self.local: np.ndarray | None = None
+        self.starts: list = []
 
     def add(self, x: np.ndarray) -> None:
         self.taken = np.vstack([self.taken, x[None, :]])

@@ -289,3 +289,49 @@ def test_is_taken_matches_pairwise_comparison(name):
         same &= cdist(Cu, Tu) < ctx.tol
     assert np.array_equal(ctx.is_taken(C), same.any(axis=1))
     assert ctx.is_taken(C[:20]).all()
+
+
+def test_global_starts_propose_a_second_valley_the_surrogate_shows():
+    """n_global_starts (off by default; a measured variant): the local search also minimises
+    the surrogate from good points away from the best. Here the best evaluated point is in
+    the left valley (x = 0.15) and the deeper right valley lies between two evaluated points
+    (0.78, 0.92): with a global start the right valley's minimum is among the candidates,
+    without one it is not."""
+    def f(x):
+        return -np.exp(-((x[0] - 0.15) / 0.1) ** 2) - 1.2 * np.exp(-((x[0] - 0.85) / 0.1) ** 2)
+
+    xs = [0.0, 0.1, 0.15, 0.2, 0.3, 0.5, 0.65, 0.78, 0.92, 1.0]
+    given = [[x, 2.0] for x in xs]
+    space = DesignSpace(["x", "n"], [0.0, 0.0], [1.0, 4.0], [False, True], given=given)
+    local = {}
+    for starts in (0, 1):
+        s = Strategy(space, budget=50, n_initial=len(given), seed=0, n_global_starts=starts)
+        for pr in s.ask(len(given)):
+            s.tell(pr.id, f(pr.x))
+        ctx = s._prepare()
+        assert ctx.best[0] == 0.15
+        assert len(ctx.starts) == starts
+        local[starts] = ctx.local
+    assert np.all(local[0][:, 0] < 0.5)
+    right = local[1][local[1][:, 0] > 0.5]
+    assert len(right) == 1 and 0.8 < right[0, 0] < 0.9
+    assert f(right[0]) < -1.1  # the surrogate's valley is the function's
+    assert Strategy(space, budget=5).settings["n_global_starts"] == 0  # measured, not adopted
+
+
+def test_clip_to_bounds_puts_steps_past_a_bound_on_it():
+    """clip_to_bounds (off by default; a measured variant): a DYCORS step past a bound stops on
+    the bound, so a continuous optimum on a bound gets candidates exactly there; reflected
+    (the default), no step lands on it, and every candidate stays in the box either way."""
+    space = DesignSpace(["x", "y", "n"], [0.0, 0.0, 0], [1.0, 1.0, 10], [False, False, True])
+    best = np.array([0.0, 0.5, 0.0])
+    on_bound = {}
+    for clip in (False, True):
+        s = Strategy(space, budget=50, seed=1, clip_to_bounds=clip)
+        C = s._perturb(best, 2000, 0.2)
+        assert np.all((C >= space.lb) & (C <= space.ub))
+        moved = C[:, 0] != 0.0
+        on_bound[clip] = np.mean(C[:, 0] == 0.0), np.mean(C[:, 2] == 0.0)
+        assert moved.any()
+    assert on_bound[False][0] < 0.9 and on_bound[True][0] > on_bound[False][0] + 0.2
+    assert on_bound[True][1] > on_bound[False][1]
