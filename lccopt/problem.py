@@ -114,14 +114,14 @@ class Problem:
                            integer=list(self.integer), given=[list(self.reference)])
 
     def strategy(self, budget: int | None = None, composite: bool | None = None,
-                 uniform: bool = False):
+                 generation: int | None = None):
         """The optimiser; a composite surrogate (see ``surrogate``) unless composite=False (or
-        True: a run started with one). uniform=True: the uniform candidates of lccopt before
-        issue 9 (to carry on a run it started)."""
-        from .optim.strategy import Strategy, legacy_uniform
+        True: a run started with one). ``generation``: the optimiser generation of the lccopt
+        that started the run (``optim.strategy.GENERATION`` by default), to carry it on."""
+        from .optim.strategy import GENERATION, Strategy, generation_settings
 
         space = self.space()
-        extra = {"n_uniform": legacy_uniform(space)} if uniform else {}
+        extra = generation_settings(space, GENERATION if generation is None else int(generation))
         if composite is None:
             composite = self.surrogate != "scalar"
         strategy = Strategy(space, budget=self.budget if budget is None else int(budget),

@@ -42,11 +42,13 @@ import typer
 
 from ..case import SAFE_NAME, Case, CaseError, format_design, load_case
 from ..errors import EnvironmentFault, UsageError, describe_os_error, environment_errno
+from ..optim.strategy import GENERATION
 from ..problem import Problem
 from .executors import ExecutorError, make_executor
 from .journal import Journal, JournalError, read_journal
 from .progress import Progress, fmt, hms, objective_text, objective_value, reference_objectives
-from .rundir import RunDir, RunError, Table, eval_name, now_iso, sha256_text, write_results
+from .rundir import (RunDir, RunError, Table, eval_name, journal_generation, now_iso, sha256_text,
+                     write_results)
 from .schedule import may_ask, release
 from .worker import Outcome, Task, evaluator_spec
 
@@ -292,8 +294,14 @@ def restore(problem: Problem, events: list[dict], snapshot: dict | None):
     if strategy is None:
         budget0 = events[0].get("budget", problem.budget) if events else problem.budget
         composite = bool(events) and events[0].get("surrogate", "scalar") != "scalar"
-        uniform = bool(events) and events[0].get("candidates") != "dycors"
-        strategy = problem.strategy(budget=budget0, composite=composite, uniform=uniform)
+        generation = journal_generation(events[0] if events else {})
+        if generation is None or not 1 <= generation <= GENERATION:
+            newer = generation is not None and generation > GENERATION
+            raise JournalError(f"the journal's first line names optimiser generation "
+                               f"{events[0].get('optimiser')!r}; this lccopt knows 1 to {GENERATION}"
+                               + (" (the run was started by a newer lccopt: resume it with that one)"
+                                  if newer else ""))
+        strategy = problem.strategy(budget=budget0, composite=composite, generation=generation)
         start = 0
     elif not problem.multi:  # not part of the state (for E_max alone: sleeper_energy_spread)
         strategy.set_aggregate(problem.aggregate(None))

@@ -63,6 +63,7 @@ class CubicRBF:
         self.beta: np.ndarray | None = None  # [a, b_j for j in tail_dims]
         self.tail_dims: np.ndarray | None = None
         self.used_lstsq = False
+        self._A: np.ndarray | None = None  # the saddle system of the last fit
 
     # -- fitting ------------------------------------------------------------
     def _distance_matrix(self, X: np.ndarray) -> np.ndarray:
@@ -115,7 +116,27 @@ class CubicRBF:
             self.used_lstsq = True
             sol = scipy.linalg.lstsq(A, rhs, check_finite=False, lapack_driver="gelsd")[0]
         self.lam, self.beta, self.tail_dims = sol[:n], sol[n:], tail
+        self._A = A
         return self
+
+    def loo_residuals(self, values: list) -> list:
+        """Leave-one-out residuals f_i - s_{-i}(x_i) of interpolants of each value vector at
+        the fitted points (same points, same system), by Rippa's formula: with c = A^-1 [f; 0],
+        e_i = c_i / (A^-1)_ii. NaN where the system gives no such value."""
+        n = len(self.X)
+        try:
+            with warnings.catch_warnings():  # ill-conditioned: the residuals are rough, no more
+                warnings.simplefilter("ignore", scipy.linalg.LinAlgWarning)
+                inv = scipy.linalg.inv(self._A, check_finite=False)
+        except (np.linalg.LinAlgError, ValueError):
+            inv = np.linalg.pinv(self._A)
+        diag = np.diag(inv)[:n]
+        out = []
+        with np.errstate(divide="ignore", invalid="ignore"):
+            for f in values:
+                e = (inv[:n, :n] @ np.asarray(f, dtype=float)) / diag
+                out.append(np.where(np.isfinite(e), e, np.nan))
+        return out
 
     # -- evaluation ------------------------------------------------------------
     def __call__(self, Xq: np.ndarray) -> np.ndarray:

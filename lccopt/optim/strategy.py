@@ -35,10 +35,12 @@ from __future__ import annotations
 
 import json
 import math
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
 import scipy.optimize
+import scipy.special
 from scipy.spatial.distance import cdist
 
 from .rbf import CubicRBF, distances
@@ -65,9 +67,33 @@ class Proposal:
     restart: int
 
 
-def legacy_uniform(space: DesignSpace) -> int:
-    """Uniform candidates per proposal of lccopt before issue 9 (runs it started resume with them)."""
-    return min(1000, 10 * space.dim)
+# The optimiser's generations: each changed the default proposals, and a run keeps the
+# generation it started with (the engine journals it), so that it resumes as it began.
+#   1: lccopt before issue 9: uniform candidates beside the DYCORS ones
+#   2: issue 9's DYCORS-only candidates (reflected steps, probability schedule per restart,
+#      median capping, the local search at every weight of the cycle)
+#   3: pySOT-like DYCORS steps (see _default_settings), measured in benchmarks/RESULTS-optimiser.md
+GENERATION = 3
+
+
+def generation_settings(space: DesignSpace, generation: int) -> dict:
+    """Settings that make Strategy propose as the optimiser of ``generation`` did (on top of
+    the defaults of GENERATION)."""
+    if generation == GENERATION:
+        return {}
+    if generation not in (1, 2):
+        raise ValueError(f"unknown optimiser generation {generation!r} (known: 1 to {GENERATION})")
+    old = dict(_BEFORE_GENERATION_3)
+    if generation == 1:
+        old["n_uniform"] = min(1000, 10 * space.dim)
+    return old
+
+
+# What the settings added or changed by generation 3 were before it (also what a saved state
+# of an earlier lccopt, which lacks the new keys, is read with).
+_BEFORE_GENERATION_3 = {"perturbation": "reflect", "probability_schedule": "restart",
+                        "capping": True, "n_branches": 3, "local_weights": None}
+_ADDED_IN_GENERATION_3 = ("perturbation", "probability_schedule", "local_weights")
 
 
 def _default_settings(space: DesignSpace) -> dict:
@@ -81,6 +107,9 @@ def _default_settings(space: DesignSpace) -> dict:
         "n_uniform": 0,
         "uniform_weights": [0.3],          # weights of the cycle at which they compete
         "n_branches": 3,                   # integer assignments tried by the local search
+        # Weights of the cycle at which the local search's points compete (None: all): at the
+        # most greedy one only, so that the surrogate's own minimiser is one proposal in four.
+        "local_weights": [0.95],
         "local_maxiter": 30,               # L-BFGS-B iterations per branch
         "n_global_starts": 0,              # relaxed surrogate minimisations from other good points
         "sigma_init": 0.2,
@@ -90,8 +119,17 @@ def _default_settings(space: DesignSpace) -> dict:
         "succ_tol": 3,                     # successes in a row that double sigma
         "improvement_tol": 1e-3,           # success: f < f_best - tol * |f_best|
         "max_failed_row": max(d, 5),       # failed evaluations in a row that force a restart
-        "capping": True,                   # median-cap values before fitting
-        "force_int_move": True,            # selected integers move >= 1 unit (else pySOT-like)
+        # Median-cap values before fitting (True/False), or "auto": cap when that predicts the
+        # better half of the points better, by leave-one-out (``_capping_helps``).
+        "capping": "auto",
+        "force_int_move": True,            # reflect: selected integers move >= 1 unit (else pySOT-like)
+        # DYCORS steps: "truncnorm" draws each perturbed coordinate from a normal truncated to
+        # the bounds (pySOT; integers with a scale of at least one unit, then rounded);
+        # "reflect" (lccopt before issue 9's pySOT comparison) reflects a normal step at a bound.
+        "perturbation": "truncnorm",
+        # Perturbation probability: "run" shrinks it over the whole run with a floor of 1/d
+        # (pySOT); "restart" starts it again at each restart and lets it fall to one coordinate.
+        "probability_schedule": "run",
         "dist_tol": 1e-3,                  # duplicate radius (unit box, times sqrt(d_cont))
         "composite": False,                # one RBF per told output, scored by the aggregate
         "composite_capping": True,         # median-cap each output before fitting (composite)
@@ -128,8 +166,19 @@ class Strategy:
         self.n_initial = n_initial
         self.seed = None if seed is None else int(seed)
         self.settings = {**_default_settings(space), **settings}
-        for key in ("weights", "uniform_weights"):
-            self.settings[key] = [float(w) for w in self.settings[key]]
+        for key in ("weights", "uniform_weights", "local_weights"):
+            if self.settings[key] is not None:
+                self.settings[key] = [float(w) for w in self.settings[key]]
+        for key, on in (("uniform_weights", "n_uniform"), ("local_weights", "n_branches")):
+            ws = self.settings[key]
+            if self.settings[on] > 0 and ws is not None and not set(ws) & set(self.settings["weights"]):
+                raise ValueError(f"{key} {ws} has no weight of the cycle {self.settings['weights']}")
+        if self.settings["capping"] not in (True, False, "auto"):
+            raise ValueError("capping must be True, False or 'auto'")
+        if self.settings["perturbation"] not in ("truncnorm", "reflect"):
+            raise ValueError("perturbation must be 'truncnorm' or 'reflect'")
+        if self.settings["probability_schedule"] not in ("run", "restart"):
+            raise ValueError("probability_schedule must be 'run' or 'restart'")
         if not self.settings["weights"] or not all(0.0 <= w <= 1.0 for w in self.settings["weights"]):
             raise ValueError("weights must be a non-empty list of numbers in [0, 1]")
         self._rbf = CubicRBF()  # cache only (distance matrix); never part of the state
@@ -272,11 +321,39 @@ class Strategy:
             f = np.array([r["value"] for r in ok])
             ctx.rbf = self._composite(X, ok)
             if ctx.rbf is None:
-                if self.settings["capping"]:
+                cap = self.settings["capping"]
+                if cap == "auto":
+                    cap = self._capping_helps(X, f)
+                if cap:
                     f = np.minimum(f, np.median(f))
                 ctx.rbf = self._rbf.fit(X, f)
-            ctx.local = self._local_search(ctx)
+            ctx.local_search = self._local_search  # run when first needed (no RNG use)
         return ctx
+
+    def _capping_helps(self, X: np.ndarray, f: np.ndarray) -> bool:
+        """Whether the median-capped values give the better surrogate where it matters: the
+        rank correlation between the leave-one-out predictions and the values over the better
+        half of the points, for the values as they are and median-capped (the better half is
+        the same for both). Ties and too few points: no capping."""
+        import scipy.stats
+
+        n = len(f)
+        if n < 8:
+            return False
+        capped = np.minimum(f, np.median(f))
+        e_plain, e_capped = self._rbf.fit(X, f).loo_residuals([f, capped])
+        half = np.argsort(f, kind="stable")[: n // 2]
+        scores = []
+        for vals, e in ((f, e_plain), (capped, e_capped)):
+            pred = (vals - e)[half]
+            if not np.all(np.isfinite(pred)):
+                scores.append(-np.inf)
+                continue
+            with warnings.catch_warnings():  # constant input: no correlation (NaN)
+                warnings.simplefilter("ignore", scipy.stats.ConstantInputWarning)
+                r = scipy.stats.spearmanr(pred, f[half])[0]
+            scores.append(r if np.isfinite(r) else -np.inf)
+        return bool(scores[1] > scores[0])
 
     def _global_starts(self, ok: list, ib: int) -> list:
         """Best points of the restart, in value order, each at least _START_SEPARATION (unit
@@ -326,7 +403,8 @@ class Strategy:
             if ctx.best is not None and n_pert > 0:
                 C.append(self._perturb(ctx.best, n_pert, sigma))
                 src += ["adaptive"] * n_pert
-            if ctx.local is not None and attempt == 0 and len(ctx.local):
+            lw = s["local_weights"]
+            if attempt == 0 and (lw is None or w in lw) and ctx.local is not None and len(ctx.local):
                 C.append(ctx.local)
                 src += ["local"] * len(ctx.local)
             if n_unif > 0 and (attempt > 0 or w in s["uniform_weights"]):
@@ -366,32 +444,54 @@ class Strategy:
         free_idx = np.flatnonzero(self._free)
         if len(free_idx) == 0:
             return np.repeat(best[None, :], m, axis=0)
-        n_left = self.budget - self._restart_start_n - self._n_init_restart
-        p = min(20.0 / d, 1.0)
-        if n_left > 1:
-            p *= max(0.0, 1.0 - math.log(self._n_adaptive + 1) / math.log(n_left))
-        else:
-            p = 0.0
+        p = self._perturb_probability()
         mask = (rng.random((m, d)) < p) & self._free
         none = ~mask.any(axis=1)
         pick = free_idx[rng.integers(len(free_idx), size=m)]
         mask[np.flatnonzero(none), pick[none]] = True  # always at least one coordinate
-        step = sigma * self._span * rng.standard_normal((m, d))
+        lb, ub = sp.lb, sp.ub
+        scale = sigma * self._span
+        if self.settings["perturbation"] == "truncnorm":
+            # pySOT: integers get a scale of at least one unit, then are rounded (a rounded
+            # draw may land on the best point's value; such a candidate is a duplicate).
+            scale = np.where(self._int, np.maximum(scale, 1.0), scale)
+            X = best[None, :] + np.where(mask, scale * _truncated_normal(
+                rng, (lb - best) / scale, (ub - best) / scale, (m, d)), 0.0)
+            return sp.snap(X)
+        step = scale * rng.standard_normal((m, d))
         # Integers move by at least one unit step, then by the rounded step.
         if self.settings["force_int_move"]:
             step[:, self._int] = np.where(step[:, self._int] >= 0, 1.0, -1.0) * np.maximum(
                 1.0, np.rint(np.abs(step[:, self._int])))
         else:  # pySOT-like: scale at least one unit, plain rounding (may not move)
-            scale = np.maximum(sigma * self._span, 1.0) / (sigma * self._span)
-            step[:, self._int] = np.rint(step[:, self._int] * scale[self._int])
+            factor = np.maximum(scale, 1.0) / scale
+            step[:, self._int] = np.rint(step[:, self._int] * factor[self._int])
         X = best[None, :] + np.where(mask, step, 0.0)
-        lb, ub = sp.lb, sp.ub
         if self.settings["clip_to_bounds"]:  # optima on a bound get candidates on it
             X = np.clip(X, lb, ub)
         else:
             X = np.where(X < lb, 2 * lb - X, X)  # reflect back into the box
             X = np.where(X > ub, 2 * ub - X, X)
         return sp.snap(X)
+
+    def _perturb_probability(self) -> float:
+        """DYCORS's probability of perturbing a coordinate: min(20/d, 1) (1 - ln n / ln N).
+
+        "run" (pySOT): n counts the proposals since the first initial design over the whole
+        run, N the budget after it, with a floor of 1/d, so a restart searches near its best
+        point in few coordinates. "restart": n and N count within the restart, no floor."""
+        d = self.space.dim
+        p = min(20.0 / d, 1.0)
+        if self.settings["probability_schedule"] == "run":
+            n0 = max(self.n_initial, len(self.space.given))
+            n, big_n = self.n_asked - n0 + 1, self.budget - n0
+            if big_n > 1 and n >= 1:
+                p *= 1.0 - math.log(n) / math.log(big_n)
+            return max(p, min(1.0, 1.0 / d))
+        n_left = self.budget - self._restart_start_n - self._n_init_restart
+        if n_left > 1:
+            return p * max(0.0, 1.0 - math.log(self._n_adaptive + 1) / math.log(n_left))
+        return 0.0
 
     def _uniform(self, m: int) -> np.ndarray:
         sp = self.space
@@ -571,8 +671,9 @@ class Strategy:
         if d.get("version") != STATE_VERSION:
             raise ValueError(f"unsupported strategy state version {d.get('version')}")
         s = cls.__new__(cls)
+        settings = {**{k: _BEFORE_GENERATION_3[k] for k in _ADDED_IN_GENERATION_3}, **d["settings"]}
         s._setup(DesignSpace.from_dict(d["space"]), int(d["budget"]), int(d["n_initial"]),
-                 d["seed"], dict(d["settings"]))
+                 d["seed"], settings)
         bg = getattr(np.random, d["rng"]["bit_generator"])()
         bg.state = d["rng"]
         s._rng = np.random.Generator(bg)
@@ -599,6 +700,14 @@ class Strategy:
     def load(cls, path) -> "Strategy":
         with open(path, encoding="utf-8") as fh:
             return cls.from_state(json.load(fh))
+
+
+def _truncated_normal(rng: np.random.Generator, a: np.ndarray, b: np.ndarray, shape) -> np.ndarray:
+    """Standard normal draws truncated to [a, b] per column (a <= 0 <= b), by the inverse CDF:
+    with 0 inside [a, b] both CDF values are in the well-resolved part of [0, 1]."""
+    lo, hi = scipy.special.ndtr(a), scipy.special.ndtr(b)
+    z = scipy.special.ndtri(lo + rng.random(shape) * (hi - lo))
+    return np.clip(z, a, b)
 
 
 def _scale(v: np.ndarray) -> np.ndarray:
@@ -691,8 +800,17 @@ class _Context:
         self.near_u = sp.to_unit(near)
         self.best: np.ndarray | None = None
         self.rbf: CubicRBF | None = None
-        self.local: np.ndarray | None = None
+        self.local_search = None  # the strategy's local search, once a surrogate is fitted
+        self._local: np.ndarray | None = None
         self.starts: list = []
+
+    @property
+    def local(self) -> np.ndarray | None:
+        """The local search's points (computed on first use: with local_weights, most
+        proposals do not need them)."""
+        if self._local is None and self.local_search is not None:
+            self._local = self.local_search(self)
+        return self._local
 
     def add(self, x: np.ndarray) -> None:
         self.taken = np.vstack([self.taken, x[None, :]])

@@ -10,7 +10,7 @@ import json
 import pytest
 
 from lccopt.case import load_case
-from lccopt.engine.journal import read_journal
+from lccopt.engine.journal import JournalError, read_journal
 from lccopt.engine.rundir import RunDir
 from lccopt.engine.runner import optimise, restore, resume
 from lccopt.problem import Problem
@@ -93,6 +93,25 @@ def test_a_journal_without_schedule_lines_is_replayed_in_its_own_order(tmp_path)
     assert _state(before) == _state(now)
 
 
+def _older_run(monkeypatch, case, runs, old_generation, old_composite=None, keys=()):
+    """A run as an older lccopt made it: proposed by optimiser ``old_generation`` (and the
+    scalar surrogate if old_composite=False), with the journal keys it did not write removed from the
+    first line, and no state.json (a resume rebuilds the optimiser from the journal alone)."""
+    real_strategy = Problem.strategy
+    monkeypatch.setattr(Problem, "strategy", lambda self, budget=None, composite=None, generation=None:
+                        real_strategy(self, budget, composite if old_composite is None else old_composite,
+                                      generation=old_generation))
+    run = optimise(case, workers=1, runs=runs, evaluator=FAKE, progress=False)
+    monkeypatch.setattr(Problem, "strategy", real_strategy)
+    lines = (run / "journal.jsonl").read_text().splitlines()
+    first = json.loads(lines[0])
+    for k in keys:
+        first.pop(k)
+    (run / "journal.jsonl").write_text("\n".join([json.dumps(first, separators=(",", ":"))] + lines[1:]) + "\n")
+    (run / "state.json").unlink(missing_ok=True)
+    return run
+
+
 def test_a_multi_objective_run_of_before_the_composite_surrogate_resumes_with_its_own(tmp_path, monkeypatch):
     """The journal's first line names the surrogate; a run of an older lccopt (no such key)
     was proposed by the scalar surrogate and is replayed and carried on with it."""
@@ -102,17 +121,8 @@ def test_a_multi_objective_run_of_before_the_composite_surrogate_resumes_with_it
     new = optimise(case, workers=1, runs=tmp_path / "new", evaluator=FAKE, progress=False)
     assert _events(new)[0]["surrogate"] == "composite"
     # the older lccopt: the scalar surrogate, and no key in the journal
-    real_strategy = Problem.strategy
-    monkeypatch.setattr(Problem, "strategy", lambda self, budget=None, composite=None, uniform=False:
-                        real_strategy(self, budget, composite=False, uniform=True))
-    old = optimise(case, workers=1, runs=tmp_path / "old", evaluator=FAKE, progress=False)
-    monkeypatch.setattr(Problem, "strategy", real_strategy)
-    lines = (old / "journal.jsonl").read_text().splitlines()
-    first = json.loads(lines[0])
-    first.pop("surrogate")
-    first.pop("candidates")
-    (old / "journal.jsonl").write_text("\n".join([json.dumps(first, separators=(",", ":"))] + lines[1:]) + "\n")
-    (old / "state.json").unlink(missing_ok=True)
+    old = _older_run(monkeypatch, case, tmp_path / "old", 1, old_composite=False,
+                     keys=("surrogate", "candidates", "optimiser"))
     events = _events(old)
     replayed, table = restore(pb, events, None)          # no JournalError: the same proposals
     assert replayed.done and table.n_done == 12
@@ -131,16 +141,7 @@ def test_a_run_of_before_dycors_only_candidates_resumes_with_its_uniform_candida
     pb = Problem.from_case(load_case(case))
     new = optimise(case, workers=1, runs=tmp_path / "new", evaluator=FAKE, progress=False)
     assert _events(new)[0]["candidates"] == "dycors"
-    real_strategy = Problem.strategy
-    monkeypatch.setattr(Problem, "strategy", lambda self, budget=None, composite=None, uniform=False:
-                        real_strategy(self, budget, composite, uniform=True))
-    old = optimise(case, workers=1, runs=tmp_path / "old", evaluator=FAKE, progress=False)
-    monkeypatch.setattr(Problem, "strategy", real_strategy)
-    lines = (old / "journal.jsonl").read_text().splitlines()
-    first = json.loads(lines[0])
-    first.pop("candidates")
-    (old / "journal.jsonl").write_text("\n".join([json.dumps(first, separators=(",", ":"))] + lines[1:]) + "\n")
-    (old / "state.json").unlink(missing_ok=True)
+    old = _older_run(monkeypatch, case, tmp_path / "old", 1, keys=("candidates", "optimiser"))
     assert any(p == "random" for _, _, p, _ in _asked(old)), "the old run drew uniform candidates"
     assert not any(p == "random" for _, _, p, _ in _asked(new))
     replayed, table = restore(pb, _events(old), None)     # no JournalError: the same proposals
@@ -149,3 +150,36 @@ def test_a_run_of_before_dycors_only_candidates_resumes_with_its_uniform_candida
     case.write_text(case.read_text().replace("budget: 14", "budget: 18"))
     resume(old, workers=1, allow_changed_case=True, evaluator=FAKE, progress=False)
     assert len(read_table(old)["id"]) == 18
+
+
+def test_a_run_of_optimiser_generation_2_resumes_with_its_own_steps(tmp_path, monkeypatch):
+    """Generation 3 changed the DYCORS steps (pySOT-like truncated normal steps, a perturbation
+    probability over the whole run) and the defaults of capping and the local search; a run
+    of generation 2 (journal: "candidates": "dycors", no "optimiser" key) is replayed and
+    carried on with generation 2's settings."""
+    case = write_case(tmp_path, "gen2", objectives=("F_max",), budget=30, initial=6, seed=4)
+    pb = Problem.from_case(load_case(case))
+    new = optimise(case, workers=1, runs=tmp_path / "new", evaluator=FAKE, progress=False)
+    assert _events(new)[0]["optimiser"] == 3
+    old = _older_run(monkeypatch, case, tmp_path / "old", 2, keys=("optimiser",))
+    assert _asked(old) != _asked(new), "the two generations should propose differently here"
+    replayed, table = restore(pb, _events(old), None)     # no JournalError: the same proposals
+    assert replayed.done and table.n_done == 30
+    assert replayed.settings["perturbation"] == "reflect"
+    case.write_text(case.read_text().replace("budget: 30", "budget: 34"))
+    resume(old, workers=1, allow_changed_case=True, evaluator=FAKE, progress=False)
+    assert len(read_table(old)["id"]) == 34
+
+
+@pytest.mark.parametrize("value", [99, 0, "3", None])
+def test_a_journal_of_an_unknown_optimiser_generation_is_refused(tmp_path, value):
+    case = write_case(tmp_path, "future", objectives=("F_max",), budget=6, initial=4, seed=1)
+    run = optimise(case, workers=1, runs=tmp_path, evaluator=FAKE, progress=False)
+    lines = (run / "journal.jsonl").read_text().splitlines()
+    first = {**json.loads(lines[0]), "optimiser": value}
+    (run / "journal.jsonl").write_text("\n".join([json.dumps(first)] + lines[1:]) + "\n")
+    (run / "state.json").unlink()
+    with pytest.raises(JournalError, match="optimiser generation"):
+        restore(Problem.from_case(load_case(case)), _events(run), None)
+    r = cli_run("resume", run, env={"LCCOPT_EVALUATOR": FAKE})
+    assert r.returncode == 2 and "optimiser generation" in r.stderr and "Traceback" not in r.stderr

@@ -1,4 +1,5 @@
 import numpy as np
+import pytest
 
 from lccopt.optim.rbf import CubicRBF
 
@@ -111,3 +112,16 @@ def test_distances_are_bit_identical_to_the_coordinate_loop():
     for m, n, d in [(1, 40, 8), (7, 13, 12), (0, 5, 3), (5, 0, 3), (3, 4, 0), (300, 300, 9)]:
         A, B = rng.random((m, d)) * 1e3, rng.random((n, d))
         assert loop(A, B).tobytes() == rbf.distances(A, B).tobytes()
+
+
+def test_leave_one_out_residuals_are_those_of_fits_without_the_point():
+    """Rippa's formula gives f_i - s_{-i}(x_i) of the interpolant fitted without point i."""
+    rng = np.random.default_rng(0)
+    X = rng.random((30, 3))
+    f = np.sin(3 * X).sum(1)
+    g = np.exp(X[:, 0] * 4)
+    e_f, e_g = CubicRBF().fit(X, f).loo_residuals([f, g])
+    for i in (0, 5, 17, 29):
+        keep = np.arange(30) != i
+        assert e_f[i] == pytest.approx(f[i] - CubicRBF().fit(X[keep], f[keep])(X[i]), rel=1e-7, abs=1e-12)
+        assert e_g[i] == pytest.approx(g[i] - CubicRBF().fit(X[keep], g[keep])(X[i]), rel=1e-7, abs=1e-12)

@@ -320,14 +320,15 @@ def test_global_starts_propose_a_second_valley_the_surrogate_shows():
 
 
 def test_clip_to_bounds_puts_steps_past_a_bound_on_it():
-    """clip_to_bounds (off by default; a measured variant): a DYCORS step past a bound stops on
-    the bound, so a continuous optimum on a bound gets candidates exactly there; reflected
-    (the default), no step lands on it, and every candidate stays in the box either way."""
+    """clip_to_bounds (off by default; a measured variant of the reflected steps of generation
+    2): a DYCORS step past a bound stops on the bound, so a continuous optimum on a bound gets
+    candidates exactly there; reflected, no step lands on it, and every candidate stays in the
+    box either way."""
     space = DesignSpace(["x", "y", "n"], [0.0, 0.0, 0], [1.0, 1.0, 10], [False, False, True])
     best = np.array([0.0, 0.5, 0.0])
     on_bound = {}
     for clip in (False, True):
-        s = Strategy(space, budget=50, seed=1, clip_to_bounds=clip)
+        s = Strategy(space, budget=50, seed=1, perturbation="reflect", clip_to_bounds=clip)
         C = s._perturb(best, 2000, 0.2)
         assert np.all((C >= space.lb) & (C <= space.ub))
         moved = C[:, 0] != 0.0
@@ -335,3 +336,61 @@ def test_clip_to_bounds_puts_steps_past_a_bound_on_it():
         assert moved.any()
     assert on_bound[False][0] < 0.9 and on_bound[True][0] > on_bound[False][0] + 0.2
     assert on_bound[True][1] > on_bound[False][1]
+
+
+def test_truncated_normal_steps_stay_in_the_box_with_the_scale_of_sigma():
+    """Generation 3's DYCORS steps (pySOT): each perturbed coordinate is drawn from a normal of
+    scale sigma * range truncated to the bounds; integers get a scale of at least one unit and
+    are rounded."""
+    space = DesignSpace(["x", "y", "n"], [0.0, 0.0, 0], [1.0, 1.0, 4], [False, False, True])
+    s = Strategy(space, budget=500, seed=2)
+    assert s.settings["perturbation"] == "truncnorm"
+    best = np.array([0.0, 0.5, 2.0])
+    C = s._perturb(best, 20000, 0.1)
+    assert np.all((C >= space.lb) & (C <= space.ub))
+    x, y, n = C[:, 0], C[:, 1], C[:, 2]
+    # at the lower bound: one-sided, a half normal of scale 0.1 (mean 0.1 sqrt(2/pi))
+    assert np.all(x >= 0.0) and abs(x[x > 0].mean() - 0.1 * np.sqrt(2 / np.pi)) < 0.004
+    # inside: the truncation is 5 sigma away, a plain normal of scale 0.1
+    assert abs((y[y != 0.5] - 0.5).std() - 0.1) < 0.004
+    # integer of range 4: sigma * range = 0.4 < 1, so the scale is one unit, truncated to
+    # [-2, 2] units; rounded, it moves in P(1/2 < |z| < 2) / P(|z| < 2) = 0.599 of the draws
+    # (before the first adaptive proposal every coordinate is perturbed: probability 1)
+    assert s._perturb_probability() == 1.0 and np.all(y != 0.5)
+    assert np.all(n == np.rint(n)) and n.min() == 0.0 and n.max() == 4.0
+    assert abs(np.mean(n != 2.0) - 0.599) < 0.015
+
+
+def test_the_perturbation_probability_shrinks_over_the_whole_run():
+    """probability_schedule "run" (pySOT): min(20/d, 1) (1 - ln n / ln N) with n the proposals
+    since the first initial design and N the budget after it, floored at 1/d, and not reset by
+    a restart; "restart" (generation 2) starts again at each restart, without the floor."""
+    sp = problems.paper_size("ackley").space  # d = 8: 20/d > 1
+    s = Strategy(sp, budget=220, n_initial=20, seed=0)
+    expected = []
+    while s.n_told < 200:
+        if s.n_asked >= 20 and not s._queue:
+            n = s.n_asked - 20 + 1
+            expected.append((s._perturb_probability(), max(1 - np.log(n) / np.log(200), 1 / 8)))
+        for pr in s.ask(1):
+            s.tell(pr.id, 0.0 if pr.id == 0 else 1.0)  # nothing improves: sigma collapses
+    assert s.restart >= 1, "the test needs a restart"
+    got, want = np.array(expected).T
+    np.testing.assert_allclose(got, want, rtol=1e-12)
+    assert got[-1] == 1 / 8 and np.all(np.diff(got) <= 0)
+    old = Strategy(sp, budget=220, n_initial=20, seed=0, probability_schedule="restart")
+    assert old._perturb_probability() == 1.0  # n = 0 of the restart
+
+
+def test_automatic_capping_caps_a_huge_range_and_not_a_smooth_bowl():
+    """capping "auto": median capping when it predicts the better half of the points better by
+    leave-one-out: yes for exp(15 r) (the top values dwarf the bottom ones), no for r^2."""
+    space = DesignSpace(["a", "b", "c"], [0.0] * 3, [1.0] * 3, [False] * 3)
+    s = Strategy(space, budget=50, seed=0)
+    rng = np.random.default_rng(1)
+    for _ in range(4):
+        X = rng.random((40, 3))
+        r = np.linalg.norm(X - [0.3, 0.6, 0.4], axis=1)
+        assert not s._capping_helps(X, r ** 2)
+        assert s._capping_helps(X, np.exp(15 * r))
+    assert not s._capping_helps(X[:7], np.exp(15 * r[:7]))  # too few points: no capping
