@@ -4,13 +4,14 @@ Metric Stochastic Response Surface (Regis & Shoemaker) with DYCORS perturbations
 
 * Step A: the given points, then an integer-aware Latin hypercube (``sampling``).
 * Step C: a cubic RBF with linear tail (``rbf``) on the evaluated points of the current
-  restart, in the unit box, fitted to median-capped values (values above the median are
-  replaced by the median, as in Regis & Shoemaker; pySOT 0.3.3 as benchmarked does not cap):
-  one huge value would otherwise flatten the surrogate everywhere else.
-* Steps D-E: candidates (DYCORS perturbations of the best point and a local mixed-integer
-  search of the surrogate; uniform points only if ``n_uniform`` > 0, or when everything near
-  the best point is taken), scored by the merit of Eq. (11) with the
-  weight cycling through 0.3, 0.5, 0.8, 0.95; the best-scoring candidate is proposed.
+  restart, in the unit box, fitted to the values or to median-capped ones (values above the
+  median replaced by the median, as in Regis & Shoemaker; pySOT 0.3.3 does not cap), whichever
+  leave-one-out cross-validation says ranks the better half of the points better.
+* Steps D-E: candidates (DYCORS perturbations of the best point and, at the weights of
+  ``local_weights``, a local mixed-integer search of the surrogate; uniform points only if
+  ``n_uniform`` > 0, or when everything near the best point is taken), scored by the merit of
+  Eq. (11) with the weight cycling through 0.3, 0.5, 0.8, 0.95; the best-scoring candidate is
+  proposed.
   A candidate equal to a point already evaluated, failed or pending (same integers,
   continuous part within a tolerance) is never proposed.
 * Step F: step size sigma adapted by success/failure counters; restart with a fresh
@@ -73,7 +74,8 @@ class Proposal:
 #   2: issue 9's DYCORS-only candidates (reflected steps, probability schedule per restart,
 #      median capping, the local search at every weight of the cycle)
 #   3: pySOT-like DYCORS steps (see _default_settings), measured in benchmarks/RESULTS-optimiser.md
-GENERATION = 3
+#   4: with a composite surrogate generation 2's candidates again (_AUTO_SETTINGS)
+GENERATION = 4
 
 
 def generation_settings(space: DesignSpace, generation: int) -> dict:
@@ -81,6 +83,8 @@ def generation_settings(space: DesignSpace, generation: int) -> dict:
     the defaults of GENERATION)."""
     if generation == GENERATION:
         return {}
+    if generation == 3:
+        return {"perturbation": "truncnorm", "probability_schedule": "run", "local_weights": [0.95]}
     if generation not in (1, 2):
         raise ValueError(f"unknown optimiser generation {generation!r} (known: 1 to {GENERATION})")
     old = dict(_BEFORE_GENERATION_3)
@@ -107,9 +111,9 @@ def _default_settings(space: DesignSpace) -> dict:
         "n_uniform": 0,
         "uniform_weights": [0.3],          # weights of the cycle at which they compete
         "n_branches": 3,                   # integer assignments tried by the local search
-        # Weights of the cycle at which the local search's points compete (None: all): at the
-        # most greedy one only, so that the surrogate's own minimiser is one proposal in four.
-        "local_weights": [0.95],
+        # Weights of the cycle at which the local search's points compete (None: all); "auto":
+        # see _AUTO_SETTINGS.
+        "local_weights": "auto",
         "local_maxiter": 30,               # L-BFGS-B iterations per branch
         "n_global_starts": 0,              # relaxed surrogate minimisations from other good points
         "sigma_init": 0.2,
@@ -126,16 +130,31 @@ def _default_settings(space: DesignSpace) -> dict:
         # DYCORS steps: "truncnorm" draws each perturbed coordinate from a normal truncated to
         # the bounds (pySOT; integers with a scale of at least one unit, then rounded);
         # "reflect" (lccopt before issue 9's pySOT comparison) reflects a normal step at a bound.
-        "perturbation": "truncnorm",
+        # "auto": see _AUTO_SETTINGS.
+        "perturbation": "auto",
         # Perturbation probability: "run" shrinks it over the whole run with a floor of 1/d
         # (pySOT); "restart" starts it again at each restart and lets it fall to one coordinate.
-        "probability_schedule": "run",
+        # "auto": see _AUTO_SETTINGS.
+        "probability_schedule": "auto",
         "dist_tol": 1e-3,                  # duplicate radius (unit box, times sqrt(d_cont))
         "composite": False,                # one RBF per told output, scored by the aggregate
         "composite_capping": True,         # median-cap each output before fitting (composite)
         "restart_keeps_points": False,     # a restart's surrogate also fits earlier restarts' points
         "clip_to_bounds": False,           # a step past a bound stops on it (else: reflected)
     }
+
+
+# What "auto" means for the candidate settings, by the surrogate in use at a proposal: with a
+# scalar surrogate pySOT-like steps and the local search at the greedy weight (generation 3,
+# chosen on the broad benchmark of 22 functions); with a composite one, whose aggregate of
+# smooth fits is a better model of the kinked value, generation 2's reflected steps, per-restart
+# schedule and local search at every weight (better on the paper's E_max and ASF cases over
+# 16 seeds; benchmarks/RESULTS-optimiser.md).
+_AUTO_SETTINGS = {
+    "scalar": {"perturbation": "truncnorm", "probability_schedule": "run", "local_weights": "greedy"},
+    "composite": {"perturbation": "reflect", "probability_schedule": "restart", "local_weights": None},
+}
+_AUTO_KEYS = ("perturbation", "probability_schedule", "local_weights")
 
 
 class Strategy:
@@ -166,21 +185,26 @@ class Strategy:
         self.n_initial = n_initial
         self.seed = None if seed is None else int(seed)
         self.settings = {**_default_settings(space), **settings}
+        lw = self.settings["local_weights"]
+        if isinstance(lw, str) and lw != "auto":
+            raise ValueError("local_weights must be a list of weights, None (all) or 'auto'")
         for key in ("weights", "uniform_weights", "local_weights"):
-            if self.settings[key] is not None:
+            if self.settings[key] is not None and self.settings[key] != "auto":
                 self.settings[key] = [float(w) for w in self.settings[key]]
         for key, on in (("uniform_weights", "n_uniform"), ("local_weights", "n_branches")):
             ws = self.settings[key]
-            if self.settings[on] > 0 and ws is not None and not set(ws) & set(self.settings["weights"]):
+            if (self.settings[on] > 0 and ws is not None and ws != "auto"
+                    and not set(ws) & set(self.settings["weights"])):
                 raise ValueError(f"{key} {ws} has no weight of the cycle {self.settings['weights']}")
         if self.settings["capping"] not in (True, False, "auto"):
             raise ValueError("capping must be True, False or 'auto'")
-        if self.settings["perturbation"] not in ("truncnorm", "reflect"):
-            raise ValueError("perturbation must be 'truncnorm' or 'reflect'")
-        if self.settings["probability_schedule"] not in ("run", "restart"):
-            raise ValueError("probability_schedule must be 'run' or 'restart'")
+        if self.settings["perturbation"] not in ("truncnorm", "reflect", "auto"):
+            raise ValueError("perturbation must be 'truncnorm', 'reflect' or 'auto'")
+        if self.settings["probability_schedule"] not in ("run", "restart", "auto"):
+            raise ValueError("probability_schedule must be 'run', 'restart' or 'auto'")
         if not self.settings["weights"] or not all(0.0 <= w <= 1.0 for w in self.settings["weights"]):
             raise ValueError("weights must be a non-empty list of numbers in [0, 1]")
+        self._steps = self._candidate_settings(composite=False)  # set again by each _select
         self._rbf = CubicRBF()  # cache only (distance matrix); never part of the state
         self._rbfs: list[CubicRBF] = []  # composite: one per output (cache only, as above)
         self._aggregate = None  # composite: outputs (n, k) -> values (n,); not state
@@ -396,6 +420,7 @@ class Strategy:
         if math.isfinite(ctx.n_grid) and len(ctx.taken) >= ctx.n_grid:
             return None
         s = self.settings
+        self._steps = self._candidate_settings(isinstance(ctx.rbf, _CompositeSurrogate))
         w = s["weights"][self._w_index % len(s["weights"])]
         n_pert, n_unif, sigma = s["n_perturb"], s["n_uniform"], self._sigma
         for attempt in range(8):
@@ -403,7 +428,7 @@ class Strategy:
             if ctx.best is not None and n_pert > 0:
                 C.append(self._perturb(ctx.best, n_pert, sigma))
                 src += ["adaptive"] * n_pert
-            lw = s["local_weights"]
+            lw = self._steps["local_weights"]
             if attempt == 0 and (lw is None or w in lw) and ctx.local is not None and len(ctx.local):
                 C.append(ctx.local)
                 src += ["local"] * len(ctx.local)
@@ -437,6 +462,15 @@ class Strategy:
         self._n_adaptive += 1
         return C[i].copy(), src[i]
 
+    def _candidate_settings(self, composite: bool) -> dict:
+        """perturbation, probability_schedule and local_weights, "auto" resolved by the
+        surrogate in use (_AUTO_SETTINGS)."""
+        auto = _AUTO_SETTINGS["composite" if composite else "scalar"]
+        out = {k: auto[k] if self.settings[k] == "auto" else self.settings[k] for k in _AUTO_KEYS}
+        if out["local_weights"] == "greedy":
+            out["local_weights"] = [max(self.settings["weights"])]
+        return out
+
     def _perturb(self, best: np.ndarray, m: int, sigma: float) -> np.ndarray:
         """DYCORS: perturb each coordinate with a probability that shrinks with the budget."""
         sp, rng = self.space, self._rng
@@ -451,7 +485,7 @@ class Strategy:
         mask[np.flatnonzero(none), pick[none]] = True  # always at least one coordinate
         lb, ub = sp.lb, sp.ub
         scale = sigma * self._span
-        if self.settings["perturbation"] == "truncnorm":
+        if self._steps["perturbation"] == "truncnorm":
             # pySOT: integers get a scale of at least one unit, then are rounded (a rounded
             # draw may land on the best point's value; such a candidate is a duplicate).
             scale = np.where(self._int, np.maximum(scale, 1.0), scale)
@@ -482,7 +516,7 @@ class Strategy:
         point in few coordinates. "restart": n and N count within the restart, no floor."""
         d = self.space.dim
         p = min(20.0 / d, 1.0)
-        if self.settings["probability_schedule"] == "run":
+        if self._steps["probability_schedule"] == "run":
             n0 = max(self.n_initial, len(self.space.given))
             n, big_n = self.n_asked - n0 + 1, self.budget - n0
             if big_n > 1 and n >= 1:

@@ -93,10 +93,10 @@ def test_a_journal_without_schedule_lines_is_replayed_in_its_own_order(tmp_path)
     assert _state(before) == _state(now)
 
 
-def _older_run(monkeypatch, case, runs, old_generation, old_composite=None, keys=()):
+def _older_run(monkeypatch, case, runs, old_generation, old_composite=None, keys=(), written=None):
     """A run as an older lccopt made it: proposed by optimiser ``old_generation`` (and the
     scalar surrogate if old_composite=False), with the journal keys it did not write removed from the
-    first line, and no state.json (a resume rebuilds the optimiser from the journal alone)."""
+    first line (and those it wrote otherwise, ``written``, set), and no state.json (a resume rebuilds the optimiser from the journal alone)."""
     real_strategy = Problem.strategy
     monkeypatch.setattr(Problem, "strategy", lambda self, budget=None, composite=None, generation=None:
                         real_strategy(self, budget, composite if old_composite is None else old_composite,
@@ -107,6 +107,7 @@ def _older_run(monkeypatch, case, runs, old_generation, old_composite=None, keys
     first = json.loads(lines[0])
     for k in keys:
         first.pop(k)
+    first.update(written or {})
     (run / "journal.jsonl").write_text("\n".join([json.dumps(first, separators=(",", ":"))] + lines[1:]) + "\n")
     (run / "state.json").unlink(missing_ok=True)
     return run
@@ -160,12 +161,30 @@ def test_a_run_of_optimiser_generation_2_resumes_with_its_own_steps(tmp_path, mo
     case = write_case(tmp_path, "gen2", objectives=("F_max",), budget=30, initial=6, seed=4)
     pb = Problem.from_case(load_case(case))
     new = optimise(case, workers=1, runs=tmp_path / "new", evaluator=FAKE, progress=False)
-    assert _events(new)[0]["optimiser"] == 3
+    assert _events(new)[0]["optimiser"] == 4
     old = _older_run(monkeypatch, case, tmp_path / "old", 2, keys=("optimiser",))
     assert _asked(old) != _asked(new), "the two generations should propose differently here"
     replayed, table = restore(pb, _events(old), None)     # no JournalError: the same proposals
     assert replayed.done and table.n_done == 30
     assert replayed.settings["perturbation"] == "reflect"
+    case.write_text(case.read_text().replace("budget: 30", "budget: 34"))
+    resume(old, workers=1, allow_changed_case=True, evaluator=FAKE, progress=False)
+    assert len(read_table(old)["id"]) == 34
+
+
+def test_a_multi_objective_run_of_optimiser_generation_3_resumes_with_its_local_search(tmp_path, monkeypatch):
+    """Generation 4 lets the local search compete at every weight with a composite surrogate;
+    a multi-objective run of generation 3 (journal: "optimiser": 3) is replayed and carried on
+    with its local search at the greedy weight only."""
+    case = write_case(tmp_path, "gen3", budget=30, initial=6, seed=4)
+    pb = Problem.from_case(load_case(case))
+    new = optimise(case, workers=1, runs=tmp_path / "new", evaluator=FAKE, progress=False)
+    assert _events(new)[0]["optimiser"] == 4
+    old = _older_run(monkeypatch, case, tmp_path / "old", 3, written={"optimiser": 3})
+    assert _asked(old) != _asked(new), "the two generations should propose differently here"
+    replayed, table = restore(pb, _events(old), None)     # no JournalError: the same proposals
+    assert replayed.done and table.n_done == 30
+    assert replayed.settings["local_weights"] == [0.95]
     case.write_text(case.read_text().replace("budget: 30", "budget: 34"))
     resume(old, workers=1, allow_changed_case=True, evaluator=FAKE, progress=False)
     assert len(read_table(old)["id"]) == 34

@@ -141,3 +141,17 @@ def test_value_and_gradient_are_the_separate_calls_bit_for_bit():
                 g += dA[j] * r.gradient(x)
         v, g2 = sur.value_and_gradient(x)
         assert v == float(sur(x)) and g.tobytes() == g2.tobytes()
+
+
+def test_with_the_composite_surrogate_the_local_search_competes_at_every_weight():
+    """local_weights "auto": every weight of the cycle with the composite surrogate, the
+    greedy one only (generation 3's rule, ``local_weights=[0.95]``) otherwise."""
+    def n_local(s):
+        return sum(r["phase"] == "local" for r in drive(s).history)
+
+    every = [n_local(make(seed)) for seed in range(3)]
+    greedy = [n_local(make(seed, local_weights=[0.95])) for seed in range(3)]
+    assert sum(every) > sum(greedy) and all(e >= g for e, g in zip(every, greedy)), (every, greedy)
+    assert all(g <= (60 - 10) / 4 + 1 for g in greedy)   # at most one proposal in four
+    with pytest.raises(ValueError, match="local_weights"):
+        Strategy(SPACE, composite=True, local_weights="all")

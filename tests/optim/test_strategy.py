@@ -344,7 +344,7 @@ def test_truncated_normal_steps_stay_in_the_box_with_the_scale_of_sigma():
     are rounded."""
     space = DesignSpace(["x", "y", "n"], [0.0, 0.0, 0], [1.0, 1.0, 4], [False, False, True])
     s = Strategy(space, budget=500, seed=2)
-    assert s.settings["perturbation"] == "truncnorm"
+    assert s.settings["perturbation"] == "auto" and s._steps["perturbation"] == "truncnorm"
     best = np.array([0.0, 0.5, 2.0])
     C = s._perturb(best, 20000, 0.1)
     assert np.all((C >= space.lb) & (C <= space.ub))
