@@ -394,3 +394,15 @@ def test_automatic_capping_caps_a_huge_range_and_not_a_smooth_bowl():
         assert not s._capping_helps(X, r ** 2)
         assert s._capping_helps(X, np.exp(15 * r))
     assert not s._capping_helps(X[:7], np.exp(15 * r[:7]))  # too few points: no capping
+
+
+def test_auto_candidate_settings_with_a_scalar_surrogate_are_generation_3s():
+    """Generation 4 resolves perturbation, probability_schedule and local_weights "auto" by the
+    surrogate; with a scalar one it proposes exactly what generation 3 (fixed values) did."""
+    pb = problems.paper_size("ackley")
+    runs = []
+    for kw in ({}, {"perturbation": "truncnorm", "probability_schedule": "run", "local_weights": [0.95]}):
+        s = run_serial(Strategy(pb.space, budget=60, n_initial=10, seed=3, **kw), pb)
+        runs.append([(r["x"].tobytes(), r["phase"]) for r in s.history])
+    assert runs[0] == runs[1]
+    assert any(p == "local" for _, p in runs[0])
