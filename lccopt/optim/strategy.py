@@ -347,25 +347,29 @@ class Strategy:
             if ctx.rbf is None:
                 cap = self.settings["capping"]
                 if cap == "auto":
-                    cap = self._capping_helps(X, f)
+                    ctx.rbf = self._rbf.fit(X, f)
+                    cap = self._capping_helps(ctx.rbf, f)
                 if cap:
-                    f = np.minimum(f, np.median(f))
-                ctx.rbf = self._rbf.fit(X, f)
+                    ctx.rbf = self._rbf.fit(X, np.minimum(f, np.median(f)))
+                elif ctx.rbf is None:
+                    ctx.rbf = self._rbf.fit(X, f)
             ctx.local_search = self._local_search  # run when first needed (no RNG use)
         return ctx
 
-    def _capping_helps(self, X: np.ndarray, f: np.ndarray) -> bool:
+    @staticmethod
+    def _capping_helps(plain: CubicRBF, f: np.ndarray) -> bool:
         """Whether the median-capped values give the better surrogate where it matters: the
         rank correlation between the leave-one-out predictions and the values over the better
         half of the points, for the values as they are and median-capped (the better half is
-        the same for both). Ties and too few points: no capping."""
+        the same for both; ``plain``: the RBF fitted to f). Ties and fewer than 8 points: no
+        capping."""
         import scipy.stats
 
         n = len(f)
         if n < 8:
             return False
         capped = np.minimum(f, np.median(f))
-        e_plain, e_capped = self._rbf.fit(X, f).loo_residuals([f, capped])
+        e_plain, e_capped = plain.loo_residuals([f, capped])
         half = np.argsort(f, kind="stable")[: n // 2]
         scores = []
         for vals, e in ((f, e_plain), (capped, e_capped)):

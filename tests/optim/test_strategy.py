@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from lccopt.optim import problems
+from lccopt.optim.rbf import CubicRBF
 from lccopt.optim.sampling import latin_hypercube
 from lccopt.optim.space import DesignSpace
 from lccopt.optim.strategy import PHASES, Proposal, Strategy
@@ -391,9 +392,10 @@ def test_automatic_capping_caps_a_huge_range_and_not_a_smooth_bowl():
     for _ in range(4):
         X = rng.random((40, 3))
         r = np.linalg.norm(X - [0.3, 0.6, 0.4], axis=1)
-        assert not s._capping_helps(X, r ** 2)
-        assert s._capping_helps(X, np.exp(15 * r))
-    assert not s._capping_helps(X[:7], np.exp(15 * r[:7]))  # too few points: no capping
+        assert not s._capping_helps(CubicRBF().fit(X, r ** 2), r ** 2)
+        assert s._capping_helps(CubicRBF().fit(X, np.exp(15 * r)), np.exp(15 * r))
+    few = np.exp(15 * r[:7])
+    assert not s._capping_helps(CubicRBF().fit(X[:7], few), few)  # too few points: no capping
 
 
 def test_auto_candidate_settings_with_a_scalar_surrogate_are_generation_3s():
