@@ -1,0 +1,126 @@
+"""The paper's single-objective cases with the optimisers a user would pick instead of lccopt.
+
+    python benchmarks/paper_others.py [--cases single-F_max,single-E_max] [--seeds 1-16]
+        [--methods pysot,optuna-tpe,random] [--processes 2] [--out paper-others.json]
+        [--known single-F_max=4161.41 single-E_max=0.0069137]
+
+Each method minimises the case's objective (configs/<case>.yaml: F_max in N or E_max in J,
+200 evaluations) over the case's design space, one simulation at a time in-process, with the
+runners of benchmarks/optimiser.py and their defaults (pySOT 0.3.3 DYCORS with a cubic RBF and
+a 20-point symmetric Latin hypercube; Optuna 5's TPE sampler; uniform random search). Unlike
+``lccopt optimise`` they do not get the reference design as a first point; it only sets the
+regret ratio's scale. The results file keeps every run's values in evaluation order, so the
+script can be stopped and started again (``--out``, runs already there are kept). It prints,
+per case and method, the best value per seed and the median and worst regret ratio
+(f_seed - f_best) / (f_reference - f_best), with f_best from ``--known`` (the best-known values
+of benchmarks/paper_seeds.py, README "Many seeds") or the best of the runs if lower.
+lccopt's own runs of the same cases come from benchmarks/paper_seeds.py.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import sys
+import time
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
+import numpy as np  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "benchmarks"))
+
+import optimiser as bench  # noqa: E402  (the method runners of the broad benchmark)
+from paper_seeds import seeds_arg  # noqa: E402
+from lccopt.case import load_case  # noqa: E402
+from lccopt.optim.problems import Problem as BenchProblem  # noqa: E402
+from lccopt.optim.space import DesignSpace  # noqa: E402
+from lccopt.problem import Problem  # noqa: E402
+from lccopt.vti.simulate import evaluate  # noqa: E402
+
+OBJECTIVE = {"single-F_max": "F_max", "single-E_max": "E_max"}
+
+
+def paper_problem(case: str) -> tuple[BenchProblem, np.ndarray]:
+    """The case as a benchmark problem (no given points) and its reference design."""
+    model = load_case(ROOT / "configs" / f"{case}.yaml")
+    p = Problem.from_case(model)
+    key = OBJECTIVE[case]
+    space = DesignSpace(names=list(p.names), lower=list(p.lower), upper=list(p.upper),
+                        integer=list(p.integer))
+
+    def fun(X):
+        return np.array([evaluate(model, np.asarray(x, dtype=float)).objectives[key] for x in X])
+
+    return BenchProblem(case, space, fun, float("nan"), np.full(p.dim, np.nan)), np.array(p.reference)
+
+
+def one_run(task: tuple[str, str, int]) -> tuple[str, dict]:
+    case, method, seed = task
+    runners, notes = bench.load_methods([method])
+    if method not in runners:
+        return f"{case}/{method}/{seed}", {"skipped": notes[method]}
+    p, _ = paper_problem(case)
+    budget = Problem.from_case(load_case(ROOT / "configs" / f"{case}.yaml")).budget
+    t0 = time.monotonic()
+    vals = runners[method](p, budget, seed, {})
+    return f"{case}/{method}/{seed}", {"values": [float(v) for v in vals],
+                                       "seconds": time.monotonic() - t0}
+
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--cases", default="single-F_max,single-E_max")
+    ap.add_argument("--seeds", default="1-16")
+    ap.add_argument("--methods", default="pysot,optuna-tpe,random")
+    ap.add_argument("--processes", type=int, default=2)
+    ap.add_argument("--out", default="paper-others.json")
+    ap.add_argument("--known", nargs="*", default=[], metavar="CASE=VALUE")
+    args = ap.parse_args(argv)
+    seeds = seeds_arg(args.seeds)
+    cases, methods = args.cases.split(","), args.methods.split(",")
+    for case in cases:
+        if case not in OBJECTIVE:
+            sys.exit(f"--cases: unknown case {case!r} (known: {', '.join(OBJECTIVE)})")
+    out = Path(args.out)
+    data = json.loads(out.read_text()) if out.exists() else {}
+    todo = [(c, m, s) for c in cases for m in methods for s in seeds if f"{c}/{m}/{s}" not in data]
+    with ProcessPoolExecutor(args.processes) as pool:
+        for key, rec in pool.map(one_run, todo):
+            data[key] = rec
+            tmp = out.with_suffix(".tmp")
+            tmp.write_text(json.dumps(data))
+            tmp.replace(out)   # a kill never leaves a half-written file
+            print(f"  {key}: " + (rec.get("skipped") or f"{min(rec['values']):.5g} "
+                                  f"({rec['seconds']:.0f} s)"), file=sys.stderr, flush=True)
+    known = {k: float(v) for k, _, v in (item.partition("=") for item in args.known)}
+    print("| case | method | seeds | median seed | worst seed | median regret | worst regret |")
+    print("|---|---|---|---|---|---|---|")
+    for case in cases:
+        p, ref_x = paper_problem(case)
+        f_ref = float(p(ref_x))
+        best = {m: {s: min(data[f"{case}/{m}/{s}"]["values"]) for s in seeds
+                    if "values" in data.get(f"{case}/{m}/{s}", {})} for m in methods}
+        f_best = min([known.get(case, np.inf)] + [v for b in best.values() for v in b.values()])
+        for m in methods:
+            if not best[m]:
+                continue
+            v = sorted(best[m].values())
+            r = [(x - f_best) / (f_ref - f_best) for x in v]
+            print(f"| {case} | {m} | {len(v)} | {statistics.median(v):.5g} | {v[-1]:.5g} "
+                  f"| {statistics.median(r):.3f} | {r[-1]:.3f} |")
+            print(f"<!-- {case} {m} regret per seed: "
+                  + " ".join(f"{(best[m][s] - f_best) / (f_ref - f_best):.3f}" for s in sorted(best[m]))
+                  + " -->")
+        print(f"<!-- {case}: reference {f_ref:.5g}, best known {f_best:.5g} -->")
+
+
+if __name__ == "__main__":
+    main()
