@@ -3,10 +3,11 @@
 Metric Stochastic Response Surface (Regis & Shoemaker) with DYCORS perturbations:
 
 * Step A: the given points, then an integer-aware Latin hypercube (``sampling``).
-* Step C: a cubic RBF with linear tail (``rbf``) on the evaluated points of the current
-  restart, in the unit box, fitted to the values or to median-capped ones (values above the
-  median replaced by the median, as in Regis & Shoemaker; pySOT 0.3.3 does not cap), whichever
-  leave-one-out cross-validation says ranks the better half of the points better.
+* Step C: a cubic RBF with linear tail (``rbf``) on the evaluated points (of the whole run,
+  or of the current restart only: ``restart_keeps_points``), in the unit box, fitted to the
+  values or to median-capped ones (values above the median replaced by the median, as in
+  Regis & Shoemaker; pySOT 0.3.3 does not cap), whichever leave-one-out cross-validation says
+  ranks the better half of the points better.
 * Steps D-E: candidates (DYCORS perturbations of the best point and, at the weights of
   ``local_weights``, a local mixed-integer search of the surrogate; uniform points only if
   ``n_uniform`` > 0, or when everything near the best point is taken), scored by the merit of
@@ -75,7 +76,8 @@ class Proposal:
 #      median capping, the local search at every weight of the cycle)
 #   3: pySOT-like DYCORS steps (see _default_settings), measured in benchmarks/RESULTS-optimiser.md
 #   4: with a composite surrogate generation 2's candidates again (_AUTO_SETTINGS)
-GENERATION = 4
+#   5: without a composite surrogate, a restart's surrogate fits every point of the run
+GENERATION = 5
 
 
 def generation_settings(space: DesignSpace, generation: int) -> dict:
@@ -83,11 +85,14 @@ def generation_settings(space: DesignSpace, generation: int) -> dict:
     the defaults of GENERATION)."""
     if generation == GENERATION:
         return {}
+    if generation == 4:
+        return dict(_BEFORE_GENERATION_5)
     if generation == 3:
-        return {"perturbation": "truncnorm", "probability_schedule": "run", "local_weights": [0.95]}
+        return {"perturbation": "truncnorm", "probability_schedule": "run", "local_weights": [0.95],
+                **_BEFORE_GENERATION_5}
     if generation not in (1, 2):
         raise ValueError(f"unknown optimiser generation {generation!r} (known: 1 to {GENERATION})")
-    old = dict(_BEFORE_GENERATION_3)
+    old = {**_BEFORE_GENERATION_3, **_BEFORE_GENERATION_5}
     if generation == 1:
         old["n_uniform"] = min(1000, 10 * space.dim)
     return old
@@ -98,6 +103,8 @@ def generation_settings(space: DesignSpace, generation: int) -> dict:
 _BEFORE_GENERATION_3 = {"perturbation": "reflect", "probability_schedule": "restart",
                         "capping": True, "n_branches": 3, "local_weights": None}
 _ADDED_IN_GENERATION_3 = ("perturbation", "probability_schedule", "local_weights")
+# The same for generation 5 (the key exists since before generation 3, always False then).
+_BEFORE_GENERATION_5 = {"restart_keeps_points": False}
 
 
 def _default_settings(space: DesignSpace) -> dict:
@@ -139,7 +146,11 @@ def _default_settings(space: DesignSpace) -> dict:
         "dist_tol": 1e-3,                  # duplicate radius (unit box, times sqrt(d_cont))
         "composite": False,                # one RBF per told output, scored by the aggregate
         "composite_capping": True,         # median-cap each output before fitting (composite)
-        "restart_keeps_points": False,     # a restart's surrogate also fits earlier restarts' points
+        # A restart's surrogate also fits the earlier restarts' points (the perturbations still
+        # centre on the restart's own best point). "auto": yes without a composite surrogate
+        # (measured on the broad benchmark and the paper's F_max), no with one (it broke the
+        # paper's moo case; benchmarks/RESULTS-optimiser.md).
+        "restart_keeps_points": "auto",
         "clip_to_bounds": False,           # a step past a bound stops on it (else: reflected)
     }
 
@@ -202,6 +213,8 @@ class Strategy:
             raise ValueError("perturbation must be 'truncnorm', 'reflect' or 'auto'")
         if self.settings["probability_schedule"] not in ("run", "restart", "auto"):
             raise ValueError("probability_schedule must be 'run', 'restart' or 'auto'")
+        if self.settings["restart_keeps_points"] not in (True, False, "auto"):
+            raise ValueError("restart_keeps_points must be True, False or 'auto'")
         if not self.settings["weights"] or not all(0.0 <= w <= 1.0 for w in self.settings["weights"]):
             raise ValueError("weights must be a non-empty list of numbers in [0, 1]")
         self._steps = self._candidate_settings(composite=False)  # set again by each _select
@@ -338,7 +351,7 @@ class Strategy:
             ib = min(range(len(ok)), key=lambda i: (ok[i]["value"], ok[i]["id"]))
             ctx.best = ok[ib]["x"]
             ctx.starts = self._global_starts(ok, ib)
-        if self.settings["restart_keeps_points"] and ok:
+        if self._keeps_points() and ok:
             ok = sorted((r for r in recs if r["status"] == "ok"), key=lambda r: r["id"])
         if len(ok) >= 2:
             X = sp.to_unit(np.array([r["x"] for r in ok]))
@@ -355,6 +368,14 @@ class Strategy:
                     ctx.rbf = self._rbf.fit(X, f)
             ctx.local_search = self._local_search  # run when first needed (no RNG use)
         return ctx
+
+    def _keeps_points(self) -> bool:
+        """restart_keeps_points, "auto" resolved: every point unless a composite surrogate is
+        set up (the setting on and an aggregate given)."""
+        keep = self.settings["restart_keeps_points"]
+        if keep == "auto":
+            return not (self.settings["composite"] and self._aggregate is not None)
+        return bool(keep)
 
     @staticmethod
     def _capping_helps(plain: CubicRBF, f: np.ndarray) -> bool:
@@ -709,7 +730,8 @@ class Strategy:
         if d.get("version") != STATE_VERSION:
             raise ValueError(f"unsupported strategy state version {d.get('version')}")
         s = cls.__new__(cls)
-        settings = {**{k: _BEFORE_GENERATION_3[k] for k in _ADDED_IN_GENERATION_3}, **d["settings"]}
+        settings = {**{k: _BEFORE_GENERATION_3[k] for k in _ADDED_IN_GENERATION_3},
+                    **_BEFORE_GENERATION_5, **d["settings"]}
         s._setup(DesignSpace.from_dict(d["space"]), int(d["budget"]), int(d["n_initial"]),
                  d["seed"], settings)
         bg = getattr(np.random, d["rng"]["bit_generator"])()

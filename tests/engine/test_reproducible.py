@@ -13,6 +13,7 @@ from lccopt.case import load_case
 from lccopt.engine.journal import JournalError, read_journal
 from lccopt.engine.rundir import RunDir
 from lccopt.engine.runner import optimise, restore, resume
+from lccopt.optim.strategy import GENERATION
 from lccopt.problem import Problem
 
 from .conftest import FAKE, REAL, assert_same_evaluations, cli_run, read_table, write_case
@@ -161,7 +162,7 @@ def test_a_run_of_optimiser_generation_2_resumes_with_its_own_steps(tmp_path, mo
     case = write_case(tmp_path, "gen2", objectives=("F_max",), budget=30, initial=6, seed=4)
     pb = Problem.from_case(load_case(case))
     new = optimise(case, workers=1, runs=tmp_path / "new", evaluator=FAKE, progress=False)
-    assert _events(new)[0]["optimiser"] == 4
+    assert _events(new)[0]["optimiser"] == GENERATION
     old = _older_run(monkeypatch, case, tmp_path / "old", 2, keys=("optimiser",))
     assert _asked(old) != _asked(new), "the two generations should propose differently here"
     replayed, table = restore(pb, _events(old), None)     # no JournalError: the same proposals
@@ -179,7 +180,7 @@ def test_a_multi_objective_run_of_optimiser_generation_3_resumes_with_its_local_
     case = write_case(tmp_path, "gen3", budget=30, initial=6, seed=4)
     pb = Problem.from_case(load_case(case))
     new = optimise(case, workers=1, runs=tmp_path / "new", evaluator=FAKE, progress=False)
-    assert _events(new)[0]["optimiser"] == 4
+    assert _events(new)[0]["optimiser"] == GENERATION
     old = _older_run(monkeypatch, case, tmp_path / "old", 3, written={"optimiser": 3})
     assert _asked(old) != _asked(new), "the two generations should propose differently here"
     replayed, table = restore(pb, _events(old), None)     # no JournalError: the same proposals

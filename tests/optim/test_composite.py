@@ -155,3 +155,22 @@ def test_with_the_composite_surrogate_the_local_search_competes_at_every_weight(
     assert all(g <= (60 - 10) / 4 + 1 for g in greedy)   # at most one proposal in four
     with pytest.raises(ValueError, match="local_weights"):
         Strategy(SPACE, composite=True, local_weights="all")
+
+
+def test_with_the_composite_surrogate_a_restart_fits_its_own_points_only():
+    """restart_keeps_points "auto" (generation 5): every point of the run with a scalar
+    surrogate, the restart's own with a composite one (keeping them broke the paper's moo
+    case's worst seed, benchmarks/RESULTS-optimiser.md)."""
+    s = make(2, fail_tol=1, sigma_min=0.05)
+    while s.restart == 0 or s._queue:  # into the second restart's adaptive phase
+        assert not s.done
+        drive(s, 1)
+    ctx = s._prepare()
+    own = [r for r in s.history if r["status"] == "ok" and r["restart"] == s.restart]
+    assert len(own) < s.n_told
+    assert all(len(rb.X) == len(own) for rb in ctx.rbf.rbfs)
+    kept = make(2, fail_tol=1, sigma_min=0.05, restart_keeps_points=True)
+    while kept.restart == 0 or kept._queue:
+        assert not kept.done
+        drive(kept, 1)
+    assert all(len(rb.X) == kept.n_told for rb in kept._prepare().rbf.rbfs)
