@@ -148,8 +148,8 @@ def _default_settings(space: DesignSpace) -> dict:
         "composite_capping": True,         # median-cap each output before fitting (composite)
         # A restart's surrogate also fits the earlier restarts' points (the perturbations still
         # centre on the restart's own best point). "auto": yes without a composite surrogate
-        # (measured on the broad benchmark and the paper's F_max), no with one (it broke the
-        # paper's moo case; benchmarks/RESULTS-optimiser.md).
+        # (measured on the broad benchmark and the paper's F_max), no with one (a trade on the
+        # paper's moo and E_max cases; benchmarks/RESULTS-optimiser.md).
         "restart_keeps_points": "auto",
         "clip_to_bounds": False,           # a step past a bound stops on it (else: reflected)
     }
