@@ -20,6 +20,7 @@ lccopt's own runs of the same cases come from benchmarks/paper_seeds.py.
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import os
 import statistics
@@ -48,8 +49,8 @@ from lccopt.vti.simulate import evaluate  # noqa: E402
 OBJECTIVE = {"single-F_max": "F_max", "single-E_max": "E_max"}
 
 
-def paper_problem(case: str) -> tuple[BenchProblem, np.ndarray]:
-    """The case as a benchmark problem (no given points) and its reference design."""
+def paper_problem(case: str) -> tuple[BenchProblem, np.ndarray, int]:
+    """The case as a benchmark problem (no given points), its reference design and budget."""
     model = load_case(ROOT / "configs" / f"{case}.yaml")
     p = Problem.from_case(model)
     key = OBJECTIVE[case]
@@ -59,18 +60,24 @@ def paper_problem(case: str) -> tuple[BenchProblem, np.ndarray]:
     def fun(X):
         return np.array([evaluate(model, np.asarray(x, dtype=float)).objectives[key] for x in X])
 
-    return BenchProblem(case, space, fun, float("nan"), np.full(p.dim, np.nan)), np.array(p.reference)
+    return (BenchProblem(case, space, fun, float("nan"), np.full(p.dim, np.nan)),
+            np.array(p.reference), p.budget)
+
+
+@functools.cache
+def runners(method: str) -> tuple[dict, dict]:
+    """load_methods once per worker process (it smoke-tests each method)."""
+    return bench.load_methods([method])
 
 
 def one_run(task: tuple[str, str, int]) -> tuple[str, dict]:
     case, method, seed = task
-    runners, notes = bench.load_methods([method])
-    if method not in runners:
+    found, notes = runners(method)
+    if method not in found:
         return f"{case}/{method}/{seed}", {"skipped": notes[method]}
-    p, _ = paper_problem(case)
-    budget = Problem.from_case(load_case(ROOT / "configs" / f"{case}.yaml")).budget
+    p, _, budget = paper_problem(case)
     t0 = time.monotonic()
-    vals = runners[method](p, budget, seed, {})
+    vals = found[method](p, budget, seed, {})
     return f"{case}/{method}/{seed}", {"values": [float(v) for v in vals],
                                        "seconds": time.monotonic() - t0}
 
@@ -104,7 +111,7 @@ def main(argv=None) -> None:
     print("| case | method | seeds | median seed | worst seed | median regret | worst regret |")
     print("|---|---|---|---|---|---|---|")
     for case in cases:
-        p, ref_x = paper_problem(case)
+        p, ref_x, _ = paper_problem(case)
         f_ref = float(p(ref_x))
         best = {m: {s: min(data[f"{case}/{m}/{s}"]["values"]) for s in seeds
                     if "values" in data.get(f"{case}/{m}/{s}", {})} for m in methods}

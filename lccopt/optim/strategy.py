@@ -147,9 +147,7 @@ def _default_settings(space: DesignSpace) -> dict:
         "composite": False,                # one RBF per told output, scored by the aggregate
         "composite_capping": True,         # median-cap each output before fitting (composite)
         # A restart's surrogate also fits the earlier restarts' points (the perturbations still
-        # centre on the restart's own best point). "auto": yes without a composite surrogate
-        # (measured on the broad benchmark and the paper's F_max), no with one (a trade on the
-        # paper's moo and E_max cases; benchmarks/RESULTS-optimiser.md).
+        # centre on the restart's own best point). "auto": see _AUTO_SETTINGS.
         "restart_keeps_points": "auto",
         "clip_to_bounds": False,           # a step past a bound stops on it (else: reflected)
     }
@@ -160,12 +158,18 @@ def _default_settings(space: DesignSpace) -> dict:
 # chosen on the broad benchmark of 22 functions); with a composite one, whose aggregate of
 # smooth fits is a better model of the kinked value, generation 2's reflected steps, per-restart
 # schedule and local search at every weight (better on the paper's E_max and ASF cases over
-# 16 seeds; benchmarks/RESULTS-optimiser.md).
+# 16 seeds; benchmarks/RESULTS-optimiser.md). A restart's surrogate keeps the run's points
+# with a scalar surrogate (generation 5: better on the broad benchmark and the paper's F_max),
+# not with a composite one (a trade on the paper's moo and E_max cases). The candidate
+# settings follow the surrogate a proposal is scored with; restart_keeps_points, which decides
+# what is fitted, follows whether a composite surrogate is set up (``_keeps_points``).
 _AUTO_SETTINGS = {
-    "scalar": {"perturbation": "truncnorm", "probability_schedule": "run", "local_weights": "greedy"},
-    "composite": {"perturbation": "reflect", "probability_schedule": "restart", "local_weights": None},
+    "scalar": {"perturbation": "truncnorm", "probability_schedule": "run", "local_weights": "greedy",
+               "restart_keeps_points": True},
+    "composite": {"perturbation": "reflect", "probability_schedule": "restart", "local_weights": None,
+                  "restart_keeps_points": False},
 }
-_AUTO_KEYS = ("perturbation", "probability_schedule", "local_weights")
+_AUTO_KEYS = ("perturbation", "probability_schedule", "local_weights", "restart_keeps_points")
 
 
 class Strategy:
@@ -370,12 +374,11 @@ class Strategy:
         return ctx
 
     def _keeps_points(self) -> bool:
-        """restart_keeps_points, "auto" resolved: every point unless a composite surrogate is
-        set up (the setting on and an aggregate given)."""
-        keep = self.settings["restart_keeps_points"]
-        if keep == "auto":
-            return not (self.settings["composite"] and self._aggregate is not None)
-        return bool(keep)
+        """restart_keeps_points, "auto" resolved (_AUTO_SETTINGS) by whether a composite
+        surrogate is set up (the setting on and an aggregate given): it decides which points
+        are fitted, so it is known before the surrogate is."""
+        composite = bool(self.settings["composite"] and self._aggregate is not None)
+        return bool(self._candidate_settings(composite)["restart_keeps_points"])
 
     @staticmethod
     def _capping_helps(plain: CubicRBF, f: np.ndarray) -> bool:
@@ -488,8 +491,8 @@ class Strategy:
         return C[i].copy(), src[i]
 
     def _candidate_settings(self, composite: bool) -> dict:
-        """perturbation, probability_schedule and local_weights, "auto" resolved by the
-        surrogate in use (_AUTO_SETTINGS)."""
+        """The settings of _AUTO_KEYS, "auto" resolved for a scalar or composite surrogate
+        (_AUTO_SETTINGS)."""
         auto = _AUTO_SETTINGS["composite" if composite else "scalar"]
         out = {k: auto[k] if self.settings[k] == "auto" else self.settings[k] for k in _AUTO_KEYS}
         if out["local_weights"] == "greedy":
