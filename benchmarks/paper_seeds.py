@@ -2,6 +2,7 @@
 
     python benchmarks/paper_seeds.py [--seeds 1-8] [--cases single-F_max,single-E_max,moo]
                                      [--workers 2] [--runs bench-runs/paper-seeds] [--long 0]
+                                     [--set KEY=VALUE ...]
 
 For each case (configs/<case>.yaml: single-F_max and single-E_max with 200 evaluations, moo
 with 400) and each seed, runs ``lccopt optimise`` on a copy of the case with that seed into
@@ -9,7 +10,8 @@ with 400) and each seed, runs ``lccopt optimise`` on a copy of the case with tha
 can be stopped and started again). ``--long N`` adds one run of each case with N evaluations
 (seed 1000) that only serves to find a better best-known value; ``--known CASE=VALUE`` gives a
 better value found elsewhere (benchmarks/paper_best_known.py re-evaluates the best designs of
-any runs, e.g. of an earlier model or version, on the current model).
+any runs, e.g. of an earlier model or version, on the current model). ``--set`` runs a variant
+of the optimiser (Strategy settings changed, benchmarks/variant_cli.py) into its own --runs.
 
 Per case it prints the reference design's value, the best-known value (the best over all runs,
 the long one included), the median and worst seed, and each seed's regret ratio
@@ -43,7 +45,8 @@ def seeds_arg(text: str) -> list[int]:
     return out
 
 
-def run_one(case: str, seed: int, runs: Path, workers: int, budget: int | None = None) -> Path:
+def run_one(case: str, seed: int, runs: Path, workers: int, budget: int | None = None,
+            settings: list[str] = ()) -> Path:
     """Optimise configs/CASE.yaml with SEED into RUNS/<name>; reuse or resume what is there."""
     name = f"{case}-s{seed}" + (f"-b{budget}" if budget else "")
     run = runs / name
@@ -56,6 +59,9 @@ def run_one(case: str, seed: int, runs: Path, workers: int, budget: int | None =
     path.write_text(text)
     env = {**os.environ, "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
     exe = [sys.executable, "-m", "lccopt.cli"]
+    if settings:  # a variant of the optimiser, through the same engine
+        exe = [sys.executable, str(ROOT / "benchmarks" / "variant_cli.py")]
+        exe += [a for kv in settings for a in ("--set", kv)] + ["--"]
     if (run / "journal.jsonl").exists():
         cmd = exe + ["resume", str(run), "--workers", str(workers), "--case", str(path)]
     else:
@@ -92,14 +98,16 @@ def main() -> None:
     ap.add_argument("--long", type=int, default=0, help="budget of one extra long run per case (0: none)")
     ap.add_argument("--known", nargs="*", default=[], metavar="CASE=VALUE",
                     help="best-known values found elsewhere (benchmarks/paper_best_known.py)")
+    ap.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE",
+                    help="override a Strategy setting (benchmarks/variant_cli.py); use its own --runs")
     args = ap.parse_args()
     known = {k: float(v) for k, _, v in (item.partition("=") for item in args.known)}
     runs = Path(args.runs)
     seeds = seeds_arg(args.seeds)
     rows = []
     for case in args.cases.split(","):
-        results = {s: run_values(run_one(case, s, runs, args.workers)) for s in seeds}
-        long = run_values(run_one(case, 1000, runs, args.workers, args.long)) if args.long else None
+        results = {s: run_values(run_one(case, s, runs, args.workers, settings=args.set)) for s in seeds}
+        long = run_values(run_one(case, 1000, runs, args.workers, args.long, args.set)) if args.long else None
         f_ref = results[seeds[0]]["reference"]
         f_best = min([r["best"] for r in results.values()] + ([long["best"]] if long else [])
                      + ([known[case]] if case in known else []))

@@ -214,6 +214,11 @@ def sleeper_energy_spread(F) -> np.ndarray:
     return F.max(axis=1) - F.min(axis=1)
 
 
+# A lower energy can raise the spread as much as a higher one: the composite surrogate must
+# not median-cap the energies (Strategy.set_aggregate; measured in benchmarks/RESULTS-optimiser.md).
+sleeper_energy_spread.increasing = False
+
+
 def combine_conditions(per_condition: list[dict], names, weights, mode: str) -> dict:
     """See :meth:`Problem.combine`."""
     out: dict[str, float] = {}

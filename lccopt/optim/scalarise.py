@@ -44,6 +44,10 @@ class ASF:
     """``asf`` with fixed reference point, worst values and rho, as an aggregate F -> values
     (for a composite surrogate); compares equal to another with the same parameters."""
 
+    # Never decreases when an objective grows (kappa_i > 0, rho >= 0), so a composite
+    # surrogate may median-cap the objectives it fits (Strategy.set_aggregate).
+    increasing = True
+
     def __init__(self, ref_point, worst, rho: float = 0.05):
         self.ref_point = [float(v) for v in ref_point]
         self.worst = [float(v) for v in worst]

@@ -22,7 +22,8 @@ Metric Stochastic Response Surface (Regis & Shoemaker) with DYCORS perturbations
 Composite surrogate (setting ``composite``): when the minimised value is an aggregate of
 several outputs (e.g. a scalarising function of objectives), ``tell`` may also be given the
 output vector, and ``set_aggregate`` the function ``aggregate(F (n, k)) -> (n,)``. Then one
-cubic RBF is fitted per output (median-capped per output if ``composite_capping``) and the
+cubic RBF is fitted per output (median-capped per output if ``composite_capping``; "auto":
+only when the aggregate says it is increasing in every output, see ``set_aggregate``) and the
 candidates and the local search are scored by ``aggregate(predicted outputs)`` instead of an
 RBF of the (possibly kinked) scalar value. Success/failure counting and the best point stay on
 the told scalar value. The told outputs are part of the state; the aggregate function is not
@@ -77,7 +78,9 @@ class Proposal:
 #   3: pySOT-like DYCORS steps (see _default_settings), measured in benchmarks/RESULTS-optimiser.md
 #   4: with a composite surrogate generation 2's candidates again (_AUTO_SETTINGS)
 #   5: without a composite surrogate, a restart's surrogate fits every point of the run
-GENERATION = 5
+#   6: a composite surrogate median-caps its outputs only when the aggregate is increasing in
+#      each of them (the ASF: yes, unchanged; E_max's max - min of sleeper energies: no)
+GENERATION = 6
 
 
 def generation_settings(space: DesignSpace, generation: int) -> dict:
@@ -85,14 +88,16 @@ def generation_settings(space: DesignSpace, generation: int) -> dict:
     the defaults of GENERATION)."""
     if generation == GENERATION:
         return {}
+    if generation == 5:
+        return dict(_BEFORE_GENERATION_6)
     if generation == 4:
-        return dict(_BEFORE_GENERATION_5)
+        return {**_BEFORE_GENERATION_5, **_BEFORE_GENERATION_6}
     if generation == 3:
         return {"perturbation": "truncnorm", "probability_schedule": "run", "local_weights": [0.95],
-                **_BEFORE_GENERATION_5}
+                **_BEFORE_GENERATION_5, **_BEFORE_GENERATION_6}
     if generation not in (1, 2):
         raise ValueError(f"unknown optimiser generation {generation!r} (known: 1 to {GENERATION})")
-    old = {**_BEFORE_GENERATION_3, **_BEFORE_GENERATION_5}
+    old = {**_BEFORE_GENERATION_3, **_BEFORE_GENERATION_5, **_BEFORE_GENERATION_6}
     if generation == 1:
         old["n_uniform"] = min(1000, 10 * space.dim)
     return old
@@ -105,6 +110,8 @@ _BEFORE_GENERATION_3 = {"perturbation": "reflect", "probability_schedule": "rest
 _ADDED_IN_GENERATION_3 = ("perturbation", "probability_schedule", "local_weights")
 # The same for generation 5 (the key exists since before generation 3, always False then).
 _BEFORE_GENERATION_5 = {"restart_keeps_points": False}
+# And for generation 6 (a saved state always holds this key: it existed since generation 1).
+_BEFORE_GENERATION_6 = {"composite_capping": True}
 
 
 def _default_settings(space: DesignSpace) -> dict:
@@ -145,7 +152,10 @@ def _default_settings(space: DesignSpace) -> dict:
         "probability_schedule": "auto",
         "dist_tol": 1e-3,                  # duplicate radius (unit box, times sqrt(d_cont))
         "composite": False,                # one RBF per told output, scored by the aggregate
-        "composite_capping": True,         # median-cap each output before fitting (composite)
+        # Median-cap each output before fitting (composite), or "auto": only when the aggregate
+        # is increasing in every output (``set_aggregate``): capping a high value that the
+        # aggregate rewards elsewhere (a spread max - min) hides what the surrogate must see.
+        "composite_capping": "auto",
         # A restart's surrogate also fits the earlier restarts' points (the perturbations still
         # centre on the restart's own best point). "auto": see _AUTO_SETTINGS.
         "restart_keeps_points": "auto",
@@ -219,6 +229,8 @@ class Strategy:
             raise ValueError("probability_schedule must be 'run', 'restart' or 'auto'")
         if self.settings["restart_keeps_points"] not in (True, False, "auto"):
             raise ValueError("restart_keeps_points must be True, False or 'auto'")
+        if self.settings["composite_capping"] not in (True, False, "auto"):
+            raise ValueError("composite_capping must be True, False or 'auto'")
         if not self.settings["weights"] or not all(0.0 <= w <= 1.0 for w in self.settings["weights"]):
             raise ValueError("weights must be a non-empty list of numbers in [0, 1]")
         self._steps = self._candidate_settings(composite=False)  # set again by each _select
@@ -247,6 +259,9 @@ class Strategy:
     def set_aggregate(self, aggregate) -> None:
         """The function that maps output vectors F (n, k) to the scalar values (n,), or None.
 
+        An aggregate with a true attribute ``increasing`` says it never decreases when an
+        output grows (a scalarising function of objectives to minimise): its outputs may then
+        be median-capped (``composite_capping`` "auto"); without it they are fitted as told.
         Not part of the state: whoever restores a strategy sets it again (it must be the same
         deterministic function for a resumed run to propose the same points)."""
         if aggregate is not None and not callable(aggregate):
@@ -436,7 +451,10 @@ class Strategy:
         F = np.array(outs, dtype=float)
         if not np.all(np.isfinite(F)):
             return None
-        if self.settings["composite_capping"]:
+        cap = self.settings["composite_capping"]
+        if cap == "auto":
+            cap = bool(getattr(self._aggregate, "increasing", False))
+        if cap:
             F = np.minimum(F, np.median(F, axis=0)[None, :])
         while len(self._rbfs) < F.shape[1]:
             self._rbfs.append(CubicRBF())

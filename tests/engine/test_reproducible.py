@@ -191,6 +191,25 @@ def test_a_multi_objective_run_of_optimiser_generation_3_resumes_with_its_local_
     assert len(read_table(old)["id"]) == 34
 
 
+def test_an_e_max_run_of_optimiser_generation_5_resumes_with_its_capped_sleeper_energies(tmp_path, monkeypatch):
+    """Generation 6 fits E_max's sleeper energies as told (their max - min is not increasing in
+    each energy, so median capping would hide the high ones); an E_max run of generation 5
+    (journal: "optimiser": 5) is replayed and carried on with the energies median-capped."""
+    case = write_case(tmp_path, "gen5", objectives=("E_max",), budget=30, initial=6, seed=4)
+    pb = Problem.from_case(load_case(case))
+    assert pb.surrogate == "sleeper-energies"
+    new = optimise(case, workers=1, runs=tmp_path / "new", evaluator=FAKE, progress=False)
+    assert _events(new)[0]["optimiser"] == GENERATION == 6
+    old = _older_run(monkeypatch, case, tmp_path / "old", 5, written={"optimiser": 5})
+    assert _asked(old) != _asked(new), "the two generations should propose differently here"
+    replayed, table = restore(pb, _events(old), None)     # no JournalError: the same proposals
+    assert replayed.done and table.n_done == 30
+    assert replayed.settings["composite_capping"] is True
+    case.write_text(case.read_text().replace("budget: 30", "budget: 34"))
+    resume(old, workers=1, allow_changed_case=True, evaluator=FAKE, progress=False)
+    assert len(read_table(old)["id"]) == 34
+
+
 @pytest.mark.parametrize("value", [99, 0, "3", None])
 def test_a_journal_of_an_unknown_optimiser_generation_is_refused(tmp_path, value):
     case = write_case(tmp_path, "future", objectives=("F_max",), budget=6, initial=4, seed=1)
