@@ -40,9 +40,10 @@ def main(argv: list[str]) -> int:
     settings = parse_settings(sets)
 
     from lccopt.optim import strategy
+    from lccopt.optim.space import DesignSpace
 
     defaults = strategy._default_settings
-    unknown = set(settings) - set(defaults(_Space()))
+    unknown = set(settings) - set(defaults(DesignSpace(["x"], [0.0], [1.0], [False])))
     if unknown:
         raise SystemExit(f"unknown Strategy settings: {sorted(unknown)}")
 
@@ -53,11 +54,6 @@ def main(argv: list[str]) -> int:
     from lccopt.cli import main as cli_main
 
     return cli_main(argv[cut + 1:])
-
-
-class _Space:
-    """Enough of a DesignSpace for _default_settings to list its keys."""
-    dim = 8
 
 
 if __name__ == "__main__":
