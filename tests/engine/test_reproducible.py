@@ -114,6 +114,18 @@ def _older_run(monkeypatch, case, runs, old_generation, old_composite=None, keys
     return run
 
 
+def _replays_and_carries_on(pb, case, old, budget: int, more: int = 4):
+    """The older run's journal replays (no JournalError: the optimiser proposes what it
+    proposed) to the end, and a resume with ``more`` evaluations of budget carries it on.
+    Returns the replayed optimiser."""
+    replayed, table = restore(pb, _events(old), None)
+    assert replayed.done and table.n_done == budget
+    case.write_text(case.read_text().replace(f"budget: {budget}", f"budget: {budget + more}"))
+    resume(old, workers=1, allow_changed_case=True, evaluator=FAKE, progress=False)
+    assert len(read_table(old)["id"]) == budget + more
+    return replayed
+
+
 def test_a_multi_objective_run_of_before_the_composite_surrogate_resumes_with_its_own(tmp_path, monkeypatch):
     """The journal's first line names the surrogate; a run of an older lccopt (no such key)
     was proposed by the scalar surrogate and is replayed and carried on with it."""
@@ -125,14 +137,9 @@ def test_a_multi_objective_run_of_before_the_composite_surrogate_resumes_with_it
     # the older lccopt: the scalar surrogate, and no key in the journal
     old = _older_run(monkeypatch, case, tmp_path / "old", 1, old_composite=False,
                      keys=("surrogate", "candidates", "optimiser"))
-    events = _events(old)
-    replayed, table = restore(pb, events, None)          # no JournalError: the same proposals
-    assert replayed.done and table.n_done == 12
     assert _asked(old) != _asked(new), "the two surrogates should propose differently here"
-    # and carried on with more budget, it stays the scalar surrogate
-    case.write_text(case.read_text().replace("budget: 12", "budget: 16"))
-    resume(old, workers=1, allow_changed_case=True, evaluator=FAKE, progress=False)
-    assert len(read_table(old)["id"]) == 16
+    # replayed, and carried on with more budget, it stays the scalar surrogate
+    _replays_and_carries_on(pb, case, old, 12)
 
 
 def test_a_run_of_before_dycors_only_candidates_resumes_with_its_uniform_candidates(tmp_path, monkeypatch):
@@ -146,12 +153,8 @@ def test_a_run_of_before_dycors_only_candidates_resumes_with_its_uniform_candida
     old = _older_run(monkeypatch, case, tmp_path / "old", 1, keys=("candidates", "optimiser"))
     assert any(p == "random" for _, _, p, _ in _asked(old)), "the old run drew uniform candidates"
     assert not any(p == "random" for _, _, p, _ in _asked(new))
-    replayed, table = restore(pb, _events(old), None)     # no JournalError: the same proposals
-    assert replayed.done and table.n_done == 14
+    replayed = _replays_and_carries_on(pb, case, old, 14)
     assert replayed.settings["n_uniform"] > 0
-    case.write_text(case.read_text().replace("budget: 14", "budget: 18"))
-    resume(old, workers=1, allow_changed_case=True, evaluator=FAKE, progress=False)
-    assert len(read_table(old)["id"]) == 18
 
 
 def test_a_run_of_optimiser_generation_2_resumes_with_its_own_steps(tmp_path, monkeypatch):
@@ -165,12 +168,8 @@ def test_a_run_of_optimiser_generation_2_resumes_with_its_own_steps(tmp_path, mo
     assert _events(new)[0]["optimiser"] == GENERATION
     old = _older_run(monkeypatch, case, tmp_path / "old", 2, keys=("optimiser",))
     assert _asked(old) != _asked(new), "the two generations should propose differently here"
-    replayed, table = restore(pb, _events(old), None)     # no JournalError: the same proposals
-    assert replayed.done and table.n_done == 30
+    replayed = _replays_and_carries_on(pb, case, old, 30)
     assert replayed.settings["perturbation"] == "reflect"
-    case.write_text(case.read_text().replace("budget: 30", "budget: 34"))
-    resume(old, workers=1, allow_changed_case=True, evaluator=FAKE, progress=False)
-    assert len(read_table(old)["id"]) == 34
 
 
 def test_a_multi_objective_run_of_optimiser_generation_3_resumes_with_its_local_search(tmp_path, monkeypatch):
@@ -183,12 +182,8 @@ def test_a_multi_objective_run_of_optimiser_generation_3_resumes_with_its_local_
     assert _events(new)[0]["optimiser"] == GENERATION
     old = _older_run(monkeypatch, case, tmp_path / "old", 3, written={"optimiser": 3})
     assert _asked(old) != _asked(new), "the two generations should propose differently here"
-    replayed, table = restore(pb, _events(old), None)     # no JournalError: the same proposals
-    assert replayed.done and table.n_done == 30
+    replayed = _replays_and_carries_on(pb, case, old, 30)
     assert replayed.settings["local_weights"] == [0.95]
-    case.write_text(case.read_text().replace("budget: 30", "budget: 34"))
-    resume(old, workers=1, allow_changed_case=True, evaluator=FAKE, progress=False)
-    assert len(read_table(old)["id"]) == 34
 
 
 def test_an_e_max_run_of_optimiser_generation_5_resumes_with_its_capped_sleeper_energies(tmp_path, monkeypatch):
@@ -202,12 +197,8 @@ def test_an_e_max_run_of_optimiser_generation_5_resumes_with_its_capped_sleeper_
     assert _events(new)[0]["optimiser"] == GENERATION
     old = _older_run(monkeypatch, case, tmp_path / "old", 5, written={"optimiser": 5})
     assert _asked(old) != _asked(new), "the two generations should propose differently here"
-    replayed, table = restore(pb, _events(old), None)     # no JournalError: the same proposals
-    assert replayed.done and table.n_done == 30
+    replayed = _replays_and_carries_on(pb, case, old, 30)
     assert replayed.settings["composite_capping"] is True
-    case.write_text(case.read_text().replace("budget: 30", "budget: 34"))
-    resume(old, workers=1, allow_changed_case=True, evaluator=FAKE, progress=False)
-    assert len(read_table(old)["id"]) == 34
 
 
 @pytest.mark.parametrize("value", [99, 0, "3", None])
