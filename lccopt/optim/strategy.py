@@ -85,22 +85,15 @@ GENERATION = 6
 
 def generation_settings(space: DesignSpace, generation: int) -> dict:
     """Settings that make Strategy propose as the optimiser of ``generation`` did (on top of
-    the defaults of GENERATION)."""
-    if generation == GENERATION:
-        return {}
-    if generation == 5:
-        return dict(_BEFORE_GENERATION_6)
-    if generation == 4:
-        return {**_BEFORE_GENERATION_5, **_BEFORE_GENERATION_6}
-    if generation == 3:
-        return {"perturbation": "truncnorm", "probability_schedule": "run", "local_weights": [0.95],
-                **_BEFORE_GENERATION_5, **_BEFORE_GENERATION_6}
-    if generation not in (1, 2):
+    the defaults of GENERATION): what each later generation changed, undone newest first."""
+    if not (isinstance(generation, int) and 1 <= generation <= GENERATION):
         raise ValueError(f"unknown optimiser generation {generation!r} (known: 1 to {GENERATION})")
-    old = {**_BEFORE_GENERATION_3, **_BEFORE_GENERATION_5, **_BEFORE_GENERATION_6}
+    out: dict = {}
+    for g in range(GENERATION, generation, -1):
+        out.update(_BEFORE_GENERATION[g])
     if generation == 1:
-        old["n_uniform"] = min(1000, 10 * space.dim)
-    return old
+        out["n_uniform"] = min(1000, 10 * space.dim)
+    return out
 
 
 # What the settings added or changed by generation 3 were before it (also what a saved state
@@ -110,8 +103,16 @@ _BEFORE_GENERATION_3 = {"perturbation": "reflect", "probability_schedule": "rest
 _ADDED_IN_GENERATION_3 = ("perturbation", "probability_schedule", "local_weights")
 # The same for generation 5 (the key exists since before generation 3, always False then).
 _BEFORE_GENERATION_5 = {"restart_keeps_points": False}
-# And for generation 6 (a saved state always holds this key: it existed since generation 1).
-_BEFORE_GENERATION_6 = {"composite_capping": True}
+# Each generation's settings before it (generation 2's, uniform candidates, depend on the space:
+# generation_settings). Generation 4 made the candidate settings "auto"; before, generation 3's
+# held with either surrogate. Generation 6's key is in every saved state (it dates from 1).
+_BEFORE_GENERATION = {
+    2: {},
+    3: _BEFORE_GENERATION_3,
+    4: {"perturbation": "truncnorm", "probability_schedule": "run", "local_weights": [0.95]},
+    5: _BEFORE_GENERATION_5,
+    6: {"composite_capping": True},
+}
 
 
 def _default_settings(space: DesignSpace) -> dict:
