@@ -29,11 +29,13 @@ lccopt median <= best other median.
     python benchmarks/optimiser.py --quick --problems gear ackley8 --out q.json
     python benchmarks/optimiser.py --methods optuna-gp --seeds 5 --budgets 100 200 --resume --out r.json
     python benchmarks/optimiser.py --report-only --out r.json          # tables from the JSON
+    python benchmarks/optimiser.py --merge a.json b.json --out r.json  # parts run side by side
     python benchmarks/optimiser.py --timing                           # lccopt ask(1) time only
 
 With --resume, runs already in the --out JSON (same problem, method, seed, at least as many
 evaluations) are reused, so a long benchmark can be run in parts; the tables always cover
-every stored run of the selected problems and methods.
+every stored run of the selected problems and methods. Parts run at the same time must write
+to files of their own (each rewrites its --out whole); --merge then gathers them into --out.
 """
 
 from __future__ import annotations
@@ -239,6 +241,25 @@ def record(vals: list[float], n: int, seconds: float) -> dict:
             "best_at": {str(b): float(best[min(b, len(best)) - 1]) for b in marks}}
 
 
+def merge_results(data: dict, paths: list[str]) -> dict:
+    """The runs of the files at ``paths`` added to ``data``: of two runs of the same problem,
+    method and seed the longer one is kept; two of the same length must agree (else the files
+    were made with different settings, and mixing them would be wrong). Sessions are joined."""
+    for path in paths:
+        if not os.path.exists(path):
+            raise SystemExit(f"{path}: no such results file")
+        other = load_results(path)
+        for key, run in other["runs"].items():
+            old = data["runs"].get(key)
+            if old is not None and old["n"] == run["n"] and old["best_at"] != run["best_at"]:
+                raise SystemExit(f"{path}: run {key} differs from the one already merged "
+                                 "(different settings or versions?)")
+            if old is None or run["n"] > old["n"]:
+                data["runs"][key] = run
+        data["sessions"] += [s for s in other["sessions"] if s not in data["sessions"]]
+    return data
+
+
 def best_at(run: dict, b: int) -> float | None:
     if run["n"] < b:
         return None
@@ -398,6 +419,9 @@ def main(argv=None) -> int:
     ap.add_argument("--resume", action="store_true",
                     help="reuse the runs already in --out instead of running them again")
     ap.add_argument("--report-only", action="store_true", help="only print the tables of --out")
+    ap.add_argument("--merge", nargs="+", default=None, metavar="JSON",
+                    help="add the runs of these results files to --out (kept: the longer run of "
+                         "each problem, method and seed), then print the tables")
     ap.add_argument("--quick", action="store_true",
                     help="budgets 20 40, 3 seeds, methods lccopt random unless given")
     ap.add_argument("--timing", "--timing-only", action="store_true",
@@ -426,7 +450,14 @@ def main(argv=None) -> int:
     if settings and args.resume:
         raise SystemExit("--set and --resume together would mix settings in one file")
 
-    data = load_results(args.out) if (args.resume or args.report_only) else load_results(None)
+    if args.merge is not None:
+        if not args.out:
+            raise SystemExit("--merge needs --out, the file to merge into")
+        data = merge_results(load_results(args.out), args.merge)
+        save_results(args.out, data)
+        args.report_only = True
+    else:
+        data = load_results(args.out) if (args.resume or args.report_only) else load_results(None)
     if not args.report_only:
         runners, notes = load_methods(methods)
         session = {"started": time.strftime("%Y-%m-%d %H:%M:%S"), "argv": sys.argv[1:],

@@ -48,3 +48,32 @@ def test_quick_benchmark_table_and_json(tmp_path):
                  "--out", str(out), "--resume")
     assert "runs," not in text2  # no "# <problem> <method>: N runs" lines
     assert json.loads(out.read_text())["runs"] == data["runs"]
+
+
+def test_merge_gathers_parts_and_refuses_conflicts(tmp_path):
+    a, b, out = tmp_path / "a.json", tmp_path / "b.json", tmp_path / "all.json"
+    whole = tmp_path / "whole.json"
+    common = ("--quick", "--problems", "gear", "--methods", "lccopt", "random")
+    _run(*common, "--seeds", "0-0", "--out", str(a))
+    _run(*common, "--seeds", "1-1", "--out", str(b))
+    _run(*common, "--seeds", "0-1", "--out", str(whole))
+    text = _run(*common, "--merge", str(a), str(b), "--out", str(out))
+    merged = json.loads(out.read_text())
+    assert merged["runs"].keys() == json.loads(whole.read_text())["runs"].keys()
+    for key, run in merged["runs"].items():  # the same runs as one process makes (deterministic)
+        assert run["best_at"] == json.loads(whole.read_text())["runs"][key]["best_at"]
+    assert len(merged["sessions"]) == 2
+    assert "| gear |" in text  # the tables of the merged file
+    # merging again changes nothing
+    _run(*common, "--merge", str(a), str(b), "--out", str(out))
+    assert json.loads(out.read_text())["runs"] == merged["runs"]
+    # a run of the same length with other values (other settings) is refused, out unchanged
+    bad = json.loads(b.read_text())
+    key = next(iter(bad["runs"]))
+    bad["runs"][key]["best_at"]["40"] -= 1.0
+    b.write_text(json.dumps(bad))
+    env = {**os.environ, "OPENBLAS_NUM_THREADS": "1"}
+    r = subprocess.run([sys.executable, SCRIPT, *common, "--merge", str(b), "--out", str(out)],
+                       capture_output=True, text=True, timeout=120, env=env, cwd=ROOT)
+    assert r.returncode != 0 and key in r.stderr and "differs" in r.stderr
+    assert json.loads(out.read_text())["runs"] == merged["runs"]
