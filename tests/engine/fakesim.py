@@ -6,6 +6,9 @@ histories; with ``LCCOPT_FAKE_LOG`` set, one line per simulation appended to it)
 ``LCCOPT_FAKE_DELAY`` seconds (default 0) to look like a simulation; with
 ``LCCOPT_FAKE_SPREAD`` = s (0 <= s < 1) the delay varies between (1-s) and (1+s) times that
 from point to point (a fixed function of x), so that results come back out of order.
+With ``LCCOPT_FAKE_STALL`` = n (and ``LCCOPT_FAKE_LOG``), a simulation of a vehicle leaving
+the crossing hangs once the log holds n lines: a run then stays, until killed, with designs
+whose other conditions have finished (a kill between conditions without a timing race).
 
 ``faulty``: like ``evaluate`` for the reference design; otherwise fires each fault listed
 in ``LCCOPT_TEST_FAULTS`` (comma-separated: raise, nan, exit, hang) exactly once, claimed
@@ -36,7 +39,16 @@ def _objectives(case, x) -> dict:
     return {"F_rms": 49000.0 + 0.1 * f, "F_max": float(f), "E_rms": 1.5 + e, "E_max": float(e)}
 
 
+def _stall(case) -> None:
+    n, log = os.environ.get("LCCOPT_FAKE_STALL"), os.environ.get("LCCOPT_FAKE_LOG")
+    if n and log and case.simulation.get("direction") == "leave":
+        if os.path.exists(log) and len(open(log).read().splitlines()) >= int(n):
+            while True:
+                time.sleep(1)
+
+
 def evaluate(case, x) -> Evaluation:
+    _stall(case)
     delay = float(os.environ.get("LCCOPT_FAKE_DELAY", "0") or 0)
     if delay:
         spread = float(os.environ.get("LCCOPT_FAKE_SPREAD", "0") or 0)
