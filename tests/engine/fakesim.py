@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import os
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -42,7 +43,7 @@ def _objectives(case, x) -> dict:
 def _stall(case) -> None:
     n, log = os.environ.get("LCCOPT_FAKE_STALL"), os.environ.get("LCCOPT_FAKE_LOG")
     if n and log and case.simulation.get("direction") == "leave":
-        if os.path.exists(log) and len(open(log).read().splitlines()) >= int(n):
+        if os.path.exists(log) and len(Path(log).read_text().splitlines()) >= int(n):
             while True:
                 time.sleep(1)
 
