@@ -1,0 +1,28 @@
+"""The optimiser variants kept in benchmarks/variants (levers measured and not adopted) still
+apply to the code, so that RESULTS-optimiser.md's commands can be run again."""
+import shutil
+import subprocess
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+PATCHES = sorted((ROOT / "benchmarks" / "variants").glob("*.patch"))
+
+
+def _git_checkout() -> bool:
+    if shutil.which("git") is None:
+        return False
+    r = subprocess.run(["git", "rev-parse", "--show-toplevel"], cwd=ROOT, capture_output=True, text=True)
+    return r.returncode == 0 and Path(r.stdout.strip()).resolve() == ROOT
+
+
+def test_there_are_variants():
+    assert len(PATCHES) >= 5
+
+
+@pytest.mark.skipif(not _git_checkout(), reason="needs git and a git checkout of lccopt")
+@pytest.mark.parametrize("patch", PATCHES, ids=lambda p: p.name)
+def test_each_variant_patch_applies_to_the_code(patch):
+    r = subprocess.run(["git", "apply", "--check", str(patch)], cwd=ROOT, capture_output=True, text=True)
+    assert r.returncode == 0, f"{patch.name} no longer applies: {r.stderr.strip()}"
