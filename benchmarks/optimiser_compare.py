@@ -36,8 +36,12 @@ for b in (100, 200, 400):
         ma, mv = np.median(a), np.median(v)
         better += mv < ma
         worse += mv > ma
-        pval = mannwhitneyu(v, a).pvalue if not np.array_equal(np.sort(a), np.sort(v)) else 1.0
-        if pval < 0.05:
-            rows.append(("+" if mv < ma else "-") + p)
+        if np.array_equal(np.sort(a), np.sort(v)):
+            continue
+        test = mannwhitneyu(v, a)
+        if test.pvalue < 0.05:
+            # U counts the pairs where the variant is the higher (worse): below half, better
+            # (the medians may be equal, e.g. both at the optimum).
+            rows.append(("+" if test.statistic < len(v) * len(a) / 2 else "-") + p)
     print(f"budget {b}: variant median better in {better} cells, worse in {worse}; "
           f"significant: {' '.join(rows) or 'none'}")
