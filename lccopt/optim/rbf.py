@@ -62,6 +62,10 @@ class CubicRBF:
         self.lam: np.ndarray | None = None
         self.beta: np.ndarray | None = None  # [a, b_j for j in tail_dims]
         self.tail_dims: np.ndarray | None = None
+        # Quadratic tail ("quadratic" fits): the pairs (i, j), i <= j, of its products
+        # (u_i - 1/2)(u_j - 1/2), coefficients after the linear ones in beta.
+        self.quad_i = np.empty(0, dtype=int)
+        self.quad_j = np.empty(0, dtype=int)
         self.used_lstsq = False
         self._A: np.ndarray | None = None  # the saddle system of the last fit
 
@@ -78,7 +82,13 @@ class CubicRBF:
             return D
         return distances(X, X)
 
-    def fit(self, X: np.ndarray, f: np.ndarray) -> "CubicRBF":
+    def fit(self, X: np.ndarray, f: np.ndarray, tail: str = "linear") -> "CubicRBF":
+        """Interpolate f at the rows of X. ``tail`` "quadratic" adds the products of the
+        centred coordinates to the linear tail (every pair, squares only of coordinates with
+        more than two values in X) when X determines them (full column rank, more points
+        than tail terms); otherwise, and with "linear", the tail is linear."""
+        if tail not in ("linear", "quadratic"):
+            raise ValueError("tail must be 'linear' or 'quadratic'")
         X = np.array(X, dtype=float, ndmin=2)
         f = np.asarray(f, dtype=float).ravel()
         n, d = X.shape
@@ -91,8 +101,19 @@ class CubicRBF:
         D = self._distance_matrix(X)
         self.X, self._D = X, D
         Phi = D * D * D
-        tail = np.flatnonzero(np.ptp(X, axis=0) > 0) if n > 1 else np.empty(0, dtype=int)
-        P = np.hstack([np.ones((n, 1)), X[:, tail]])
+        dims = np.flatnonzero(np.ptp(X, axis=0) > 0) if n > 1 else np.empty(0, dtype=int)
+        P = np.hstack([np.ones((n, 1)), X[:, dims]])
+        self.quad_i = self.quad_j = np.empty(0, dtype=int)
+        if tail == "quadratic" and len(dims):
+            qi, qj = np.triu_indices(len(dims))
+            qi, qj = dims[qi], dims[qj]
+            # A coordinate with two values has u^2 in the span of 1 and u: no square of it.
+            two = np.array([len(np.unique(X[:, k])) <= 2 for k in range(d)])
+            keep = (qi != qj) | ~two[qi]
+            Q = _products(X, qi[keep], qj[keep])
+            if n > P.shape[1] + Q.shape[1] and np.linalg.matrix_rank(np.hstack([P, Q])) == P.shape[1] + Q.shape[1]:
+                P = np.hstack([P, Q])
+                self.quad_i, self.quad_j = qi[keep], qj[keep]
         m = P.shape[1]
         A = np.zeros((n + m, n + m))
         A[:n, :n] = Phi
@@ -115,7 +136,7 @@ class CubicRBF:
         if sol is None:
             self.used_lstsq = True
             sol = scipy.linalg.lstsq(A, rhs, check_finite=False, lapack_driver="gelsd")[0]
-        self.lam, self.beta, self.tail_dims = sol[:n], sol[n:], tail
+        self.lam, self.beta, self.tail_dims = sol[:n], sol[n:], dims
         self._A = A
         return self
 
@@ -152,7 +173,11 @@ class CubicRBF:
     def predict_from(self, Xq: np.ndarray, r3: np.ndarray) -> np.ndarray:
         """s at the rows of Xq (m, d) given r3 = distances(Xq, X)³ (m, n): RBFs fitted to the
         same points share r3 (a composite surrogate)."""
-        return r3 @ self.lam + self.beta[0] + Xq[:, self.tail_dims] @ self.beta[1:]
+        t = len(self.tail_dims)
+        s = r3 @ self.lam + self.beta[0] + Xq[:, self.tail_dims] @ self.beta[1:1 + t]
+        if len(self.quad_i):
+            s = s + _products(Xq, self.quad_i, self.quad_j) @ self.beta[1 + t:]
+        return s
 
     def value_and_gradient(self, x: np.ndarray) -> tuple[float, np.ndarray]:
         """``(float(s(x)), gradient(x))`` at one point x (d,), as the two calls give them."""
@@ -162,10 +187,22 @@ class CubicRBF:
         """Gradient at one point x (d,): d/dx ||x - x_k||^3 = 3 ||x - x_k|| (x - x_k)."""
         x = np.asarray(x, dtype=float)
         diff = x[None, :] - self.X
-        return self.gradient_from(diff, np.sqrt(np.einsum("ij,ij->i", diff, diff)))
+        return self.gradient_from(diff, np.sqrt(np.einsum("ij,ij->i", diff, diff)), x)
 
-    def gradient_from(self, diff: np.ndarray, r: np.ndarray) -> np.ndarray:
-        """Gradient given diff = x - X (n, d) and r = its row norms (shared as predict_from)."""
+    def gradient_from(self, diff: np.ndarray, r: np.ndarray, x: np.ndarray) -> np.ndarray:
+        """Gradient at x given diff = x - X (n, d) and r = its row norms (shared as
+        predict_from)."""
         g = 3.0 * (self.lam * r) @ diff
-        g[self.tail_dims] += self.beta[1:]
+        t = len(self.tail_dims)
+        g[self.tail_dims] += self.beta[1:1 + t]
+        if len(self.quad_i):  # d/du_i (u_i - c)(u_j - c) = u_j - c, and the same for j
+            c = self.beta[1 + t:]
+            np.add.at(g, self.quad_i, c * (x[self.quad_j] - 0.5))
+            np.add.at(g, self.quad_j, c * (x[self.quad_i] - 0.5))
         return g
+
+
+def _products(X: np.ndarray, qi: np.ndarray, qj: np.ndarray) -> np.ndarray:
+    """The quadratic tail's columns (u_i - 1/2)(u_j - 1/2) at the rows of X (unit box: centred
+    for conditioning)."""
+    return (X[:, qi] - 0.5) * (X[:, qj] - 0.5)

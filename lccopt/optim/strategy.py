@@ -3,11 +3,11 @@
 Metric Stochastic Response Surface (Regis & Shoemaker) with DYCORS perturbations:
 
 * Step A: the given points, then an integer-aware Latin hypercube (``sampling``).
-* Step C: a cubic RBF with linear tail (``rbf``) on the evaluated points (of the whole run,
-  or of the current restart only: ``restart_keeps_points``), in the unit box, fitted to the
-  values or to median-capped ones (values above the median replaced by the median, as in
-  Regis & Shoemaker; pySOT 0.3.3 does not cap), whichever leave-one-out cross-validation says
-  ranks the better half of the points better.
+* Step C: a cubic RBF (``rbf``) on the evaluated points (of the whole run, or of the current
+  restart only: ``restart_keeps_points``), in the unit box, with a linear tail or a quadratic
+  one (``tail``), fitted to the values or to median-capped ones (values above the median
+  replaced by the median, as in Regis & Shoemaker; pySOT 0.3.3 does not cap), as
+  leave-one-out cross-validation decides (``_scalar``).
 * Steps D-E: candidates (DYCORS perturbations of the best point and, at the weights of
   ``local_weights``, a local mixed-integer search of the surrogate; uniform points only if
   ``n_uniform`` > 0, or when everything near the best point is taken), scored by the merit of
@@ -80,7 +80,8 @@ class Proposal:
 #   5: without a composite surrogate, a restart's surrogate fits every point of the run
 #   6: a composite surrogate median-caps its outputs only when the aggregate is increasing in
 #      each of them (the ASF: yes, unchanged; E_max's max - min of sleeper energies: no)
-GENERATION = 6
+#   7: a scalar surrogate's tail is quadratic when cross-validation says so (tail "auto")
+GENERATION = 7
 
 
 def generation_settings(space: DesignSpace, generation: int) -> dict:
@@ -112,6 +113,7 @@ _BEFORE_GENERATION = {
     4: {"perturbation": "truncnorm", "probability_schedule": "run", "local_weights": [0.95]},
     5: _BEFORE_GENERATION_5,
     6: {"composite_capping": True},
+    7: {"tail": "linear"},
 }
 
 
@@ -161,6 +163,12 @@ def _default_settings(space: DesignSpace) -> dict:
         # centre on the restart's own best point). "auto": see _AUTO_SETTINGS.
         "restart_keeps_points": "auto",
         "clip_to_bounds": False,           # a step past a bound stops on it (else: reflected)
+        # The scalar surrogate's polynomial tail: "linear" (paper Eq. 8), "quadratic" (every
+        # product of two coordinates too, once the points determine them), or chosen at each
+        # proposal by leave-one-out cross-validation as capping is (``_scalar``): "auto"
+        # (generation 7; smooth ill-conditioned problems solved, no significant loss on the
+        # broad benchmark) or "auto-half" (measured, a trade: benchmarks/RESULTS-optimiser.md).
+        "tail": "auto",
     }
 
 
@@ -230,6 +238,8 @@ class Strategy:
             raise ValueError("probability_schedule must be 'run', 'restart' or 'auto'")
         if self.settings["restart_keeps_points"] not in (True, False, "auto"):
             raise ValueError("restart_keeps_points must be True, False or 'auto'")
+        if self.settings["tail"] not in ("linear", "quadratic", "auto", "auto-half"):
+            raise ValueError("tail must be 'linear', 'quadratic', 'auto' or 'auto-half'")
         if self.settings["composite_capping"] not in (True, False, "auto"):
             raise ValueError("composite_capping must be True, False or 'auto'")
         if not self.settings["weights"] or not all(0.0 <= w <= 1.0 for w in self.settings["weights"]):
@@ -378,14 +388,7 @@ class Strategy:
             f = np.array([r["value"] for r in ok])
             ctx.rbf = self._composite(X, ok)
             if ctx.rbf is None:
-                cap = self.settings["capping"]
-                if cap == "auto":
-                    ctx.rbf = self._rbf.fit(X, f)
-                    cap = self._capping_helps(ctx.rbf, f)
-                if cap:
-                    ctx.rbf = self._rbf.fit(X, np.minimum(f, np.median(f)))
-                elif ctx.rbf is None:
-                    ctx.rbf = self._rbf.fit(X, f)
+                ctx.rbf = self._scalar(X, f)
             ctx.local_search = self._local_search  # run when first needed (no RNG use)
         return ctx
 
@@ -396,32 +399,68 @@ class Strategy:
         composite = bool(self.settings["composite"] and self._aggregate is not None)
         return bool(self._candidate_settings(composite)["restart_keeps_points"])
 
+    def _scalar(self, X: np.ndarray, f: np.ndarray) -> CubicRBF:
+        """The scalar surrogate: the cubic RBF of the values or of the median-capped values
+        (``capping``), with a linear or a quadratic tail (``tail``). "auto" choices are made by
+        leave-one-out cross-validation (``_loo_scores``): the capping and tail whose predictions
+        rank the better half of the points best (ties: linear before quadratic, uncapped before
+        capped), where tail "auto" (generation 7) takes the quadratic one only if it also ranks
+        all the points better than the linear one (uncapped); "auto-half" does not ask that."""
+        cap, tail = self.settings["capping"], self.settings["tail"]
+        capped = np.minimum(f, np.median(f))
+        choose_tail = tail in ("auto", "auto-half")
+        if cap != "auto" and not choose_tail:
+            return self._rbf.fit(X, capped if cap else f, tail)
+        caps = (False, True) if cap == "auto" else (cap,)
+        best, choice, overall = -np.inf, None, {}
+        for t in (("linear", "quadratic") if choose_tail else (tail,)):
+            fit = self._rbf.fit(X, f, t)
+            if choose_tail and t == "quadratic" and not len(fit.quad_i):
+                fit = None  # too few points for the quadratic tail: the linear fit stands
+                break
+            *scores, overall[t] = self._loo_scores(fit, f, [capped if c else f for c in caps])
+            if t == "quadratic" and tail == "auto" and not overall["quadratic"] > overall["linear"]:
+                continue  # better on the better half only: not taken (a cost elsewhere)
+            for c, sc in zip(caps, scores):
+                if choice is None or sc > best:
+                    best, choice = sc, (t, c)
+        t, c = choice
+        if fit is not None and not c and t == ("quadratic" if len(fit.quad_i) else "linear"):
+            return fit  # the last fit is the choice
+        return self._rbf.fit(X, capped if c else f, t)
+
     @staticmethod
-    def _capping_helps(plain: CubicRBF, f: np.ndarray) -> bool:
-        """Whether the median-capped values give the better surrogate where it matters: the
-        rank correlation between the leave-one-out predictions and the values over the better
-        half of the points, for the values as they are and median-capped (the better half is
-        the same for both; ``plain``: the RBF fitted to f). Ties and fewer than 8 points: no
-        capping."""
+    def _loo_scores(fit: CubicRBF, f: np.ndarray, values: list) -> list:
+        """For each vector of ``values`` (f or f median-capped), how well the interpolant of
+        ``fit``'s points and tail ranks the better half of the points by f: the rank
+        correlation of its leave-one-out predictions with f there; then the same for the first
+        vector over all the points. Fewer than 8 points: 0 for the first, -inf for the others."""
         import scipy.stats
 
         n = len(f)
         if n < 8:
-            return False
-        capped = np.minimum(f, np.median(f))
-        e_plain, e_capped = plain.loo_residuals([f, capped])
+            return [0.0] + [-np.inf] * (len(values) - 1) + [0.0]
         half = np.argsort(f, kind="stable")[: n // 2]
+        residuals = fit.loo_residuals(values)
         scores = []
-        for vals, e in ((f, e_plain), (capped, e_capped)):
-            pred = (vals - e)[half]
+        for rows, vals, e in [(half, v, e) for v, e in zip(values, residuals)] + [
+                (slice(None), values[0], residuals[0])]:
+            pred = (vals - e)[rows]
             if not np.all(np.isfinite(pred)):
                 scores.append(-np.inf)
                 continue
             with warnings.catch_warnings():  # constant input: no correlation (NaN)
                 warnings.simplefilter("ignore", scipy.stats.ConstantInputWarning)
-                r = scipy.stats.spearmanr(pred, f[half])[0]
+                r = scipy.stats.spearmanr(pred, f[rows])[0]
             scores.append(r if np.isfinite(r) else -np.inf)
-        return bool(scores[1] > scores[0])
+        return scores
+
+    @classmethod
+    def _capping_helps(cls, plain: CubicRBF, f: np.ndarray) -> bool:
+        """Whether the median-capped values give the better surrogate where it matters
+        (``_loo_scores`` of ``plain``, the RBF fitted to f; ties: no capping)."""
+        scores = cls._loo_scores(plain, f, [f, np.minimum(f, np.median(f))])
+        return bool(scores[1] > scores[0])  # the better half's, with and without capping
 
     def _global_starts(self, ok: list, ib: int) -> list:
         """Best points of the restart, in value order, each at least _START_SEPARATION (unit
@@ -753,7 +792,7 @@ class Strategy:
             raise ValueError(f"unsupported strategy state version {d.get('version')}")
         s = cls.__new__(cls)
         settings = {**{k: _BEFORE_GENERATION_3[k] for k in _ADDED_IN_GENERATION_3},
-                    **_BEFORE_GENERATION_5, **d["settings"]}
+                    **_BEFORE_GENERATION_5, **_BEFORE_GENERATION[7], **d["settings"]}
         s._setup(DesignSpace.from_dict(d["space"]), int(d["budget"]), int(d["n_initial"]),
                  d["seed"], settings)
         bg = getattr(np.random, d["rng"]["bit_generator"])()
@@ -854,7 +893,7 @@ class _CompositeSurrogate:
                 if diff is None:  # as CubicRBF.gradient computes them
                     diff = x[None, :] - shared.X
                     rn = np.sqrt(np.einsum("ij,ij->i", diff, diff))
-                g += dA[j] * rb.gradient_from(diff, rn)
+                g += dA[j] * rb.gradient_from(diff, rn, x)
         return value, g
 
     def _shared_points(self):

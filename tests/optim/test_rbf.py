@@ -125,3 +125,70 @@ def test_leave_one_out_residuals_are_those_of_fits_without_the_point():
         keep = np.arange(30) != i
         assert e_f[i] == pytest.approx(f[i] - CubicRBF().fit(X[keep], f[keep])(X[i]), rel=1e-7, abs=1e-12)
         assert e_g[i] == pytest.approx(g[i] - CubicRBF().fit(X[keep], g[keep])(X[i]), rel=1e-7, abs=1e-12)
+
+
+def _quadratic(Z, seed=7):
+    """A rotated, ill-conditioned quadratic with a linear part (the quadratic tail's span)."""
+    rng = np.random.default_rng(seed)
+    d = Z.shape[1]
+    Q = np.linalg.qr(rng.standard_normal((d, d)))[0]
+    H = Q @ np.diag(np.logspace(0, 3, d)) @ Q.T
+    b = rng.standard_normal(d)
+    return np.einsum("ij,jk,ik->i", Z, H, Z) + Z @ b + 1.5
+
+
+def test_quadratic_tail_reproduces_a_quadratic_everywhere():
+    rng = np.random.default_rng(8)
+    X = rng.random((40, 5))  # 21 tail terms
+    s = CubicRBF().fit(X, _quadratic(X), tail="quadratic")
+    assert len(s.quad_i) == 15 and not s.used_lstsq
+    Xq = rng.random((50, 5)) * 2 - 0.5  # also outside the data's box
+    np.testing.assert_allclose(s(Xq), _quadratic(Xq), rtol=1e-8, atol=1e-7)
+    np.testing.assert_allclose(s.lam, 0.0, atol=1e-7)
+    # the linear tail only approximates it
+    lin = CubicRBF().fit(X, _quadratic(X))
+    assert np.abs(lin(Xq) - _quadratic(Xq)).max() > 1.0
+
+
+def test_quadratic_tail_gradient_matches_finite_differences():
+    rng = np.random.default_rng(9)
+    X = rng.random((40, 4))
+    s = CubicRBF().fit(X, f_test(X), tail="quadratic")
+    assert len(s.quad_i) == 10
+    for x in rng.random((3, 4)):
+        h = 1e-6
+        fd = np.array([(s(x + h * e) - s(x - h * e)) / (2 * h) for e in np.eye(4)])
+        np.testing.assert_allclose(s.gradient(x), fd, rtol=1e-5, atol=1e-6)
+
+
+def test_quadratic_tail_needs_points_that_determine_it():
+    rng = np.random.default_rng(10)
+    X = rng.random((15, 4))  # 15 tail terms: not more points than terms
+    s = CubicRBF().fit(X, f_test(X), tail="quadratic")
+    assert len(s.quad_i) == 0  # linear tail
+    np.testing.assert_allclose(s(X), f_test(X), atol=1e-8)
+    # a coordinate with two values: its square is 1 and u in the data, so it is left out
+    X = rng.random((40, 4))
+    X[:, 1] = np.round(X[:, 1])
+    s = CubicRBF().fit(X, f_test(X), tail="quadratic")
+    pairs = set(zip(s.quad_i.tolist(), s.quad_j.tolist()))
+    assert (1, 1) not in pairs and (0, 1) in pairs and len(pairs) == 9
+    assert not s.used_lstsq
+    np.testing.assert_allclose(s(X), f_test(X), atol=1e-8)
+    # a constant coordinate has no tail terms at all
+    X[:, 2] = 0.5
+    s = CubicRBF().fit(X, f_test(X), tail="quadratic")
+    assert 2 not in s.quad_i and 2 not in s.quad_j and 2 not in s.tail_dims
+    with pytest.raises(ValueError, match="tail"):
+        CubicRBF().fit(X, f_test(X), tail="cubic")
+
+
+def test_quadratic_tail_leave_one_out_residuals():
+    rng = np.random.default_rng(11)
+    X = rng.random((30, 3))
+    f = np.sin(3 * X).sum(1)
+    e = CubicRBF().fit(X, f, tail="quadratic").loo_residuals([f])[0]
+    for i in (0, 13, 29):
+        keep = np.arange(30) != i
+        ref = f[i] - CubicRBF().fit(X[keep], f[keep], tail="quadratic")(X[i])
+        assert e[i] == pytest.approx(ref, rel=1e-7, abs=1e-12)

@@ -402,6 +402,59 @@ def test_automatic_capping_caps_a_huge_range_and_not_a_smooth_bowl():
     assert not s._capping_helps(CubicRBF().fit(X[:7], few), few)  # too few points: no capping
 
 
+def test_automatic_tail_is_quadratic_on_a_quadratic_and_linear_with_few_points():
+    """tail "auto": the quadratic tail when leave-one-out says it ranks the points better (a
+    rotated ill-conditioned quadratic) and the points determine it."""
+    space = DesignSpace(["a", "b", "c", "d"], [0.0] * 4, [1.0] * 4, [False] * 4)
+    rng = np.random.default_rng(2)
+    Q = np.linalg.qr(rng.standard_normal((4, 4)))[0]
+    H = Q @ np.diag([1.0, 10.0, 100.0, 1000.0]) @ Q.T
+    X = rng.random((40, 4))
+    f = np.einsum("ij,jk,ik->i", X - 0.3, H, X - 0.3)
+    s = Strategy(space, budget=50, seed=0, tail="auto")
+    assert len(s._scalar(X, f).quad_i) == 10
+    assert len(s._scalar(X[:15], f[:15]).quad_i) == 0  # 15 tail terms: too few points
+    lin = Strategy(space, budget=50, seed=0, **generation_settings(space, 6))  # before: linear
+    assert lin.settings["tail"] == "linear" and len(lin._scalar(X, f).quad_i) == 0
+    assert len(Strategy(space, budget=50, seed=0, tail="quadratic", capping=False)._scalar(X[:15], f[:15]).quad_i) == 0
+    with pytest.raises(ValueError, match="tail"):
+        Strategy(space, budget=50, seed=0, tail="cubic")
+
+
+@pytest.mark.parametrize("half, overall, expected", [
+    ((0.5, 0.9), (0.6, 0.8), "quadratic"),   # better on both: taken
+    ((0.5, 0.9), (0.6, 0.6), "linear"),      # better on the better half only: not taken
+    ((0.5, 0.9), (0.6, 0.5), "linear"),
+    ((0.9, 0.5), (0.6, 0.9), "linear"),      # better over all the points only: not taken
+])
+def test_automatic_tail_asks_the_quadratic_to_rank_all_the_points_better_too(monkeypatch, half, overall, expected):
+    """tail "auto" (generation 7): the quadratic tail only if its leave-one-out ranking beats
+    the linear tail's on the better half (the capping test) and over all the points; "auto-half"
+    (measured, a trade) asks the better half only."""
+    space = DesignSpace(["a", "b"], [0.0] * 2, [1.0] * 2, [False] * 2)
+    X = np.random.default_rng(0).random((30, 2))
+    f = X.sum(1)
+    scores = {"linear": (half[0], overall[0]), "quadratic": (half[1], overall[1])}
+    monkeypatch.setattr(Strategy, "_loo_scores", staticmethod(
+        lambda fit, f, values: [scores["quadratic" if len(fit.quad_i) else "linear"][0], scores[
+            "quadratic" if len(fit.quad_i) else "linear"][1]]))
+    for tail, want in (("auto", expected), ("auto-half", "quadratic" if half[1] > half[0] else "linear")):
+        fit = Strategy(space, budget=50, seed=0, tail=tail, capping=False)._scalar(X, f)
+        assert ("quadratic" if len(fit.quad_i) else "linear") == want, tail
+
+
+def test_quadratic_tail_finds_the_optimum_of_a_rotated_ellipsoid():
+    """rotellipsoid_int6 (condition 1e4, 100 integer values per variable, f* = 0): with tail
+    "auto" (generation 7) each seed ends at the optimum within 100 evaluations; with the linear
+    tail (generation 6) none does."""
+    p = problems.get("rotellipsoid_int6")
+    for seed in range(3):
+        auto = run_serial(Strategy(p.space, budget=100, seed=seed), p).best[1]  # the default
+        linear = run_serial(Strategy(p.space, budget=100, seed=seed, tail="linear"), p).best[1]
+        assert auto == p.f_opt == 0.0
+        assert linear > 0.5
+
+
 def test_auto_candidate_settings_with_a_scalar_surrogate_are_generation_3s():
     """Generation 4 resolves perturbation, probability_schedule and local_weights "auto" by the
     surrogate; with a scalar one it proposes exactly what generation 3 (fixed values) did."""
