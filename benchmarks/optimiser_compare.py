@@ -1,22 +1,26 @@
 """lccopt's default against a variant on the stored benchmark, cell by cell.
 
     python benchmarks/optimiser.py --methods lccopt --seeds 0-9 --set capping=False --out v.json
-    python benchmarks/optimiser_compare.py v.json
+    python benchmarks/optimiser_compare.py v.json [--base BASE.json]
 
 Per budget: cells where the variant's median is better / worse than the default's (from
-benchmarks/results/optimiser.json, on the seeds the variant file has), and the cells where a two-sided Mann-Whitney U
-test (alpha 0.05) finds a difference (+ better, - worse).
+benchmarks/results/optimiser.json, or the lccopt runs of --base, e.g.
+benchmarks/results/optimiser-generation-6.json; on the seeds the variant file has), and the
+cells where a two-sided Mann-Whitney U test (alpha 0.05) finds a difference (+ better, - worse).
 """
+import argparse
 import json
-import sys
 from pathlib import Path
 
 import numpy as np
 from scipy.stats import mannwhitneyu
 
-BASE = Path(__file__).resolve().parent / "results" / "optimiser.json"
-base = json.load(open(BASE))["runs"]
-var = json.load(open(sys.argv[1]))["runs"]
+ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+ap.add_argument("variant")
+ap.add_argument("--base", default=Path(__file__).resolve().parent / "results" / "optimiser.json")
+args = ap.parse_args()
+base = json.load(open(args.base))["runs"]
+var = json.load(open(args.variant))["runs"]
 
 
 SEEDS = {int(k.split("|")[2]) for k in var}

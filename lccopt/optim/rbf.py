@@ -2,7 +2,9 @@
 
     s(x) = sum_k lambda_k ||x - x_k||^3 + b^T x + a
 
-with lambda, b, a from the saddle system [[Phi, P], [P^T, 0]] [lambda; beta] = [f; 0].
+with lambda, b, a from the saddle system [[Phi, P], [P^T, 0]] [lambda; beta] = [f; 0]; with
+``fit(..., tail="quadratic")`` the tail also has sum_{i<=j} c_ij (x_i - 1/2)(x_j - 1/2) (it
+reproduces a quadratic exactly; the strategy chooses the tail by cross-validation).
 The strategy fits it in the unit box. Guards:
 
 * a tiny ridge on Phi (relative to its size) keeps near-duplicate points from making the
@@ -108,11 +110,11 @@ class CubicRBF:
             qi, qj = np.triu_indices(len(dims))
             qi, qj = dims[qi], dims[qj]
             # A coordinate with two values has u^2 in the span of 1 and u: no square of it.
-            two = np.array([len(np.unique(X[:, k])) <= 2 for k in range(d)])
+            two = (np.diff(np.sort(X, axis=0), axis=0) != 0).sum(axis=0) + 1 <= 2
             keep = (qi != qj) | ~two[qi]
-            Q = _products(X, qi[keep], qj[keep])
-            if n > P.shape[1] + Q.shape[1] and np.linalg.matrix_rank(np.hstack([P, Q])) == P.shape[1] + Q.shape[1]:
-                P = np.hstack([P, Q])
+            PQ = np.hstack([P, _products(X, qi[keep], qj[keep])])
+            if n > PQ.shape[1] and np.linalg.matrix_rank(PQ) == PQ.shape[1]:
+                P = PQ
                 self.quad_i, self.quad_j = qi[keep], qj[keep]
         m = P.shape[1]
         A = np.zeros((n + m, n + m))

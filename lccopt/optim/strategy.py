@@ -902,7 +902,9 @@ class _CompositeSurrogate:
         if self._shared is None:
             r0 = self.rbfs[0] if self.rbfs else None
             ok = r0 is not None and all(
-                np.array_equal(r.X, r0.X) and np.array_equal(r.tail_dims, r0.tail_dims) for r in self.rbfs)
+                np.array_equal(r.X, r0.X) and np.array_equal(r.tail_dims, r0.tail_dims)
+                and np.array_equal(r.quad_i, r0.quad_i) and np.array_equal(r.quad_j, r0.quad_j)
+                for r in self.rbfs)
             self._shared = (r0,) if ok else ()
         return self._shared[0] if self._shared else None
 
