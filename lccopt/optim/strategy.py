@@ -405,7 +405,8 @@ class Strategy:
         leave-one-out cross-validation (``_loo_scores``): the capping and tail whose predictions
         rank the better half of the points best (ties: linear before quadratic, uncapped before
         capped), where tail "auto" (generation 7) takes the quadratic one only if it also ranks
-        all the points better than the linear one (uncapped); "auto-half" does not ask that."""
+        all the points better than the linear one (its predictions of f, or of the capped
+        values when ``capping`` is True); "auto-half" does not ask that."""
         cap, tail = self.settings["capping"], self.settings["tail"]
         capped = np.minimum(f, np.median(f))
         choose_tail = tail in ("auto", "auto-half")
