@@ -7,13 +7,16 @@ Per budget: cells where the variant's median is better / worse than the default'
 benchmarks/results/optimiser.json, or the lccopt runs of --base, e.g.
 benchmarks/results/optimiser-generation-6.json; on the seeds the variant file has), and the
 cells where a two-sided Mann-Whitney U test (alpha 0.05) finds a difference (+ better, - worse).
+Then, paired by seed (the same seed starts both from the same design, so a change that acts
+late in a run leaves most seeds equal): the runs better / worse / equal, and the cells where a
+two-sided Wilcoxon signed-rank test (alpha 0.05) finds a difference.
 """
 import argparse
 import json
 from pathlib import Path
 
 import numpy as np
-from scipy.stats import mannwhitneyu
+from scipy.stats import mannwhitneyu, rankdata, wilcoxon
 
 ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
 ap.add_argument("variant")
@@ -27,8 +30,10 @@ SEEDS = {int(k.split("|")[2]) for k in var}
 
 
 def vals(runs, prob, b):
-    return np.array([v["best_at"][str(b)] for k, v in runs.items()
-                     if k.split("|")[0] == prob and k.split("|")[1] == "lccopt" and int(k.split("|")[2]) in SEEDS])
+    """Per seed (in seed order) the best value of the first b evaluations."""
+    keys = sorted((k for k in runs if k.split("|")[0] == prob and k.split("|")[1] == "lccopt"
+                   and int(k.split("|")[2]) in SEEDS), key=lambda k: int(k.split("|")[2]))
+    return np.array([runs[k]["best_at"][str(b)] for k in keys])
 
 
 probs = sorted({k.split("|")[0] for k in var})
@@ -49,3 +54,20 @@ for b in (100, 200, 400):
             rows.append(("+" if test.statistic < len(v) * len(a) / 2 else "-") + p)
     print(f"budget {b}: variant median better in {better} cells, worse in {worse}; "
           f"significant: {' '.join(rows) or 'none'}")
+    if len(SEEDS) < 2:
+        continue
+    n_better = n_worse = n_equal = 0
+    rows = []
+    for p in probs:
+        a, v = vals(base, p, b), vals(var, p, b)
+        if len(a) != len(v):
+            continue  # the base lacks some of the variant's seeds: no pairing
+        n_better += int((v < a).sum())
+        n_worse += int((v > a).sum())
+        n_equal += int((v == a).sum())
+        if np.any(v != a) and wilcoxon(v, a).pvalue < 0.05:
+            d = (v - a)[v != a]
+            r = rankdata(np.abs(d))  # direction: the larger signed-rank sum
+            rows.append(("+" if r[d < 0].sum() > r[d > 0].sum() else "-") + p)
+    print(f"  paired by seed: runs better {n_better}, worse {n_worse}, equal {n_equal}; "
+          f"significant (Wilcoxon): {' '.join(rows) or 'none'}")

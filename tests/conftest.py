@@ -62,3 +62,15 @@ def write_case(directory: Path, name: str = "t", objectives=("F_max", "E_max"), 
     path = Path(directory) / f"{name}.yaml"
     path.write_text(text, encoding="utf-8")
     return path
+
+
+def restart_starts(s):
+    """(restart, id of its first proposal, its phase, whether its budget left was shorter than
+    the mean of the phases before it) for every restart of a finished run."""
+    h = s.history
+    out = []
+    for r in range(1, s.restart + 1):
+        first = next(rec for rec in h if rec["restart"] == r)
+        lengths = [sum(rec["restart"] == q for rec in h[: first["id"]]) for q in range(r)]
+        out.append((r, first["id"], first["phase"], s.budget - first["id"] < sum(lengths) / len(lengths)))
+    return out

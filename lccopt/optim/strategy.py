@@ -16,7 +16,8 @@ Metric Stochastic Response Surface (Regis & Shoemaker) with DYCORS perturbations
   A candidate equal to a point already evaluated, failed or pending (same integers,
   continuous part within a tolerance) is never proposed.
 * Step F: step size sigma adapted by success/failure counters; restart with a fresh
-  design when sigma collapses or evaluations keep failing.
+  design when sigma collapses or evaluations keep failing (late in a run, with a scalar
+  surrogate, from the run's best point instead: ``restart_from``).
 * Step G: stop at a budget of told evaluations (failures included).
 
 Composite surrogate (setting ``composite``): when the minimised value is an aggregate of
@@ -81,7 +82,9 @@ class Proposal:
 #   6: a composite surrogate median-caps its outputs only when the aggregate is increasing in
 #      each of them (the ASF: yes, unchanged; E_max's max - min of sleeper energies: no)
 #   7: a scalar surrogate's tail is quadratic when cross-validation says so (tail "auto")
-GENERATION = 7
+#   8: with a scalar surrogate, a restart that cannot last as long as the run's phases did goes
+#      on from the run's best point (restart_from "endgame")
+GENERATION = 8
 
 
 def generation_settings(space: DesignSpace, generation: int) -> dict:
@@ -114,6 +117,7 @@ _BEFORE_GENERATION = {
     5: _BEFORE_GENERATION_5,
     6: {"composite_capping": True},
     7: {"tail": "linear"},
+    8: {"restart_from": "fresh"},
 }
 
 
@@ -169,6 +173,13 @@ def _default_settings(space: DesignSpace) -> dict:
         # (generation 7; smooth ill-conditioned problems solved, no significant loss on the
         # broad benchmark) or "auto-half" (measured, a trade: benchmarks/RESULTS-optimiser.md).
         "tail": "auto",
+        # What a restart starts from: "fresh", a new Latin hypercube design; "endgame", fresh
+        # unless the budget left is shorter than the run's phases so far were on average, when
+        # it goes on from the run's best point instead (no design, the step size reset: a late
+        # fresh design rarely gets anywhere); "alternate", every odd restart from the run's best
+        # point, every even one fresh (after BIPOP-CMA-ES; measured, a trade). "auto": see
+        # _AUTO_SETTINGS.
+        "restart_from": "auto",
     }
 
 
@@ -184,11 +195,12 @@ def _default_settings(space: DesignSpace) -> dict:
 # what is fitted, follows whether a composite surrogate is set up (``_keeps_points``).
 _AUTO_SETTINGS = {
     "scalar": {"perturbation": "truncnorm", "probability_schedule": "run", "local_weights": "greedy",
-               "restart_keeps_points": True},
+               "restart_keeps_points": True, "restart_from": "endgame"},
     "composite": {"perturbation": "reflect", "probability_schedule": "restart", "local_weights": None,
-                  "restart_keeps_points": False},
+                  "restart_keeps_points": False, "restart_from": "fresh"},
 }
-_AUTO_KEYS = ("perturbation", "probability_schedule", "local_weights", "restart_keeps_points")
+_AUTO_KEYS = ("perturbation", "probability_schedule", "local_weights", "restart_keeps_points",
+              "restart_from")
 
 
 class Strategy:
@@ -240,6 +252,8 @@ class Strategy:
             raise ValueError("restart_keeps_points must be True, False or 'auto'")
         if self.settings["tail"] not in ("linear", "quadratic", "auto", "auto-half"):
             raise ValueError("tail must be 'linear', 'quadratic', 'auto' or 'auto-half'")
+        if self.settings["restart_from"] not in ("fresh", "endgame", "alternate", "auto"):
+            raise ValueError("restart_from must be 'fresh', 'endgame', 'alternate' or 'auto'")
         if self.settings["composite_capping"] not in (True, False, "auto"):
             raise ValueError("composite_capping must be True, False or 'auto'")
         if not self.settings["weights"] or not all(0.0 <= w <= 1.0 for w in self.settings["weights"]):
@@ -254,7 +268,9 @@ class Strategy:
         self._free = span > 0
         self._span = space.span
 
-    def _begin_restart_state(self, design: list) -> None:
+    def _begin_restart_state(self, design: list, anchor: int | None = None) -> None:
+        # anchor: id of the run's best record, which a restart without a design goes on from
+        self._anchor = anchor
         self._queue = [np.asarray(x, dtype=float) for x in design]
         self._restart_start_n = len(self._records)
         self._n_init_restart = len(self._queue)
@@ -264,7 +280,8 @@ class Strategy:
         self._failed_row = 0
         self._n_adaptive = 0
         self._w_index = 0
-        self._fbest_restart: float | None = None
+        self._fbest_restart: float | None = (
+            None if anchor is None else float(self._records[anchor]["value"]))
         self._exhausted = False
 
     def set_aggregate(self, aggregate) -> None:
@@ -361,8 +378,20 @@ class Strategy:
         return self._sigma < s["sigma_min"] or self._failed_row >= s["max_failed_row"]
 
     def _start_restart(self) -> None:
-        """Fresh design; earlier points stay in the record and the duplicate set only."""
+        """Fresh design, or none from the run's best point (``restart_from``); earlier points
+        stay in the record and the duplicate set (and the surrogate: restart_keeps_points)."""
         self._restart += 1
+        rule = self._candidate_settings(self._composite_set_up())["restart_from"]
+        if rule == "endgame":
+            # phases so far: the first design's and every restart's, by their proposals
+            lengths = np.bincount([r["restart"] for r in self._records], minlength=self._restart)
+            from_best = self.budget - self.n_asked < lengths[: self._restart].mean()
+        else:
+            from_best = rule == "alternate" and self._restart % 2 == 1
+        ok = [r for r in self._records if r["status"] == "ok"]
+        if from_best and ok:
+            self._begin_restart_state([], min(ok, key=lambda r: (r["value"], r["id"]))["id"])
+            return
         taken = np.array([r["x"] for r in self._records]).reshape(-1, self.space.dim)
         design = latin_hypercube(self.space, self.n_initial, self._rng, exclude=taken)
         self._begin_restart_state(list(design))
@@ -372,11 +401,12 @@ class Strategy:
         sp = self.space
         recs = self._records
         taken = np.array([r["x"] for r in recs]).reshape(-1, sp.dim)
-        # Distance criterion: points of this restart (any status) and everything in flight.
-        near = [r["x"] for r in recs if r["restart"] == self._restart or r["status"] == "pending"]
+        # Distance criterion: points of this restart (any status; with the point it went on
+        # from) and everything in flight.
+        own = [r["restart"] == self._restart or r["id"] == self._anchor for r in recs]
+        near = [r["x"] for r, o in zip(recs, own) if o or r["status"] == "pending"]
         ctx = _Context(self, taken, np.array(near).reshape(-1, sp.dim))
-        ok = sorted((r for r in recs if r["status"] == "ok" and r["restart"] == self._restart),
-                    key=lambda r: r["id"])
+        ok = sorted((r for r, o in zip(recs, own) if r["status"] == "ok" and o), key=lambda r: r["id"])
         if ok:
             ib = min(range(len(ok)), key=lambda i: (ok[i]["value"], ok[i]["id"]))
             ctx.best = ok[ib]["x"]
@@ -392,12 +422,15 @@ class Strategy:
             ctx.local_search = self._local_search  # run when first needed (no RNG use)
         return ctx
 
+    def _composite_set_up(self) -> bool:
+        """The composite setting on and an aggregate given."""
+        return bool(self.settings["composite"] and self._aggregate is not None)
+
     def _keeps_points(self) -> bool:
         """restart_keeps_points, "auto" resolved (_AUTO_SETTINGS) by whether a composite
-        surrogate is set up (the setting on and an aggregate given): it decides which points
-        are fitted, so it is known before the surrogate is."""
-        composite = bool(self.settings["composite"] and self._aggregate is not None)
-        return bool(self._candidate_settings(composite)["restart_keeps_points"])
+        surrogate is set up: it decides which points are fitted, so it is known before the
+        surrogate is (restart_from likewise decides a restart's design)."""
+        return bool(self._candidate_settings(self._composite_set_up())["restart_keeps_points"])
 
     def _scalar(self, X: np.ndarray, f: np.ndarray) -> CubicRBF:
         """The scalar surrogate: the cubic RBF of the values or of the median-capped values
@@ -783,6 +816,7 @@ class Strategy:
             "w_index": self._w_index,
             "fbest_restart": self._fbest_restart,
             "exhausted": self._exhausted,
+            "anchor": self._anchor,
         }
 
     @classmethod
@@ -793,7 +827,8 @@ class Strategy:
             raise ValueError(f"unsupported strategy state version {d.get('version')}")
         s = cls.__new__(cls)
         settings = {**{k: _BEFORE_GENERATION_3[k] for k in _ADDED_IN_GENERATION_3},
-                    **_BEFORE_GENERATION_5, **_BEFORE_GENERATION[7], **d["settings"]}
+                    **_BEFORE_GENERATION_5, **_BEFORE_GENERATION[7], **_BEFORE_GENERATION[8],
+                    **d["settings"]}
         s._setup(DesignSpace.from_dict(d["space"]), int(d["budget"]), int(d["n_initial"]),
                  d["seed"], settings)
         bg = getattr(np.random, d["rng"]["bit_generator"])()
@@ -810,6 +845,7 @@ class Strategy:
         s._n_adaptive, s._w_index = int(d["n_adaptive"]), int(d["w_index"])
         s._fbest_restart = None if d["fbest_restart"] is None else float(d["fbest_restart"])
         s._exhausted = bool(d["exhausted"])
+        s._anchor = None if d.get("anchor") is None else int(d["anchor"])
         return s
 
     def save(self, path) -> None:

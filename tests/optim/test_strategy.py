@@ -8,6 +8,7 @@ from lccopt.optim.rbf import CubicRBF
 from lccopt.optim.sampling import latin_hypercube
 from lccopt.optim.space import DesignSpace
 from lccopt.optim.strategy import PHASES, Proposal, Strategy, generation_settings
+from tests.conftest import restart_starts
 
 REFERENCE = [600.0, 600.0, 600.0, 0.0, 6.0, 6.0, 4.0, 0.0]  # like the paper's reference design
 
@@ -189,6 +190,55 @@ def test_restart_keeps_points_fits_every_point_after_a_restart():
         assert seen[keep] == (len(own) if keep in (False, "generation 4") else len(ok))
         assert np.array_equal(ctx.best, min(own, key=lambda r: (r["value"], r["id"]))["x"])
     assert seen[True] > seen[False]
+
+
+def test_a_late_restart_goes_on_from_the_run_best_with_a_scalar_surrogate(tmp_path):
+    """restart_from "auto" (generation 8; measured in benchmarks/RESULTS-optimiser.md): with a
+    scalar surrogate a restart starts a fresh design unless the budget left is shorter than the
+    run's phases so far were on average; then it has no design, centres its steps on the run's
+    best point with the step size reset and counts success against that point's value. The
+    state round-trips in the middle of such a restart; generation 7 (and "fresh") always
+    starts a fresh design."""
+    p = problems.paper_size("ackley")
+    assert Strategy(p.space, budget=20).settings["restart_from"] == "auto"
+    with pytest.raises(ValueError, match="restart_from"):
+        Strategy(p.space, budget=20, restart_from="best")
+    kw = dict(budget=150, n_initial=10, seed=5, fail_tol=1, sigma_min=0.05)
+    s = run_serial(Strategy(p.space, **kw), p)
+    starts = restart_starts(s)
+    assert {late for *_, late in starts} == {True, False}  # both kinds occur
+    for r, first, phase, late in starts:
+        assert (phase != "initial") == late, (r, first, phase)
+    # inside the first late restart: centred on the run's best, success against its value
+    r_late, first_late = next((r, i) for r, i, _, late in starts if late)
+    t = Strategy(p.space, **kw)
+    while t.n_asked < first_late + 1:
+        for pr in t.ask(1):
+            if pr.id < first_late:
+                t.tell(pr.id, p(pr.x))
+    assert t.restart == r_late and t.sigma == t.settings["sigma_init"]
+    run_best = min((r for r in t.history if r["status"] == "ok"), key=lambda r: (r["value"], r["id"]))
+    assert np.array_equal(t._prepare().best, run_best["x"])
+    assert t._fbest_restart == run_best["value"]
+    t.save(tmp_path / "mid.json")
+    t.tell(first_late, p(t.history[first_late]["x"]))
+    resumed = Strategy.load(tmp_path / "mid.json")
+    resumed.tell(first_late, p(resumed.history[first_late]["x"]))
+    assert fingerprint(run_serial(t, p)) == fingerprint(run_serial(resumed, p)) == fingerprint(s)
+    for kw_old in (generation_settings(p.space, 7), {"restart_from": "fresh"}):
+        old = run_serial(Strategy(p.space, **kw, **kw_old), p)
+        assert old.restart >= 2 and all(ph == "initial" for _, _, ph, _ in restart_starts(old))
+
+
+def test_alternate_restarts_go_on_from_the_run_best_then_start_fresh():
+    """restart_from "alternate" (measured, a trade; benchmarks/RESULTS-optimiser.md): odd
+    restarts go on from the run's best point, even ones start a fresh design."""
+    p = problems.paper_size("ackley")
+    s = run_serial(Strategy(p.space, budget=150, n_initial=10, seed=5, fail_tol=1, sigma_min=0.05,
+                            restart_from="alternate"), p)
+    starts = restart_starts(s)
+    assert len(starts) >= 2
+    assert all((phase != "initial") == (r % 2 == 1) for r, _, phase, _ in starts)
 
 
 # -- state and resume --------------------------------------------------------------------------------------
