@@ -216,7 +216,7 @@ def test_with_the_asf_generation_6_proposes_what_generation_5_proposed():
     multi-objective run (the ASF) proposes bit for bit what generation 5 proposed."""
     from lccopt.optim.strategy import generation_settings
 
-    runs = [drive(make(2, **kw)) for kw in ({}, generation_settings(SPACE, 5))]
+    runs = [drive(make(2, **generation_settings(SPACE, g))) for g in (6, 5)]
     xs = [[r["x"].tolist() for r in s.history] for s in runs]
     assert len(xs[0]) == 60 and xs[0] == xs[1]
 
