@@ -990,6 +990,6 @@ def parse_design(text: str, case: Case) -> np.ndarray:
     return case.check_design(x)
 
 
-def format_design(case: Case, x) -> str:
-    """``x_r1=214 MN/m, ..., x_n=5, ...``: the design in the units people use."""
-    return ", ".join(v.show(xi) for v, xi in zip(case.variables, x))
+def design_items(case: Case, x) -> list[str]:
+    """``["x_r1=214 MN/m", ..., "x_n=5", ...]``: each variable in the units people use."""
+    return [v.show(xi) for v, xi in zip(case.variables, x)]

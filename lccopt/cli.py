@@ -23,6 +23,7 @@ import typer
 
 from .case import CaseError
 from .errors import UsageError, describe_os_error
+from .terminal import wrap_items
 
 EXIT_OK, EXIT_INTERNAL, EXIT_USAGE, EXIT_INTERRUPTED, EXIT_PIPE = 0, 1, 2, 130, 141
 
@@ -60,8 +61,9 @@ def check(case: Path = typer.Argument(..., help="case file (YAML)")) -> None:
     from .case import load_case
 
     c = load_case(case)
-    names = ", ".join(f"{v.name}{'∈Z' if v.integer else ''} [{v.lower:g}, {v.upper:g}]" for v in c.variables)
-    typer.echo(f"{case}: ok: case '{c.name}', {len(c.variables)} design variables: {names}")
+    names = [f"{v.name}{'∈Z' if v.integer else ''} [{v.lower:g}, {v.upper:g}]" for v in c.variables]
+    typer.echo(f"{case}: ok: case '{c.name}', {len(c.variables)} design variables:")
+    typer.echo("\n".join(wrap_items(names, "  ")))
     if c.conditions:
         typer.echo(f"  {len(c.conditions)} traffic conditions, combined by '{c.condition_mode}':")
         for t in c.conditions:

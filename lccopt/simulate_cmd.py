@@ -8,8 +8,9 @@ from pathlib import Path
 import numpy as np
 import typer
 
-from .case import format_design, load_case, parse_design
+from .case import design_items, load_case, parse_design
 from .store import write_evaluation
+from .terminal import wrap_items
 from .vti.response import OBJECTIVE_DOC, Evaluation, objective_display
 
 
@@ -36,9 +37,10 @@ def run_simulate(case_path: Path, design: str | None, out: Path | None, plots: b
     ev = evaluate(case, x)
     wall = time.perf_counter() - t0
     info = ev.info
-    typer.echo(f"case '{case.name}' ({case_path}), design {format_design(case, x)}")
-    typer.echo(f"static wheel load {info['static_wheel_load'] / 1e3:.2f} kN (on a rigid rail); "
-               f"Hertz spring linearised at P = {info['hertz_load'] / 1e3:.1f} kN: "
+    typer.echo(f"case '{case.name}' ({case_path})")
+    typer.echo("\n".join(wrap_items(design_items(case, x), "  design ")))
+    typer.echo(f"static wheel load {info['static_wheel_load'] / 1e3:.2f} kN (on a rigid rail)")
+    typer.echo(f"Hertz spring linearised at P = {info['hertz_load'] / 1e3:.1f} kN: "
                f"k_w = {info['contact_stiffness'] / 1e9:.3f} GN/m")
     typer.echo(f"{info['n_dofs']} track dofs, {info['n_steps']} steps of {info['time_step'] * 1e3:g} ms, "
                f"wheel from {info['x_start']:.1f} m to {info['x_end']:.1f} m, {wall:.2f} s")
@@ -64,7 +66,8 @@ def _simulate_conditions(case, case_path: Path, x, out: Path, plots: bool, evalu
     from .store import write_condition_evaluations
 
     names = [c.name for c in case.conditions]
-    typer.echo(f"case '{case.name}' ({case_path}), design {format_design(case, x)}")
+    typer.echo(f"case '{case.name}' ({case_path})")
+    typer.echo("\n".join(wrap_items(design_items(case, x), "  design ")))
     keys = list(OBJECTIVE_DOC)
     head = "".join(f"{k + ' [' + objective_display(k)[1] + ']':>12}" for k in keys)
     typer.echo(f"{'condition':<22}{head}{'time':>7}")

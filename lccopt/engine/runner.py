@@ -40,10 +40,11 @@ from pathlib import Path
 import numpy as np
 import typer
 
-from ..case import SAFE_NAME, Case, CaseError, format_design, load_case
+from ..case import SAFE_NAME, Case, CaseError, design_items, load_case
 from ..errors import EnvironmentFault, UsageError, describe_os_error, environment_errno
 from ..optim.strategy import GENERATION
 from ..problem import Problem
+from ..terminal import wrap_items
 from .executors import ExecutorError, make_executor
 from .journal import Journal, JournalError, read_journal
 from .progress import Progress, fmt, hms, objective_text, objective_value, reference_objectives
@@ -188,9 +189,10 @@ def resume(run, workers: int | None = None, scheduler=None, case=None, allow_cha
                 table.apply(journal.append("finished", time=now_iso(), evaluations=table.n_done))
             write_results(rd.results_path, table, case=case_obj, problem=problem, meta=meta)
             best = table.best()
-            out.log(f"{rd.path} is finished: {table.n_done} evaluations ({table.n_failed} failed)"
-                    + (f", best #{best['id']} value {fmt(best['value'])}" if best else "")
-                    + "; nothing to do")
+            out.log(f"{rd.path} is finished: {table.n_done} evaluations ({table.n_failed} failed); "
+                    "nothing to do")
+            if best:
+                out.log(f"best #{best['id']} value {fmt(best['value'])}")
             return rd.path
         executor = _start_executor(case_obj, spec, workers, scheduler, problem)
         try:
@@ -466,8 +468,10 @@ class Engine:
         n_start = self.table.n_done
         try:
             what = ", ".join(pb.objectives) + (" (ASF, Eq. 7)" if pb.multi else "")
-            p.log(f"run {self.rd.path}: case '{self.case.name}', {pb.dim} variables, minimising {what}, "
-                  f"budget {pb.budget}, {self.table.n_done} done; {self.executor.description}")
+            # two lines, so that an 80-column terminal does not wrap them
+            p.log(f"run {self.rd.path} (case '{self.case.name}'): {pb.dim} variables, "
+                  f"budget {pb.budget}, {self.table.n_done} done")
+            p.log(f"minimising {what}; {self.executor.description}")
             if self.table.lag != self.lag:
                 self.table.apply(self.journal.append("schedule", lag=self.lag, time=now_iso()))
             self._release()
@@ -701,15 +705,15 @@ class Engine:
 
     def _summary(self, wall: float) -> None:
         t, pb = self.table, self.problem
-        lines = [f"done: {t.n_done} evaluations ({t.n_failed} failed) in {self.rd.path}, "
-                 f"this session {hms(wall)} wall, optimiser {self.t_optimiser:.1f} s, "
+        lines = [f"done: {t.n_done} evaluations ({t.n_failed} failed) in {self.rd.path}",
+                 f"  this session {hms(wall)} wall, optimiser {self.t_optimiser:.1f} s, "
                  f"bookkeeping {self.t_bookkeeping:.1f} s"]
         best = t.best()
         ref = reference_objectives(t) or {}
         if best is not None:
             lines.append(f"best #{best['id']} ({best['phase']}, restart {best['restart']}): value "
                          f"{fmt(best['value'])}")
-            lines.append("  x: " + format_design(self.case, best["x"]))
+            lines += wrap_items(design_items(self.case, best["x"]), "  x: ")
             for k in pb.objectives:
                 v, r = best["objectives"].get(k), ref.get(k)
                 rel = f" ({(v - r) / r:+.1%} vs reference design {objective_value(k, r)})" if r else ""

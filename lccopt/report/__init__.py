@@ -108,10 +108,11 @@ def write_report(run: Path, format: str = "both", out: Path | None = None) -> Pa
     atomic_write_text(out / "summary.json", json.dumps(summary, indent=2, allow_nan=True) + "\n")
     import typer
 
-    bi_txt = (f"; best #{summary['best']['id']}: " + ", ".join(
-        f"{k} {pct(summary['best']['objectives'][k], data.ref_objectives.get(k, math.nan))}"
-        for k in data.objectives)) if "best" in summary else ""
-    typer.echo(f"report of '{data.name}' ({data.n}/{data.budget} evaluations, {data.state}){bi_txt}")
+    typer.echo(f"report of '{data.name}' ({data.n}/{data.budget} evaluations, {data.state})")
+    if "best" in summary:  # a line of its own: one line would wrap on an 80-column terminal
+        typer.echo(f"  best #{summary['best']['id']}: " + ", ".join(
+            f"{k} {pct(summary['best']['objectives'][k], data.ref_objectives.get(k, math.nan))}"
+            for k in data.objectives))
     typer.echo(f"  {len(figs)} figures and {', '.join(p.name for p in wrote)} in {out} "
                f"({summary['seconds']:.1f} s)")
     return out

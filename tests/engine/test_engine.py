@@ -8,7 +8,7 @@ import h5py
 import numpy as np
 import pytest
 
-from lccopt.case import CaseError, load_case
+from lccopt.case import CaseError, design_items, load_case
 from lccopt.cli import UsageError
 from lccopt.engine.journal import Journal, JournalError, read_journal
 from lccopt.engine.rundir import RunDir
@@ -62,6 +62,13 @@ def test_run_directory_and_results_layout(tmp_path, capsys):
         assert ev.objectives["F_max"] == t["F_max"][i]
     out = capsys.readouterr()
     assert "done: 10 evaluations" in out.out and "[10/10]" in out.err
+    # the best design's lines fit an 80-column terminal and still hold every variable
+    lines = out.out.splitlines()
+    i = next(i for i, line in enumerate(lines) if line.startswith("  x: "))
+    design = [line for line in lines[i:] if line.startswith("  x: ") or line.startswith("     ")]
+    assert len(design) >= 2 and all(len(line) <= 80 for line in design)
+    assert " ".join(s.strip() for s in design)[3:] == ", ".join(
+        design_items(c, t["x"][list(t["id"]).index(best)]))
 
     # Resuming a finished run says so and does nothing.
     resume(run, workers=1, evaluator=FAKE)
