@@ -165,3 +165,25 @@ def test_missing_or_broken_run_directory_exit_2_one_line(tmp_path, kind):
     assert err.startswith("lccopt: error: ") and "\n" not in err, err
     assert str(target) in err and "Traceback" not in proc.stderr
     assert not (target / "report").exists()
+
+
+def test_paper_phases_accounts_for_every_evaluation(run_dir):
+    """benchmarks/paper_phases.py on a real run: its phases add up to the run's evaluations
+    and its best value is results.h5's."""
+    import subprocess
+    import sys
+
+    from .helpers import REPO
+
+    run, _ = run_dir
+    with h5py.File(run / "results.h5", "r") as f:
+        ev = f["evaluations"]
+        n, best = len(ev["id"]), float(ev["value"][()][ev["status"][()] == b"ok"].min())
+    proc = subprocess.run([sys.executable, str(REPO / "benchmarks" / "paper_phases.py"), str(run),
+                           "--reference", "1", "--best", str(best)], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    line = proc.stdout.splitlines()[0].split()
+    assert line[0] == run.name and float(line[1]) == pytest.approx(best, rel=1e-4)
+    phases = [p for p in line[2:] if re.fullmatch(r"[FB]\d+:\S+", p)]
+    assert phases[0].startswith("F") and sum(int(p[1:p.index(":")]) for p in phases) == n
+    assert re.search(r"fresh phases that got below it: [1-9]\d* of [1-9]", proc.stdout)
