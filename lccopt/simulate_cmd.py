@@ -14,6 +14,12 @@ from .terminal import wrap_items
 from .vti.response import OBJECTIVE_DOC, Evaluation, objective_display
 
 
+def _echo_design(case, case_path: Path, x) -> None:
+    """The case and the design simulated, in lines that fit an 80-column terminal."""
+    typer.echo(f"case '{case.name}' ({case_path})")
+    typer.echo("\n".join(wrap_items(design_items(case, x), "  design ")))
+
+
 def run_simulate(case_path: Path, design: str | None, out: Path | None, plots: bool,
                  force: bool = False) -> Evaluation:
     from .errors import UsageError
@@ -37,8 +43,7 @@ def run_simulate(case_path: Path, design: str | None, out: Path | None, plots: b
     ev = evaluate(case, x)
     wall = time.perf_counter() - t0
     info = ev.info
-    typer.echo(f"case '{case.name}' ({case_path})")
-    typer.echo("\n".join(wrap_items(design_items(case, x), "  design ")))
+    _echo_design(case, case_path, x)
     typer.echo(f"static wheel load {info['static_wheel_load'] / 1e3:.2f} kN (on a rigid rail)")
     typer.echo(f"Hertz spring linearised at P = {info['hertz_load'] / 1e3:.1f} kN: "
                f"k_w = {info['contact_stiffness'] / 1e9:.3f} GN/m")
@@ -66,8 +71,7 @@ def _simulate_conditions(case, case_path: Path, x, out: Path, plots: bool, evalu
     from .store import write_condition_evaluations
 
     names = [c.name for c in case.conditions]
-    typer.echo(f"case '{case.name}' ({case_path})")
-    typer.echo("\n".join(wrap_items(design_items(case, x), "  design ")))
+    _echo_design(case, case_path, x)
     keys = list(OBJECTIVE_DOC)
     head = "".join(f"{k + ' [' + objective_display(k)[1] + ']':>12}" for k in keys)
     typer.echo(f"{'condition':<22}{head}{'time':>7}")

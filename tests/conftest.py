@@ -18,8 +18,11 @@ REFERENCE = CONFIGS / "reference.yaml"
 
 
 def lccopt_command() -> list[str]:
-    """The installed console script, as a user runs it (falls back to the module)."""
-    exe = shutil.which("lccopt")
+    """The installed console script, as a user runs it (falls back to the module): the one
+    installed beside this Python first, so that another lccopt on PATH (an older install in
+    another environment) is never the one tested."""
+    beside = Path(sys.executable).parent / "lccopt"
+    exe = str(beside) if beside.is_file() else shutil.which("lccopt")
     return [exe] if exe else [sys.executable, "-m", "lccopt.cli"]
 
 

@@ -26,6 +26,9 @@ def test_simulate_prints_the_four_objectives_with_units(reference_run):
     for name, unit in [("F_rms", "kN"), ("F_max", "kN"), ("E_rms", "J"), ("E_max", "J")]:
         assert lines[name].split("=")[1].split()[1] == unit
     assert "static wheel load 56.98 kN" in proc.stdout and "P = 100.0 kN" in proc.stdout
+    # every line but those naming paths (the case file, the output) fits an 80-column terminal
+    assert all(len(line) <= 80 for line in proc.stdout.splitlines()[1:] if str(out) not in line)
+    assert "x_r1=1120 MN/m" in proc.stdout and "x_l=0" in proc.stdout
 
 
 def test_simulate_writes_readable_histories_and_plots(reference_run):
