@@ -33,7 +33,7 @@ def phases(run: Path) -> tuple[float, list[tuple[str, int, float]]]:
         good = rows[ok[rows]]
         kind = "F" if phase[rows[0]] == "initial" else "B"
         out.append((kind, len(rows), float(value[good].min()) if len(good) else float("nan")))
-    return float(value[ok].min()), out
+    return (float(value[ok].min()) if ok.any() else float("nan")), out
 
 
 def main() -> None:
