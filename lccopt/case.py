@@ -229,6 +229,10 @@ def _design_group(doc: str, integer: bool, counted: bool) -> Section:
     }
     if counted:
         fields["count"] = Num("number of variables in the group", integer=True, ge=1, le=50)
+    if not integer:
+        fields["scale"] = Str("how the optimiser steps through the bounds: linear, or log (equal "
+                              "ratios are equal steps; positive bounds)", ("linear", "log"),
+                              required=False)
     return Section(fields, doc)
 
 
@@ -515,6 +519,7 @@ class Variable:
     upper: float
     reference: float
     unit: str
+    log: bool = False  # searched on a log scale (design.<group>.scale: log)
 
     @property
     def display(self) -> tuple[str, float]:
@@ -588,6 +593,11 @@ class Case:
     def integer(self) -> np.ndarray:
         return np.array([v.integer for v in self.variables], dtype=bool)
 
+    @property
+    def log(self) -> np.ndarray:
+        """Variables the optimiser searches on a log scale."""
+        return np.array([v.log for v in self.variables], dtype=bool)
+
     def with_simulation(self, **settings) -> "Case":
         """A copy with some simulation settings replaced (convergence studies, tests)."""
         data = {**self.data, "simulation": {**self.data["simulation"], **settings}}
@@ -657,6 +667,11 @@ def _variables(design: dict, lines: dict, file: str) -> tuple[Variable, ...]:
             raise CaseError(f"{at('bounds')}: lower bound {lo:g} is above upper bound {hi:g}")
         if integer and (lo != round(lo) or hi != round(hi)):
             raise CaseError(f"{at('bounds')}: an integer variable needs whole-number bounds, got [{lo:g}, {hi:g}]")
+        if "scale" in g and g["scale"] is None:
+            del g["scale"]  # absent stays absent: a case of before resolves as it did (resumes)
+        log = g.get("scale") == "log"
+        if log and not lo > 0:
+            raise CaseError(f"{at('scale')}: a log scale needs positive bounds, got [{lo:g}, {hi:g}]")
         refs = g["reference"] if "count" in g else [g["reference"]]
         if "count" in g and len(refs) != g["count"]:
             raise CaseError(f"{at('reference')}: expected {g['count']} values (count), got {len(refs)}")
@@ -667,7 +682,7 @@ def _variables(design: dict, lines: dict, file: str) -> tuple[Variable, ...]:
             if not lo <= r <= hi:
                 raise CaseError(f"{at('reference')}: reference {name} = {r:g} is outside the bounds "
                                 f"[{lo:g}, {hi:g}]")
-            out.append(Variable(name, key, integer, float(lo), float(hi), float(r), unit))
+            out.append(Variable(name, key, integer, float(lo), float(hi), float(r), unit, log))
     return tuple(out)
 
 

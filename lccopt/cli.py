@@ -61,7 +61,8 @@ def check(case: Path = typer.Argument(..., help="case file (YAML)")) -> None:
     from .case import load_case
 
     c = load_case(case)
-    names = [f"{v.name}{'∈Z' if v.integer else ''} [{v.lower:g}, {v.upper:g}]" for v in c.variables]
+    names = [f"{v.name}{'∈Z' if v.integer else ''} [{v.lower:g}, {v.upper:g}]{' log' if v.log else ''}"
+             for v in c.variables]
     typer.echo(f"{case}: ok: case '{c.name}', {len(c.variables)} design variables:")
     typer.echo("\n".join(wrap_items(names, "  ")))
     if c.conditions:

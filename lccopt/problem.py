@@ -42,6 +42,7 @@ class Problem:
     conditions: tuple[str, ...] = ()      # traffic conditions (none: the case's one simulation)
     weights: tuple[float, ...] = ()
     condition_mode: str = "worst"
+    log: tuple[bool, ...] = ()            # variables searched on a log scale (empty: none)
 
     @classmethod
     def from_case(cls, case: Case) -> "Problem":
@@ -75,6 +76,7 @@ class Problem:
             conditions=conditions,
             weights=tuple(c.weight for c in case.conditions),
             condition_mode=mode,
+            log=tuple(bool(v) for v in case.log) if case.log.any() else (),
         )
 
     # -- design space -----------------------------------------------------------------------
@@ -111,7 +113,8 @@ class Problem:
         from .optim.space import DesignSpace
 
         return DesignSpace(names=list(self.names), lower=list(self.lower), upper=list(self.upper),
-                           integer=list(self.integer), given=[list(self.reference)])
+                           integer=list(self.integer), given=[list(self.reference)],
+                           log=list(self.log) or None)
 
     def strategy(self, budget: int | None = None, composite: bool | None = None,
                  generation: int | None = None):
@@ -154,9 +157,10 @@ class Problem:
                    self.rho if rho is None else rho)
 
     def same_space(self, other: "Problem") -> bool:
-        """Same variables, bounds, reference design and objectives (what a resume must keep)."""
+        """Same variables, bounds, scales, reference design and objectives (what a resume must
+        keep: the optimiser's proposals depend on them)."""
         keys = ("names", "lower", "upper", "integer", "reference", "objectives", "conditions",
-                "weights", "condition_mode")
+                "weights", "condition_mode", "log")
         return all(getattr(self, k) == getattr(other, k) for k in keys)
 
     # -- scalar value ------------------------------------------------------------------------

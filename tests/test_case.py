@@ -104,3 +104,65 @@ def test_design_vector_checks():
                        ("a,b", "comma-separated")]:
         with pytest.raises(ValueError, match=words):
             parse_design(bad, case)
+
+
+# -- log scales ----------------------------------------------------------------------------
+LINEAR = "\n".join(l for l in REFERENCE.splitlines() if not l.strip().startswith("scale:")) + "\n"
+PADS = "  railpad_stiffness:"
+
+
+def with_pad_lines(extra: str) -> str:
+    """The reference case with ``extra`` lines in the railpad_stiffness design group."""
+    head, _, tail = LINEAR.partition("    kind: continuous\n")
+    assert PADS in head.splitlines()[-1]
+    return head + "    kind: continuous\n" + extra + tail
+
+
+def test_scale_log_marks_the_pads_for_a_log_search(tmp_path):
+    from lccopt.problem import Problem
+
+    p = tmp_path / "c.yaml"
+    p.write_text(with_pad_lines("    scale: log\n")
+                 + "optimisation:\n  objectives: [F_max]\n  budget: 30\n  initial_points: 10\n")
+    case = load_case(p)
+    assert case.log.tolist() == [True] * 3 + [False] * 5
+    space = Problem.from_case(case).space()
+    assert space.log == [True] * 3 + [False] * 5
+    assert space.to_unit(np.array([np.sqrt(50e6 * 1200e6)] * 3 + [0, 3, 3, 3, 0]))[:3] == \
+        pytest.approx([0.5] * 3)
+    p.write_text(with_pad_lines("    scale: linear\n"))
+    assert not load_case(p).log.any()
+
+
+def test_a_case_without_scale_resolves_as_before(tmp_path):
+    # A run keeps the sha256 of its resolved case; a case written before scales existed must
+    # resolve to the same text, or its runs could not be resumed.
+    p = tmp_path / "c.yaml"
+    p.write_text(LINEAR + "optimisation:\n  objectives: [F_max]\n  budget: 30\n  initial_points: 10\n")
+    case = load_case(p)
+    assert "scale" not in case.resolved and not case.log.any()
+    from lccopt.problem import Problem
+    assert "log" not in Problem.from_case(case).space().to_dict()
+
+
+@pytest.mark.parametrize("extra, where, key, words", [
+    ("    scale: cubic\n", "pads", "design.railpad_stiffness.scale", "must be one of"),
+    ("    scale: log\n", "integer", "design.strengthened_sleepers.scale", "unknown key"),
+    ("    scale: log\n    bounds: [0.0, 1200.0e6]\n", "pads-bounds", "design.railpad_stiffness.scale",
+     "positive bounds"),
+])
+def test_bad_scale_names_file_line_and_key(tmp_path, extra, where, key, words):
+    if where == "integer":
+        text = LINEAR.replace("  strengthened_sleepers:", "  strengthened_sleepers:\n" + extra.rstrip("\n"), 1)
+    else:
+        text = with_pad_lines(extra)
+        if where == "pads-bounds":  # the group's own bounds line comes later: drop it
+            text = text.replace("    bounds: [50.0e6, 1200.0e6]", "", 1)
+    p = tmp_path / "bad.yaml"
+    p.write_text(text)
+    with pytest.raises(CaseError) as exc:
+        load_case(p)
+    msg = str(exc.value)
+    assert msg.startswith(f"{p}:") and "\n" not in msg
+    assert f" {key}: " in msg and words in msg
+    assert int(msg.split(":")[1]) == line_of(text, extra.splitlines()[0].strip())

@@ -260,13 +260,13 @@ def _resume_case(rd: RunDir, meta: dict, case, allow_changed: bool, out: Progres
         if not allow_changed:
             raise _usage_error(
                 f"the case file {case_obj.path} changed since the run started (the resolved case "
-                f"differs from {rd.case_path}); restore it, or resume with --allow-changed-case to "
-                f"use the changed case")
+                f"differs from {rd.case_path}); restore it, resume with --case {rd.case_path} (the "
+                f"run's copy), or with --allow-changed-case to use the changed case")
         old = Problem.from_case(load_case(rd.case_path))
         new = Problem.from_case(case_obj)
         if not old.same_space(new):
             raise _usage_error(f"the changed case {case_obj.path} has other design variables, bounds, "
-                               f"reference design or objectives; start a new run instead")
+                               f"scales, reference design or objectives; start a new run instead")
         out.log(f"the case file {case_obj.path} changed since the run started: carrying on with it "
                 f"(--allow-changed-case)")
     return case_obj

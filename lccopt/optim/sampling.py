@@ -17,12 +17,13 @@ def _lhs_unit(n: int, d: int, rng: np.random.Generator) -> np.ndarray:
 
 
 def _to_space(space: DesignSpace, u: np.ndarray) -> np.ndarray:
-    lb, ub, m = space.lb, space.ub, space.int_mask
+    lb, ub, m = space.search_lb, space.search_ub, space.int_mask
     # Integers: stretch [0, 1] over [lb - 0.5, ub + 0.5] before rounding so that the end
     # values get a full-width stratum like the inner values (plain rounding halves them).
+    # Log variables: strata of equal ratio (search coordinates).
     lo = np.where(m, lb - 0.5, lb)
     hi = np.where(m, ub + 0.5, ub)
-    return space.snap(lo + u * (hi - lo))
+    return space.snap(space.from_search(lo + u * (hi - lo)))
 
 
 def _keys(X: np.ndarray) -> list[tuple]:

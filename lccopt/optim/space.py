@@ -3,6 +3,13 @@
 The optimiser works on the unit box internally (so that distances and the RBF
 shape do not depend on the units of the variables); this module owns the
 mapping both ways and the rounding of integer variables.
+
+A continuous variable with positive bounds may be searched on a log scale (``log``):
+its search coordinate is ln x, so equal ratios are equal steps (a stiffness from 50 to
+1200 MN/m: 50 -> 100 is as far as 600 -> 1200). The optimiser draws its steps and its
+initial design in search coordinates (``to_search``/``from_search``) and measures
+distance in the unit box of those; points themselves stay in the variables' own units.
+For a linear variable every mapping is the identity, bit for bit.
 """
 
 from __future__ import annotations
@@ -20,6 +27,7 @@ class DesignSpace:
     upper: list[float]
     integer: list[bool]
     given: list[list[float]] = field(default_factory=list)
+    log: list[bool] | None = None      # per variable: searched on a log scale (None: none)
 
     def __post_init__(self) -> None:
         self.names = [str(n) for n in self.names]
@@ -31,7 +39,9 @@ class DesignSpace:
             raise ValueError("design space needs at least one variable")
         if len(set(self.names)) != d:
             raise ValueError(f"variable names must be unique: {self.names}")
-        for what, seq in (("lower", self.lower), ("upper", self.upper), ("integer", self.integer)):
+        self.log = [False] * d if self.log is None else [bool(v) for v in self.log]
+        for what, seq in (("lower", self.lower), ("upper", self.upper), ("integer", self.integer),
+                          ("log", self.log)):
             if len(seq) != d:
                 raise ValueError(f"{what} has {len(seq)} entries, expected {d} (one per variable)")
         for i, name in enumerate(self.names):
@@ -42,6 +52,9 @@ class DesignSpace:
                 raise ValueError(f"variable {name!r}: lower bound {lo} > upper bound {hi}")
             if self.integer[i] and (lo != round(lo) or hi != round(hi)):
                 raise ValueError(f"integer variable {name!r}: bounds must be integers, got [{lo}, {hi}]")
+            if self.log[i] and (self.integer[i] or not lo > 0):
+                raise ValueError(f"variable {name!r}: a log scale needs a continuous variable with "
+                                 f"positive bounds, got [{lo}, {hi}]")
         given = np.asarray(self.given, dtype=float)
         if given.size == 0:
             given = np.empty((0, d))
@@ -84,12 +97,47 @@ class DesignSpace:
     def given_array(self) -> np.ndarray:
         return np.array(self.given, dtype=float).reshape(-1, self.dim)
 
+    @property
+    def log_mask(self) -> np.ndarray:
+        return np.array(self.log, dtype=bool)
+
+    @property
+    def search_lb(self) -> np.ndarray:
+        return self.to_search(self.lb)
+
+    @property
+    def search_ub(self) -> np.ndarray:
+        return self.to_search(self.ub)
+
+    @property
+    def search_span(self) -> np.ndarray:
+        """``span`` in search coordinates (ln ub - ln lb for a log variable)."""
+        s = self.search_ub - self.search_lb
+        return np.where(s > 0, s, 1.0)
+
     # -- mapping ----------------------------------------------------------
+    def to_search(self, x: np.ndarray) -> np.ndarray:
+        """Search coordinates: ln x for log variables, x itself for the others."""
+        x = np.asarray(x, dtype=float)
+        m = self.log_mask
+        if not m.any():
+            return x
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.where(m, np.log(np.where(m, x, 1.0)), x)
+
+    def from_search(self, s: np.ndarray) -> np.ndarray:
+        """Back from search coordinates (not clipped: ``snap`` puts a point on the bounds)."""
+        s = np.asarray(s, dtype=float)
+        m = self.log_mask
+        if not m.any():
+            return s
+        return np.where(m, np.exp(np.where(m, s, 0.0)), s)
+
     def to_unit(self, x: np.ndarray) -> np.ndarray:
-        return (np.asarray(x, dtype=float) - self.lb) / self.span
+        return (self.to_search(x) - self.search_lb) / self.search_span
 
     def from_unit(self, u: np.ndarray) -> np.ndarray:
-        return self.lb + np.asarray(u, dtype=float) * self.span
+        return self.from_search(self.search_lb + np.asarray(u, dtype=float) * self.search_span)
 
     def snap(self, x: np.ndarray) -> np.ndarray:
         """Clip to the bounds and round the integer variables (works on (d,) or (n, d))."""
@@ -134,10 +182,13 @@ class DesignSpace:
 
     # -- serialisation ------------------------------------------------------
     def to_dict(self) -> dict:
-        return {"names": list(self.names), "lower": list(self.lower), "upper": list(self.upper),
-                "integer": list(self.integer), "given": [list(g) for g in self.given]}
+        out = {"names": list(self.names), "lower": list(self.lower), "upper": list(self.upper),
+               "integer": list(self.integer), "given": [list(g) for g in self.given]}
+        if any(self.log):  # absent otherwise, as before log scales existed
+            out["log"] = list(self.log)
+        return out
 
     @classmethod
     def from_dict(cls, d: dict) -> "DesignSpace":
         return cls(names=d["names"], lower=d["lower"], upper=d["upper"],
-                   integer=d["integer"], given=d.get("given", []))
+                   integer=d["integer"], given=d.get("given", []), log=d.get("log"))

@@ -273,7 +273,7 @@ class Strategy:
         self._int = space.int_mask
         self._cont = ~self._int & (span > 0)
         self._free = span > 0
-        self._span = space.span
+        self._span = space.search_span  # steps are drawn in search coordinates (log scales)
 
     def _begin_restart_state(self, design: list, anchor: int | None = None) -> None:
         # anchor: id of the run's best record, which a restart without a design goes on from
@@ -610,7 +610,8 @@ class Strategy:
         none = ~mask.any(axis=1)
         pick = free_idx[rng.integers(len(free_idx), size=m)]
         mask[np.flatnonzero(none), pick[none]] = True  # always at least one coordinate
-        lb, ub = sp.lb, sp.ub
+        # in search coordinates (ln x for a log variable, x itself otherwise)
+        lb, ub, best = sp.search_lb, sp.search_ub, sp.to_search(best)
         scale = sigma * self._span
         if self._steps["perturbation"] == "truncnorm":
             # pySOT: integers get a scale of at least one unit, then are rounded (a rounded
@@ -618,7 +619,7 @@ class Strategy:
             scale = np.where(self._int, np.maximum(scale, 1.0), scale)
             X = best[None, :] + np.where(mask, scale * _truncated_normal(
                 rng, (lb - best) / scale, (ub - best) / scale, (m, d)), 0.0)
-            return sp.snap(X)
+            return sp.snap(sp.from_search(X))
         step = scale * rng.standard_normal((m, d))
         # Integers move by at least one unit step, then by the rounded step.
         if self.settings["force_int_move"]:
@@ -633,7 +634,7 @@ class Strategy:
         else:
             X = np.where(X < lb, 2 * lb - X, X)  # reflect back into the box
             X = np.where(X > ub, 2 * ub - X, X)
-        return sp.snap(X)
+        return sp.snap(sp.from_search(X))
 
     def _perturb_probability(self) -> float:
         """DYCORS's probability of perturbing a coordinate: min(20/d, 1) (1 - ln n / ln N).
@@ -656,9 +657,10 @@ class Strategy:
 
     def _uniform(self, m: int) -> np.ndarray:
         sp = self.space
-        lo = np.where(self._int, sp.lb - 0.5, sp.lb)
-        hi = np.where(self._int, sp.ub + 0.5, sp.ub)
-        return sp.snap(lo + self._rng.random((m, sp.dim)) * (hi - lo))
+        lb, ub = sp.search_lb, sp.search_ub
+        lo = np.where(self._int, lb - 0.5, lb)
+        hi = np.where(self._int, ub + 0.5, ub)
+        return sp.snap(sp.from_search(lo + self._rng.random((m, sp.dim)) * (hi - lo)))
 
     def _local_search(self, ctx: "_Context") -> np.ndarray:
         """Node-limited branch-and-bound stand-in on the surrogate (no RNG use).

@@ -166,6 +166,15 @@ def test_bad_case_and_bad_runs_give_one_line_messages_and_exit_2(tmp_path):
     assert r.returncode == 2
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and "changed since the run started" in lines[0] and "--allow-changed-case" in lines[0]
+    copy = tmp_path / "runs" / "chg" / "case.yaml"
+    assert f"--case {copy}" in lines[0]
+    r = cli_run("resume", tmp_path / "runs" / "chg", "--case", copy, env={"LCCOPT_EVALUATOR": FAKE})
+    assert r.returncode == 0, r.stderr  # the run's copy, as the message says
+    # a changed scale changes what the optimiser proposes: never carried on with
+    case.write_text(case.read_text().replace("seed: 2", "seed: 1")
+                    + "design:\n  railpad_stiffness:\n    scale: linear\n")
+    r = cli_run("resume", tmp_path / "runs" / "chg", "--allow-changed-case", env={"LCCOPT_EVALUATOR": FAKE})
+    assert r.returncode == 2 and "scales" in r.stderr and "start a new run" in r.stderr
 
     r = cli_run("optimise", case, "--runs", tmp_path / "runs", env={"LCCOPT_EVALUATOR": FAKE})
     assert r.returncode == 2 and "already exists" in r.stderr

@@ -75,3 +75,59 @@ def test_lhs_is_reproducible():
     a = latin_hypercube(sp, 19, np.random.default_rng(7))
     b = latin_hypercube(sp, 19, np.random.default_rng(7))
     assert np.array_equal(a, b)
+
+
+def log_space(given=()):
+    """The paper's space with its pad stiffnesses (N/m) searched on a log scale."""
+    return DesignSpace(
+        names=["r1", "r2", "r3", "n", "s1", "s2", "s3", "l"],
+        lower=[50e6] * 3 + [0, 3, 3, 3, 0], upper=[1200e6] * 3 + [20, 7, 7, 7, 120],
+        integer=[False] * 3 + [True] * 5, given=list(given), log=[True] * 3 + [False] * 5)
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    (dict(lower=[0.0], upper=[2.0], integer=[False], log=[True]), "positive bounds"),
+    (dict(lower=[-1.0], upper=[2.0], integer=[False], log=[True]), "positive bounds"),
+    (dict(lower=[1.0], upper=[4.0], integer=[True], log=[True]), "continuous"),
+    (dict(lower=[1.0], upper=[4.0], integer=[False], log=[True, False]), "entries"),
+])
+def test_log_scale_rejects_bad_input(kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        DesignSpace(names=["a"], **kwargs)
+
+
+def test_log_scale_maps_equal_ratios_to_equal_steps():
+    sp = log_space()
+    x = np.array([50e6, 1200e6, np.sqrt(50e6 * 1200e6), 10, 3, 7, 5, 60.0])
+    u = sp.to_unit(x)
+    np.testing.assert_allclose(u[:3], [0.0, 1.0, 0.5], atol=1e-12)  # geometric mean: the middle
+    assert u[3:].tolist() == paper_space().to_unit(x)[3:].tolist()   # the others: unchanged
+    np.testing.assert_allclose(sp.from_unit(u), x, rtol=1e-12)
+    # 100 -> 200 MN/m is as far as 600 -> 1200 MN/m
+    a, b = sp.to_unit(np.array([[100e6] * 3 + [0] * 5, [200e6] * 3 + [0] * 5])), \
+        sp.to_unit(np.array([[600e6] * 3 + [0] * 5, [1200e6] * 3 + [0] * 5]))
+    np.testing.assert_allclose(a[1, 0] - a[0, 0], b[1, 0] - b[0, 0], rtol=1e-12)
+    assert DesignSpace.from_dict(sp.to_dict()).log == sp.log
+    assert "log" not in paper_space().to_dict()  # a linear space's dict is as before
+
+
+def test_linear_space_maps_bit_for_bit_as_before():
+    # No log variable: to_unit/from_unit are the plain affine maps (runs resume bit for bit).
+    sp = paper_space()
+    X = latin_hypercube(sp, 19, np.random.default_rng(3))
+    assert np.array_equal(sp.to_unit(X), (X - sp.lb) / sp.span)
+    U = np.random.default_rng(4).random((5, 8))
+    assert np.array_equal(sp.from_unit(U), sp.lb + U * sp.span)
+
+
+def test_lhs_on_a_log_scale_has_strata_of_equal_ratio():
+    sp = log_space()
+    X = latin_hypercube(sp, 24, np.random.default_rng(5))
+    assert np.all(X >= sp.lb) and np.all(X <= sp.ub)
+    for j in range(3):  # one point per stratum of ln x: as many below 245 MN/m as above
+        strata = np.floor(sp.to_unit(X)[:, j] * 24).astype(int)
+        assert sorted(strata) == list(range(24))
+        assert np.sum(X[:, j] < np.sqrt(50e6 * 1200e6)) == 12
+    # on a linear scale only about a sixth would lie below 245 MN/m
+    Y = latin_hypercube(paper_space(), 24, np.random.default_rng(5))
+    assert np.sum(Y[:, 0] < 245) <= 5
