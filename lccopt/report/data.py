@@ -53,6 +53,7 @@ class VarInfo:
     label: str       # what it is, in words
     unit: str        # display unit
     scale: float     # display value = SI value * scale
+    log: bool = False  # the optimiser searched it on a log scale (drawn on a log axis)
 
 
 @dataclass
@@ -252,8 +253,10 @@ def load_run(path: Path) -> RunData:
         for v in case.variables:
             i = seen.get(v.group, 0)
             seen[v.group] = i + 1
-            variables.append(_var_info(v.name, v.group, v.integer, v.lower, v.upper, v.reference,
-                                       counts[v.group], i))
+            info = _var_info(v.name, v.group, v.integer, v.lower, v.upper, v.reference,
+                             counts[v.group], i)
+            info.log = v.log
+            variables.append(info)
     else:
         if case is not None:
             case_note = "the run's case.yaml has other design variables than results.h5"

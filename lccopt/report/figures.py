@@ -655,7 +655,17 @@ def fig_sensitivity(run: RunData, out: Path) -> Path:
             tr = mtransforms.blended_transform_factory(ax.transData, ax.transAxes)
             ax.scatter(xs[failed], np.full(failed.sum(), 0.97), marker="x", s=18, color=FAIL_COLOR, transform=tr,
                        clip_on=False, zorder=5)
-        if np.isfinite(v.lower) and v.upper > v.lower:
+        if v.log and v.lower > 0 and v.upper > v.lower:  # as the optimiser saw it: in ratios
+            from matplotlib.ticker import FixedLocator, NullLocator, ScalarFormatter
+
+            lo, hi = v.lower * v.scale, v.upper * v.scale
+            m = (hi / lo) ** 0.04
+            ax.set_xscale("log")
+            ax.set_xlim(lo / m, hi * m)
+            ax.xaxis.set_major_locator(FixedLocator(log_ticks(lo, hi, at_least=4)))
+            ax.xaxis.set_major_formatter(ScalarFormatter())
+            ax.xaxis.set_minor_locator(NullLocator())
+        elif np.isfinite(v.lower) and v.upper > v.lower:
             m = 0.04 * (v.upper - v.lower) * v.scale
             ax.set_xlim(v.lower * v.scale - m, v.upper * v.scale + m)
         ax.set_ylim(ylo, yhi)

@@ -187,3 +187,21 @@ def test_paper_phases_accounts_for_every_evaluation(run_dir):
     phases = [p for p in line[2:] if re.fullmatch(r"[FB]\d+:\S+", p)]
     assert phases[0].startswith("F") and sum(int(p[1:p.index(":")]) for p in phases) == n
     assert re.search(r"fresh phases that got below it: [1-9]\d* of [1-9]", proc.stdout)
+
+
+def test_pads_searched_on_a_log_scale_are_drawn_on_a_log_axis(run_dir, monkeypatch, tmp_path):
+    # configs/reference.yaml searches the pads on a log scale; the sensitivity figure shows
+    # them as the optimiser saw them, the other variables on linear axes.
+    from lccopt.report import figures
+    from lccopt.report.data import load_run
+
+    run, _ = run_dir
+    data = load_run(run)
+    assert [v.log for v in data.variables] == [True] * 3 + [False] * 5
+    drawn = {}
+    monkeypatch.setattr(figures, "_save", lambda fig, path: drawn.setdefault("fig", fig) and path)
+    figures.fig_sensitivity(data, tmp_path)
+    axes = [ax for ax in drawn["fig"].axes if ax.get_visible()]
+    assert [ax.get_xscale() for ax in axes] == ["log"] * 3 + ["linear"] * 5
+    lo, hi = axes[0].get_xlim()
+    assert lo < 50 < 1200 < hi and hi / lo < 1200 / 50 * 1.5   # the bounds in MN/m, a small margin
