@@ -5,7 +5,7 @@
         [--known single-F_max=4161.41 single-E_max=0.0069137]
 
 Each method minimises the case's objective (configs/<case>.yaml: F_max in N or E_max in J,
-200 evaluations) over the case's design space, one simulation at a time in-process, with the
+200 evaluations) over the case's design space (a log-scaled variable as its logarithm), one simulation at a time in-process, with the
 runners of benchmarks/optimiser.py and their defaults (pySOT 0.3.3 DYCORS with a cubic RBF and
 a 20-point symmetric Latin hypercube; Optuna 5's TPE sampler; uniform random search). Unlike
 ``lccopt optimise`` they do not get the reference design as a first point; it only sets the
@@ -50,18 +50,24 @@ OBJECTIVE = {"single-F_max": "F_max", "single-E_max": "E_max"}
 
 
 def paper_problem(case: str) -> tuple[BenchProblem, np.ndarray, int]:
-    """The case as a benchmark problem (no given points), its reference design and budget."""
+    """The case as a benchmark problem (no given points), its reference design and budget.
+
+    Variables the case searches on a log scale (the pads of the bundled cases) are handed to
+    every method as ln x, the same representation lccopt gets (for Optuna it is what
+    ``log=True`` does); the design is mapped back, onto the bounds, before it is simulated."""
     model = load_case(ROOT / "configs" / f"{case}.yaml")
     p = Problem.from_case(model)
     key = OBJECTIVE[case]
-    space = DesignSpace(names=list(p.names), lower=list(p.lower), upper=list(p.upper),
+    cased = p.space()   # the case's own space: bounds, integers, log scales
+    space = DesignSpace(names=list(p.names), lower=list(cased.search_lb), upper=list(cased.search_ub),
                         integer=list(p.integer))
 
     def fun(X):
-        return np.array([evaluate(model, np.asarray(x, dtype=float)).objectives[key] for x in X])
+        X = cased.snap(cased.from_search(np.atleast_2d(np.asarray(X, dtype=float))))
+        return np.array([evaluate(model, x).objectives[key] for x in X])
 
     return (BenchProblem(case, space, fun, float("nan"), np.full(p.dim, np.nan)),
-            np.array(p.reference), p.budget)
+            cased.to_search(np.array(p.reference)), p.budget)
 
 
 @functools.cache

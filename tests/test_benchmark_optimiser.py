@@ -77,3 +77,22 @@ def test_merge_gathers_parts_and_refuses_conflicts(tmp_path):
                        capture_output=True, text=True, timeout=120, env=env, cwd=ROOT)
     assert r.returncode != 0 and key in r.stderr and "differs" in r.stderr
     assert json.loads(out.read_text())["runs"] == merged["runs"]
+
+
+def test_paper_others_hands_the_log_scaled_pads_over_as_logarithms():
+    # The other tools get the representation lccopt gets: ln x for the pads, mapped back onto
+    # the bounds before the simulation (a design on a pad bound must not fail the case check).
+    import numpy as np
+
+    sys.path.insert(0, os.path.join(ROOT, "benchmarks"))
+    import paper_others
+
+    p, ref, budget = paper_others.paper_problem("single-F_max")
+    assert budget == 200
+    np.testing.assert_allclose(p.space.lb[:3], np.log(50e6))
+    np.testing.assert_allclose(p.space.ub[:3], np.log(1200e6))
+    assert p.space.lb[3:].tolist() == [0, 3, 3, 3, 0]          # the integers as they are
+    np.testing.assert_allclose(ref[:3], np.log(1120e6))
+    assert abs(float(p(ref)) - 7557.26) < 0.01                # the reference design's F_max
+    corner = np.r_[p.space.ub[:3], ref[3:]]   # every pad at 1200 MN/m: exp(ln 1200e6) > 1200e6
+    assert np.isfinite(float(p(corner)))
