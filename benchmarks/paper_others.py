@@ -6,8 +6,9 @@
 
 Each method minimises the case's objective (configs/<case>.yaml: F_max in N or E_max in J,
 200 evaluations) over the case's design space (a log-scaled variable as its logarithm), one
-simulation at a time in-process, with the runners of benchmarks/optimiser.py and their defaults (pySOT 0.3.3 DYCORS with a cubic RBF and
-a 20-point symmetric Latin hypercube; Optuna 5's TPE sampler; uniform random search). Unlike
+simulation at a time in-process, with the runners of benchmarks/optimiser.py and their
+defaults (pySOT 0.3.3 DYCORS with a cubic RBF and a 20-point symmetric Latin hypercube; Optuna
+5's TPE sampler; uniform random search). Unlike
 ``lccopt optimise`` they do not get the reference design as a first point; it only sets the
 regret ratio's scale. The results file keeps every run's values in evaluation order, so the
 script can be stopped and started again (``--out``, runs already there are kept). It prints,
