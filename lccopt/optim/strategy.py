@@ -17,7 +17,8 @@ Metric Stochastic Response Surface (Regis & Shoemaker) with DYCORS perturbations
   continuous part within a tolerance) is never proposed.
 * Step F: step size sigma adapted by success/failure counters; restart with a fresh
   design when sigma collapses or evaluations keep failing (late in a run, with a scalar
-  surrogate, from the run's best point instead: ``restart_from``).
+  surrogate, from the run's best point instead: ``restart_from``). Such a restart also
+  tries the best point with one integer on a bound (``bound_probes``).
 * Step G: stop at a budget of told evaluations (failures included).
 
 Composite surrogate (setting ``composite``): when the minimised value is an aggregate of
@@ -86,7 +87,9 @@ class Proposal:
 #      on from the run's best point (restart_from "endgame")
 #   9: a duplicate radius a tenth of before (dist_tol 1e-4): a sharp minimum can be refined
 #      past three digits of the unit box
-GENERATION = 9
+#  10: a restart that goes on from the run's best point also tries that point with one
+#      integer on a bound (bound_probes "anchor")
+GENERATION = 10
 
 
 def generation_settings(space: DesignSpace, generation: int) -> dict:
@@ -121,6 +124,7 @@ _BEFORE_GENERATION = {
     7: {"tail": "linear"},
     8: {"restart_from": "fresh"},
     9: {"dist_tol": 1e-3},
+    10: {"bound_probes": None},
 }
 
 
@@ -187,6 +191,13 @@ def _default_settings(space: DesignSpace) -> dict:
         # point, every even one fresh (after BIPOP-CMA-ES; measured, a trade). "auto": see
         # _AUTO_SETTINGS.
         "restart_from": "auto",
+        # Bound probes (generation 10: "anchor"; None: none): in a restart that goes on from
+        # the run's best point, where the run's basin is spent and a fresh design would not get
+        # far, the best point with one integer on a bound joins the candidates at every
+        # weight, for each integer and bound that no point of the restart has yet. An integer
+        # whose end is an "off" switch behind a wall (no strip: x_l = 0) is out of reach of
+        # steps of sigma from the far side. RESULTS-optimiser.md, "Generation 10".
+        "bound_probes": "anchor",
     }
 
 
@@ -261,6 +272,8 @@ class Strategy:
             raise ValueError("tail must be 'linear', 'quadratic', 'auto' or 'auto-half'")
         if self.settings["restart_from"] not in ("fresh", "endgame", "alternate", "auto"):
             raise ValueError("restart_from must be 'fresh', 'endgame', 'alternate' or 'auto'")
+        if self.settings["bound_probes"] not in (None, "anchor"):
+            raise ValueError("bound_probes must be None or 'anchor'")
         if self.settings["composite_capping"] not in (True, False, "auto"):
             raise ValueError("composite_capping must be True, False or 'auto'")
         if not self.settings["weights"] or not all(0.0 <= w <= 1.0 for w in self.settings["weights"]):
@@ -413,6 +426,8 @@ class Strategy:
         own = [r["restart"] == self._restart or r["id"] == self._anchor for r in recs]
         near = [r["x"] for r, o in zip(recs, own) if o or r["status"] == "pending"]
         ctx = _Context(self, taken, np.array(near).reshape(-1, sp.dim))
+        ctx.probing = self.settings["bound_probes"] == "anchor" and self._anchor is not None
+        ctx.phase_x = np.array([r["x"] for r, o in zip(recs, own) if o]).reshape(-1, sp.dim)
         ok = sorted((r for r, o in zip(recs, own) if r["status"] == "ok" and o), key=lambda r: r["id"])
         if ok:
             ib = min(range(len(ok)), key=lambda i: (ok[i]["value"], ok[i]["id"]))
@@ -559,6 +574,10 @@ class Strategy:
             if attempt == 0 and (lw is None or w in lw) and ctx.local is not None and len(ctx.local):
                 C.append(ctx.local)
                 src += ["local"] * len(ctx.local)
+            if attempt == 0 and ctx.best is not None and ctx.probing:
+                P = self._bound_probes(ctx.best, ctx.phase_x)
+                C.append(P)
+                src += ["adaptive"] * len(P)
             if n_unif > 0 and (attempt > 0 or w in s["uniform_weights"]):
                 C.append(self._uniform(n_unif))
                 src += ["random"] * n_unif
@@ -635,6 +654,20 @@ class Strategy:
             X = np.where(X < lb, 2 * lb - X, X)  # reflect back into the box
             X = np.where(X > ub, 2 * ub - X, X)
         return sp.snap(sp.from_search(X))
+
+    def _bound_probes(self, best: np.ndarray, phase_x: np.ndarray) -> np.ndarray:
+        """The best point with one free integer on a bound, for each integer and bound that no
+        point of the restart (``phase_x``) has: each end of a range is asked about once, not
+        again from every point a few steps away."""
+        sp = self.space
+        out = []
+        for j in np.flatnonzero(self._int & self._free):
+            for bound in (sp.lb[j], sp.ub[j]):
+                if not np.any(phase_x[:, j] == bound):
+                    x = best.copy()
+                    x[j] = bound
+                    out.append(x)
+        return np.array(out).reshape(-1, sp.dim)
 
     def _perturb_probability(self) -> float:
         """DYCORS's probability of perturbing a coordinate: min(20/d, 1) (1 - ln n / ln N).
@@ -837,6 +870,7 @@ class Strategy:
         s = cls.__new__(cls)
         settings = {**{k: _BEFORE_GENERATION_3[k] for k in _ADDED_IN_GENERATION_3},
                     **_BEFORE_GENERATION_5, **_BEFORE_GENERATION[7], **_BEFORE_GENERATION[8],
+                    **_BEFORE_GENERATION[10],
                     **d["settings"]}
         s._setup(DesignSpace.from_dict(d["space"]), int(d["budget"]), int(d["n_initial"]),
                  d["seed"], settings)
@@ -968,6 +1002,8 @@ class _Context:
         self.taken = taken
         self.near_u = sp.to_unit(near)
         self.best: np.ndarray | None = None
+        self.probing = False  # bound probes join the candidates (a restart from the best point)
+        self.phase_x = np.empty((0, sp.dim))  # points of this restart, with the one it went on from
         self.rbf: CubicRBF | None = None
         self.local_search = None  # the strategy's local search, once a surrogate is fitted
         self._local: np.ndarray | None = None

@@ -567,3 +567,79 @@ def test_a_log_scale_state_is_exact_and_resumes_bit_for_bit():
     assert t.space.log == [True, True, True, False]
     a, b = s.ask(3), t.ask(3)
     assert [x.x.tobytes() for x in a] == [x.x.tobytes() for x in b]
+
+
+def _off_switch(x):
+    """A bowl in x, y plus an integer n whose value 0 ("off": no strip, no strengthened
+    sleepers) is best, its small values worst (a wall) and a second basin near n = 70."""
+    n = x[2]
+    wall = 0.0 if n == 0 else (3.0 if n <= 15 else 1.0 + (n - 70) ** 2 / 2000)
+    return (x[0] - 0.6) ** 2 + (x[1] - 0.3) ** 2 + wall
+
+
+OFF_SWITCH_SPACE = DesignSpace(["x", "y", "n"], [0.0, 0.0, 0], [1.0, 1.0, 100], [False, False, True])
+
+
+def test_bound_probes_are_the_best_point_with_one_integer_on_a_bound():
+    """Each integer to each bound that no point of the restart has yet (the best point is one
+    of them); continuous coordinates and one-value integers get none."""
+    space = DesignSpace(["x", "n", "k", "c"], [0.0, 0, 3, 2], [1.0, 120, 7, 2],
+                        [False, True, True, True])
+    s = Strategy(space, budget=50, seed=0)
+    best = np.array([0.5, 113.0, 3.0, 2.0])
+    np.testing.assert_array_equal(s._bound_probes(best, best[None, :]),
+                                  [[0.5, 0.0, 3.0, 2.0], [0.5, 120.0, 3.0, 2.0],
+                                   [0.5, 113.0, 7.0, 2.0]])
+    asked = np.array([best, [0.7, 120.0, 5.0, 2.0]])  # the restart has been at n = 120
+    np.testing.assert_array_equal(s._bound_probes(best, asked),
+                                  [[0.5, 0.0, 3.0, 2.0], [0.5, 113.0, 7.0, 2.0]])
+    with pytest.raises(ValueError, match="bound_probes"):
+        Strategy(space, budget=50, seed=0, bound_probes="always")
+
+
+def test_bound_probes_in_a_restart_from_the_best_point_reach_an_off_switch_behind_a_wall():
+    """From the basin near n = 70 steps of sigma never cross the wall; once the run goes on
+    from its best point (restart_from "endgame"), the probes put n on 0 and the run ends there."""
+    ends, probed_in = {}, []
+    for mode in (None, "anchor"):
+        ends[mode] = []
+        for seed in range(3):
+            s = Strategy(OFF_SWITCH_SPACE, budget=80, n_initial=10, seed=seed, bound_probes=mode)
+            probe = s._bound_probes
+            s._bound_probes = lambda *a, s=s, probe=probe: probed_in.append(s._anchor) or probe(*a)
+            while not s.done:
+                for p in s.ask(1):
+                    s.tell(p.id, _off_switch(p.x))
+            ends[mode].append(s.best[0][2])
+    assert all(n > 15 for n in ends[None])  # stuck behind the wall
+    assert ends["anchor"] == [0.0] * 3
+    assert probed_in and None not in probed_in  # only in restarts from the best point
+
+
+def test_runs_of_generation_9_go_on_without_bound_probes():
+    """Generation 10 made "anchor" the default; a run begun before (its generation journalled,
+    or a saved state without the key) carries on without probes, as it began."""
+    assert Strategy(OFF_SWITCH_SPACE, seed=0).settings["bound_probes"] == "anchor"
+    assert generation_settings(OFF_SWITCH_SPACE, 9)["bound_probes"] is None
+    assert "bound_probes" not in generation_settings(OFF_SWITCH_SPACE, 10)
+    d = Strategy(OFF_SWITCH_SPACE, seed=0).state_dict()
+    del d["settings"]["bound_probes"]
+    assert Strategy.from_state(json.loads(json.dumps(d))).settings["bound_probes"] is None
+
+
+def test_a_strategy_saved_while_probing_bounds_proposes_the_same_after_restoring():
+    s = Strategy(OFF_SWITCH_SPACE, budget=80, n_initial=10, seed=1)
+    while s._anchor is None or s.n_told < s.n_asked:  # into a restart from the best point
+        for p in s.ask(1):
+            s.tell(p.id, _off_switch(p.x))
+    copy = Strategy.from_state(json.loads(json.dumps(s.state_dict())))
+    runs = []
+    for t in (s, copy):
+        xs = []
+        while not t.done:
+            for p in t.ask(1):
+                t.tell(p.id, _off_switch(p.x))
+                xs.append(p.x.tolist())
+        runs.append(xs)
+    assert runs[0] == runs[1] and len(runs[0]) > 5
+    assert s.best[0][2] == 0.0
