@@ -16,7 +16,8 @@ def _lhs_unit(n: int, d: int, rng: np.random.Generator) -> np.ndarray:
     return (strata + rng.random((n, d))) / n
 
 
-def _to_space(space: DesignSpace, u: np.ndarray) -> np.ndarray:
+def to_space(space: DesignSpace, u: np.ndarray) -> np.ndarray:
+    """Points of [0, 1)^d to design points, each value of a variable with an equal share."""
     lb, ub, m = space.search_lb, space.search_ub, space.int_mask
     # Integers: stretch [0, 1] over [lb - 0.5, ub + 0.5] before rounding so that the end
     # values get a full-width stratum like the inner values (plain rounding halves them).
@@ -55,7 +56,7 @@ def latin_hypercube(space: DesignSpace, n: int, rng: np.random.Generator,
 
     best, best_score = None, -np.inf
     for _ in range(max(1, tries)):
-        X = _to_space(space, _lhs_unit(n, d, rng))
+        X = to_space(space, _lhs_unit(n, d, rng))
         # Score on distinct points only: duplicates are dropped anyway.
         Xu = np.unique(space.to_unit(X), axis=0)
         score = pdist(Xu).min() if len(Xu) > 1 else 0.0
@@ -66,7 +67,7 @@ def latin_hypercube(space: DesignSpace, n: int, rng: np.random.Generator,
     for _ in range(20):
         if len(out) >= n:
             break
-        add(_to_space(space, _lhs_unit(n - len(out), d, rng)))
+        add(to_space(space, _lhs_unit(n - len(out), d, rng)))
     if len(out) < n and math.isfinite(space.n_grid):
         G = space.grid()
         free = np.array([k not in taken for k in _keys(G)], dtype=bool)

@@ -49,7 +49,7 @@ import scipy.special
 from scipy.spatial.distance import cdist
 
 from .rbf import CubicRBF, distances
-from .sampling import latin_hypercube
+from .sampling import latin_hypercube, to_space
 from .space import DesignSpace
 
 STATE_FORMAT = "lccopt.optim.strategy"
@@ -427,7 +427,8 @@ class Strategy:
         near = [r["x"] for r, o in zip(recs, own) if o or r["status"] == "pending"]
         ctx = _Context(self, taken, np.array(near).reshape(-1, sp.dim))
         ctx.probing = self.settings["bound_probes"] == "anchor" and self._anchor is not None
-        ctx.phase_x = np.array([r["x"] for r, o in zip(recs, own) if o]).reshape(-1, sp.dim)
+        if ctx.probing:
+            ctx.phase_x = np.array([r["x"] for r, o in zip(recs, own) if o]).reshape(-1, sp.dim)
         ok = sorted((r for r, o in zip(recs, own) if r["status"] == "ok" and o), key=lambda r: r["id"])
         if ok:
             ib = min(range(len(ok)), key=lambda i: (ok[i]["value"], ok[i]["id"]))
@@ -690,10 +691,7 @@ class Strategy:
 
     def _uniform(self, m: int) -> np.ndarray:
         sp = self.space
-        lb, ub = sp.search_lb, sp.search_ub
-        lo = np.where(self._int, lb - 0.5, lb)
-        hi = np.where(self._int, ub + 0.5, ub)
-        return sp.snap(sp.from_search(lo + self._rng.random((m, sp.dim)) * (hi - lo)))
+        return to_space(sp, self._rng.random((m, sp.dim)))
 
     def _local_search(self, ctx: "_Context") -> np.ndarray:
         """Node-limited branch-and-bound stand-in on the surrogate (no RNG use).
