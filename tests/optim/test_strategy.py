@@ -643,3 +643,45 @@ def test_a_strategy_saved_while_probing_bounds_proposes_the_same_after_restoring
         runs.append(xs)
     assert runs[0] == runs[1] and len(runs[0]) > 5
     assert s.best[0][2] == 0.0
+
+
+def test_bound_candidates_put_one_perturbed_integer_on_a_bound():
+    """int_bound_candidates=q: in about q of the DYCORS candidates one perturbed integer goes to
+    a bound the best point is not on; the continuous coordinates and the other rows are the
+    steps drawn without the setting, which draws nothing when it is 0."""
+    space = DesignSpace(["x", "n", "k"], [0.0, 0, 3], [1.0, 120, 7], [False, True, True])
+    best = np.array([0.5, 113.0, 3.0])
+    plain = Strategy(space, budget=500, seed=4, int_bound_candidates=0.0)
+    s = Strategy(space, budget=500, seed=4, int_bound_candidates=0.1)
+    P, C = plain._perturb(best, 20000, 0.2), s._perturb(best, 20000, 0.2)
+    np.testing.assert_array_equal(P[:, 0], C[:, 0])
+    changed = np.any(P != C, axis=1)
+    assert abs(changed.mean() - 0.1) < 0.01  # a jump onto the value drawn anyway changes nothing
+    jumped, stepped = C[changed], P[changed]
+    n_moved, k_moved = jumped[:, 1] != stepped[:, 1], jumped[:, 2] != stepped[:, 2]
+    assert not np.any(n_moved & k_moved)  # one coordinate per candidate
+    assert set(jumped[n_moved, 1]) <= {0.0, 120.0}
+    assert set(jumped[k_moved, 2]) == {7.0}  # k sits on its lower bound: only the upper one
+    # n, away from its bounds, goes to either about evenly; 0 is 4.7 sigma from 113
+    assert 0.4 < np.mean(jumped[n_moved, 1] == 0.0) < 0.6 and np.sum(P[:, 1] == 0.0) == 0
+    for bad in (-0.1, 1.5, "half", True, "auto"):
+        with pytest.raises(ValueError, match="int_bound_candidates"):
+            Strategy(space, budget=50, seed=0, int_bound_candidates=bad)
+
+
+def test_bound_candidates_reach_an_off_switch_behind_a_wall_in_any_phase():
+    """Steps of sigma from the basin near n = 70 never cross the wall; a few candidates on the
+    bounds do, without waiting for a restart from the best point (probes off here)."""
+    ends = {}
+    for q in (0.0, 0.05):
+        ends[q] = []
+        for seed in range(4):
+            s = Strategy(OFF_SWITCH_SPACE, budget=60, n_initial=10, seed=seed,
+                         int_bound_candidates=q, bound_probes=None)
+            while not s.done:
+                for p in s.ask(1):
+                    s.tell(p.id, _off_switch(p.x))
+            ends[q].append(s.best[0][2])
+    assert all(n > 15 for n in ends[0.0])  # stuck behind the wall
+    assert ends[0.05] == [0.0] * 4
+
