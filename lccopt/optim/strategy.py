@@ -196,16 +196,16 @@ def _default_settings(space: DesignSpace) -> dict:
         # far, the best point with one integer on a bound joins the candidates at every
         # weight, for each integer and bound that no point of the restart has yet. An integer
         # whose end is an "off" switch behind a wall (no strip: x_l = 0) is out of reach of
-        # steps of sigma from the far side. RESULTS-optimiser.md, "Generation 10". "phase":
-        # the same in every phase, fresh ones too (measured with a composite surrogate).
+        # steps of sigma from the far side. RESULTS-optimiser.md, "Generation 10".
         "bound_probes": "anchor",
         # Fraction of the DYCORS candidates in which one perturbed integer coordinate is put on
-        # a bound (either, not the best point's own value) instead of stepped, at every weight
-        # in every phase. Measured, not a default (RESULTS-optimiser.md, "Generation 10" and
-        # "Bound candidates with a composite surrogate"): the far candidates win the merit's
-        # distance term at low weights again and again, which pays where the optimum is on a
-        # bound (the paper's moo) and costs elsewhere (its single-E_max, the broad benchmark).
+        # a bound (either, not the best point's own value) instead of stepped, in every phase,
+        # at the weights of int_bound_weights (None: all). Measured, not a default
+        # (RESULTS-optimiser.md, "Generation 10" and "Integer bound candidates with a composite
+        # surrogate"): it pays where the optimum has integers on bounds (the paper's moo) and
+        # costs where it has not (its single-E_max; the broad benchmark at every weight).
         "int_bound_candidates": 0.0,
+        "int_bound_weights": None,
     }
 
 
@@ -257,13 +257,17 @@ class Strategy:
         self.n_initial = n_initial
         self.seed = None if seed is None else int(seed)
         self.settings = {**_default_settings(space), **settings}
+        ibc = self.settings["int_bound_candidates"]
+        if not (isinstance(ibc, (int, float)) and not isinstance(ibc, bool) and 0.0 <= ibc <= 1.0):
+            raise ValueError("int_bound_candidates must be a fraction in [0, 1]")
         lw = self.settings["local_weights"]
         if isinstance(lw, str) and lw != "auto":
             raise ValueError("local_weights must be a list of weights, None (all) or 'auto'")
-        for key in ("weights", "uniform_weights", "local_weights"):
+        for key in ("weights", "uniform_weights", "local_weights", "int_bound_weights"):
             if self.settings[key] is not None and self.settings[key] != "auto":
                 self.settings[key] = [float(w) for w in self.settings[key]]
-        for key, on in (("uniform_weights", "n_uniform"), ("local_weights", "n_branches")):
+        for key, on in (("uniform_weights", "n_uniform"), ("local_weights", "n_branches"),
+                        ("int_bound_weights", "int_bound_candidates")):
             ws = self.settings[key]
             if (self.settings[on] > 0 and ws is not None and ws != "auto"
                     and not set(ws) & set(self.settings["weights"])):
@@ -280,11 +284,8 @@ class Strategy:
             raise ValueError("tail must be 'linear', 'quadratic', 'auto' or 'auto-half'")
         if self.settings["restart_from"] not in ("fresh", "endgame", "alternate", "auto"):
             raise ValueError("restart_from must be 'fresh', 'endgame', 'alternate' or 'auto'")
-        if self.settings["bound_probes"] not in (None, "anchor", "phase"):
-            raise ValueError("bound_probes must be None, 'anchor' or 'phase'")
-        ibc = self.settings["int_bound_candidates"]
-        if not (isinstance(ibc, (int, float)) and not isinstance(ibc, bool) and 0.0 <= ibc <= 1.0):
-            raise ValueError("int_bound_candidates must be a fraction in [0, 1]")
+        if self.settings["bound_probes"] not in (None, "anchor"):
+            raise ValueError("bound_probes must be None or 'anchor'")
         if self.settings["composite_capping"] not in (True, False, "auto"):
             raise ValueError("composite_capping must be True, False or 'auto'")
         if not self.settings["weights"] or not all(0.0 <= w <= 1.0 for w in self.settings["weights"]):
@@ -437,8 +438,7 @@ class Strategy:
         own = [r["restart"] == self._restart or r["id"] == self._anchor for r in recs]
         near = [r["x"] for r, o in zip(recs, own) if o or r["status"] == "pending"]
         ctx = _Context(self, taken, np.array(near).reshape(-1, sp.dim))
-        probes = self.settings["bound_probes"]
-        ctx.probing = probes == "phase" or (probes == "anchor" and self._anchor is not None)
+        ctx.probing = self.settings["bound_probes"] == "anchor" and self._anchor is not None
         if ctx.probing:
             ctx.phase_x = np.array([r["x"] for r, o in zip(recs, own) if o]).reshape(-1, sp.dim)
         ok = sorted((r for r, o in zip(recs, own) if r["status"] == "ok" and o), key=lambda r: r["id"])
@@ -581,7 +581,8 @@ class Strategy:
         for attempt in range(8):
             C, src = [], []
             if ctx.best is not None and n_pert > 0:
-                C.append(self._perturb(ctx.best, n_pert, sigma))
+                ibw = s["int_bound_weights"]
+                C.append(self._perturb(ctx.best, n_pert, sigma, jumps=ibw is None or w in ibw))
                 src += ["adaptive"] * n_pert
             lw = self._steps["local_weights"]
             if attempt == 0 and (lw is None or w in lw) and ctx.local is not None and len(ctx.local):
@@ -630,7 +631,7 @@ class Strategy:
             out["local_weights"] = [max(self.settings["weights"])]
         return out
 
-    def _perturb(self, best: np.ndarray, m: int, sigma: float) -> np.ndarray:
+    def _perturb(self, best: np.ndarray, m: int, sigma: float, jumps: bool = True) -> np.ndarray:
         """DYCORS: perturb each coordinate with a probability that shrinks with the budget."""
         sp, rng = self.space, self._rng
         d = sp.dim
@@ -651,7 +652,8 @@ class Strategy:
             scale = np.where(self._int, np.maximum(scale, 1.0), scale)
             X = best[None, :] + np.where(mask, scale * _truncated_normal(
                 rng, (lb - best) / scale, (ub - best) / scale, (m, d)), 0.0)
-            return self._bound_jumps(sp.snap(sp.from_search(X)), mask, sp.from_search(best))
+            X = sp.snap(sp.from_search(X))
+            return self._bound_jumps(X, mask, sp.from_search(best)) if jumps else X
         step = scale * rng.standard_normal((m, d))
         # Integers move by at least one unit step, then by the rounded step.
         if self.settings["force_int_move"]:
@@ -666,7 +668,8 @@ class Strategy:
         else:
             X = np.where(X < lb, 2 * lb - X, X)  # reflect back into the box
             X = np.where(X > ub, 2 * ub - X, X)
-        return self._bound_jumps(sp.snap(sp.from_search(X)), mask, sp.from_search(best))
+        X = sp.snap(sp.from_search(X))
+        return self._bound_jumps(X, mask, sp.from_search(best)) if jumps else X
 
     def _bound_jumps(self, X: np.ndarray, mask: np.ndarray, best: np.ndarray) -> np.ndarray:
         """int_bound_candidates: in that fraction of the rows, one perturbed integer coordinate

@@ -685,3 +685,22 @@ def test_bound_candidates_reach_an_off_switch_behind_a_wall_in_any_phase():
     assert all(n > 15 for n in ends[0.0])  # stuck behind the wall
     assert ends[0.05] == [0.0] * 4
 
+
+
+def test_bound_candidates_at_chosen_weights_only():
+    """int_bound_weights: the jumps are drawn only for proposals at those weights of the cycle;
+    at the others the candidates are the plain steps."""
+    space = DesignSpace(["x", "n"], [0.0, 0], [1.0, 120], [False, True])
+    best = np.array([0.5, 60.0])
+    plain = Strategy(space, budget=500, seed=4)
+    s = Strategy(space, budget=500, seed=4, int_bound_candidates=0.2, int_bound_weights=[0.95])
+    np.testing.assert_array_equal(plain._perturb(best, 500, 0.2), s._perturb(best, 500, 0.2, jumps=False))
+    assert np.isin(s._perturb(best, 500, 0.2), [0.0, 120.0]).any()
+    seen = {}
+    s._perturb = lambda *a, jumps, f=s._perturb: seen.setdefault(s._w_index % 4, set()).add(jumps) or f(*a, jumps=jumps)
+    while len(s.history) < 30:
+        for p in s.ask(1):
+            s.tell(p.id, float((p.x[0] - 0.3) ** 2 + (p.x[1] - 40) ** 2))
+    assert seen == {0: {False}, 1: {False}, 2: {False}, 3: {True}}  # weights 0.3, 0.5, 0.8, 0.95
+    with pytest.raises(ValueError, match="int_bound_weights"):
+        Strategy(space, budget=50, int_bound_candidates=0.1, int_bound_weights=[0.7])
