@@ -578,11 +578,11 @@ class Strategy:
         self._steps = self._candidate_settings(isinstance(ctx.rbf, _CompositeSurrogate))
         w = s["weights"][self._w_index % len(s["weights"])]
         n_pert, n_unif, sigma = s["n_perturb"], s["n_uniform"], self._sigma
+        jumps = s["int_bound_weights"] is None or w in s["int_bound_weights"]
         for attempt in range(8):
             C, src = [], []
             if ctx.best is not None and n_pert > 0:
-                ibw = s["int_bound_weights"]
-                C.append(self._perturb(ctx.best, n_pert, sigma, jumps=ibw is None or w in ibw))
+                C.append(self._perturb(ctx.best, n_pert, sigma, jumps=jumps))
                 src += ["adaptive"] * n_pert
             lw = self._steps["local_weights"]
             if attempt == 0 and (lw is None or w in lw) and ctx.local is not None and len(ctx.local):
@@ -644,32 +644,31 @@ class Strategy:
         pick = free_idx[rng.integers(len(free_idx), size=m)]
         mask[np.flatnonzero(none), pick[none]] = True  # always at least one coordinate
         # in search coordinates (ln x for a log variable, x itself otherwise)
-        lb, ub, best = sp.search_lb, sp.search_ub, sp.to_search(best)
+        lb, ub, b = sp.search_lb, sp.search_ub, sp.to_search(best)
         scale = sigma * self._span
         if self._steps["perturbation"] == "truncnorm":
             # pySOT: integers get a scale of at least one unit, then are rounded (a rounded
             # draw may land on the best point's value; such a candidate is a duplicate).
             scale = np.where(self._int, np.maximum(scale, 1.0), scale)
-            X = best[None, :] + np.where(mask, scale * _truncated_normal(
-                rng, (lb - best) / scale, (ub - best) / scale, (m, d)), 0.0)
-            X = sp.snap(sp.from_search(X))
-            return self._bound_jumps(X, mask, sp.from_search(best)) if jumps else X
-        step = scale * rng.standard_normal((m, d))
-        # Integers move by at least one unit step, then by the rounded step.
-        if self.settings["force_int_move"]:
-            step[:, self._int] = np.where(step[:, self._int] >= 0, 1.0, -1.0) * np.maximum(
-                1.0, np.rint(np.abs(step[:, self._int])))
-        else:  # pySOT-like: scale at least one unit, plain rounding (may not move)
-            factor = np.maximum(scale, 1.0) / scale
-            step[:, self._int] = np.rint(step[:, self._int] * factor[self._int])
-        X = best[None, :] + np.where(mask, step, 0.0)
-        if self.settings["clip_to_bounds"]:  # optima on a bound get candidates on it
-            X = np.clip(X, lb, ub)
+            X = b[None, :] + np.where(mask, scale * _truncated_normal(
+                rng, (lb - b) / scale, (ub - b) / scale, (m, d)), 0.0)
         else:
-            X = np.where(X < lb, 2 * lb - X, X)  # reflect back into the box
-            X = np.where(X > ub, 2 * ub - X, X)
+            step = scale * rng.standard_normal((m, d))
+            # Integers move by at least one unit step, then by the rounded step.
+            if self.settings["force_int_move"]:
+                step[:, self._int] = np.where(step[:, self._int] >= 0, 1.0, -1.0) * np.maximum(
+                    1.0, np.rint(np.abs(step[:, self._int])))
+            else:  # pySOT-like: scale at least one unit, plain rounding (may not move)
+                factor = np.maximum(scale, 1.0) / scale
+                step[:, self._int] = np.rint(step[:, self._int] * factor[self._int])
+            X = b[None, :] + np.where(mask, step, 0.0)
+            if self.settings["clip_to_bounds"]:  # optima on a bound get candidates on it
+                X = np.clip(X, lb, ub)
+            else:
+                X = np.where(X < lb, 2 * lb - X, X)  # reflect back into the box
+                X = np.where(X > ub, 2 * ub - X, X)
         X = sp.snap(sp.from_search(X))
-        return self._bound_jumps(X, mask, sp.from_search(best)) if jumps else X
+        return self._bound_jumps(X, mask, best) if jumps else X
 
     def _bound_jumps(self, X: np.ndarray, mask: np.ndarray, best: np.ndarray) -> np.ndarray:
         """int_bound_candidates: in that fraction of the rows, one perturbed integer coordinate
