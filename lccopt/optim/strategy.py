@@ -196,7 +196,9 @@ def _default_settings(space: DesignSpace) -> dict:
         # far, the best point with one integer on a bound joins the candidates at every
         # weight, for each integer and bound that no point of the restart has yet. An integer
         # whose end is an "off" switch behind a wall (no strip: x_l = 0) is out of reach of
-        # steps of sigma from the far side. RESULTS-optimiser.md, "Generation 10".
+        # steps of sigma from the far side. RESULTS-optimiser.md, "Generation 10". "late":
+        # the same, and a late restart that starts fresh (composite surrogate) puts those
+        # probes of the run's best point first in its design (measured, RESULTS-optimiser.md).
         "bound_probes": "anchor",
         # Fraction of the DYCORS candidates in which one perturbed integer coordinate is put on
         # a bound (either, not the best point's own value) instead of stepped, in every phase,
@@ -284,8 +286,8 @@ class Strategy:
             raise ValueError("tail must be 'linear', 'quadratic', 'auto' or 'auto-half'")
         if self.settings["restart_from"] not in ("fresh", "endgame", "alternate", "auto"):
             raise ValueError("restart_from must be 'fresh', 'endgame', 'alternate' or 'auto'")
-        if self.settings["bound_probes"] not in (None, "anchor"):
-            raise ValueError("bound_probes must be None or 'anchor'")
+        if self.settings["bound_probes"] not in (None, "anchor", "late"):
+            raise ValueError("bound_probes must be None, 'anchor' or 'late'")
         if self.settings["composite_capping"] not in (True, False, "auto"):
             raise ValueError("composite_capping must be True, False or 'auto'")
         if not self.settings["weights"] or not all(0.0 <= w <= 1.0 for w in self.settings["weights"]):
@@ -414,19 +416,23 @@ class Strategy:
         stay in the record and the duplicate set (and the surrogate: restart_keeps_points)."""
         self._restart += 1
         rule = self._candidate_settings(self._composite_set_up())["restart_from"]
-        if rule == "endgame":
-            # phases so far: the first design's and every restart's, by their proposals
-            lengths = np.bincount([r["restart"] for r in self._records], minlength=self._restart)
-            from_best = self.budget - self.n_asked < lengths[: self._restart].mean()
-        else:
-            from_best = rule == "alternate" and self._restart % 2 == 1
+        # late: the budget left is shorter than the phases so far (the first design's and every
+        # restart's, by their proposals) were on average
+        lengths = np.bincount([r["restart"] for r in self._records], minlength=self._restart)
+        late = self.budget - self.n_asked < lengths[: self._restart].mean()
+        from_best = late if rule == "endgame" else rule == "alternate" and self._restart % 2 == 1
         ok = [r for r in self._records if r["status"] == "ok"]
-        if from_best and ok:
-            self._begin_restart_state([], min(ok, key=lambda r: (r["value"], r["id"]))["id"])
+        best = min(ok, key=lambda r: (r["value"], r["id"])) if ok else None
+        if from_best and best:
+            self._begin_restart_state([], best["id"])
             return
         taken = np.array([r["x"] for r in self._records]).reshape(-1, self.space.dim)
-        design = latin_hypercube(self.space, self.n_initial, self._rng, exclude=taken)
-        self._begin_restart_state(list(design))
+        design = list(latin_hypercube(self.space, self.n_initial, self._rng, exclude=taken))
+        if late and best and self.settings["bound_probes"] == "late":
+            probes = self._bound_probes(best["x"], best["x"][None, :])
+            new = ~(probes[:, None, :] == taken[None, :, :]).all(axis=2).any(axis=1)
+            design = list(probes[new]) + design
+        self._begin_restart_state(design)
 
     # -- surrogate and candidates -------------------------------------------------------------
     def _prepare(self) -> "_Context":
@@ -438,7 +444,7 @@ class Strategy:
         own = [r["restart"] == self._restart or r["id"] == self._anchor for r in recs]
         near = [r["x"] for r, o in zip(recs, own) if o or r["status"] == "pending"]
         ctx = _Context(self, taken, np.array(near).reshape(-1, sp.dim))
-        ctx.probing = self.settings["bound_probes"] == "anchor" and self._anchor is not None
+        ctx.probing = self.settings["bound_probes"] is not None and self._anchor is not None
         if ctx.probing:
             ctx.phase_x = np.array([r["x"] for r, o in zip(recs, own) if o]).reshape(-1, sp.dim)
         ok = sorted((r for r, o in zip(recs, own) if r["status"] == "ok" and o), key=lambda r: r["id"])

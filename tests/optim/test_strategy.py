@@ -616,6 +616,35 @@ def test_bound_probes_in_a_restart_from_the_best_point_reach_an_off_switch_behin
     assert probed_in and None not in probed_in  # only in restarts from the best point
 
 
+def test_late_bound_probes_put_a_composite_run_on_an_off_switch():
+    """A composite surrogate restarts fresh, so "anchor" probes never act and the runs stay
+    in the basin near n = 70; with "late" the last fresh restart's design starts with the
+    run's best point with n on each bound, and every run ends at n = 0."""
+    def outs(x):
+        wall = _off_switch(np.array([0.6, 0.3, x[2]]))
+        return np.array([(x[0] - 0.6) ** 2 + wall, (x[1] - 0.3) ** 2 + wall / 2])
+
+    ends, designs = {}, []
+    for mode in ("anchor", "late"):
+        ends[mode] = []
+        for seed in range(1, 4):
+            s = Strategy(OFF_SWITCH_SPACE, budget=80, n_initial=10, seed=seed, composite=True,
+                         bound_probes=mode)
+            s.set_aggregate(lambda F: F.sum(axis=1))
+            while not s.done:
+                for p in s.ask(1):
+                    if mode == "late" and s._restart > 0 and s._n_init_restart > 10:
+                        designs.append((p.x.copy(), s.best[0].copy()))
+                    F = outs(p.x)
+                    s.tell(p.id, float(F.sum()), F)
+            ends[mode].append(s.best[0][2])
+    assert all(n > 15 for n in ends["anchor"])
+    assert ends["late"] == [0.0] * 3
+    # the probes come first: the run's best point with n on a bound
+    x, best = designs[0]
+    assert x[2] in (0.0, 100.0) and np.array_equal(x[:2], best[:2])
+
+
 def test_runs_of_generation_9_go_on_without_bound_probes():
     """Generation 10 made "anchor" the default; a run begun before (its generation journalled,
     or a saved state without the key) carries on without probes, as it began."""
