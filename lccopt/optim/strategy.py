@@ -198,7 +198,10 @@ def _default_settings(space: DesignSpace) -> dict:
         # whose end is an "off" switch behind a wall (no strip: x_l = 0) is out of reach of
         # steps of sigma from the far side. RESULTS-optimiser.md, "Generation 10". "late":
         # the same, and a late restart that starts fresh (composite surrogate) puts those
-        # probes of the run's best point first in its design (measured, RESULTS-optimiser.md).
+        # probes of the run's best point first in its design; a probe joins the restart (its
+        # best point, surrogate and distances) only if it beats the run's best value, so a
+        # probe that fails leaves the fresh restart as it would have been.
+        # RESULTS-optimiser.md, "Bound probes in a late fresh restart".
         "bound_probes": "anchor",
         # Fraction of the DYCORS candidates in which one perturbed integer coordinate is put on
         # a bound (either, not the best point's own value) instead of stepped, in every phase,
@@ -317,6 +320,7 @@ class Strategy:
         self._fbest_restart: float | None = (
             None if anchor is None else float(self._records[anchor]["value"]))
         self._exhausted = False
+        self._side_probes: dict[int, float] = {}
 
     def set_aggregate(self, aggregate) -> None:
         """The function that maps output vectors F (n, k) to the scalar values (n,), or None.
@@ -428,11 +432,14 @@ class Strategy:
             return
         taken = np.array([r["x"] for r in self._records]).reshape(-1, self.space.dim)
         design = list(latin_hypercube(self.space, self.n_initial, self._rng, exclude=taken))
+        probes = []
         if late and best and self.settings["bound_probes"] == "late":
-            probes = self._bound_probes(best["x"], best["x"][None, :])
-            new = ~(probes[:, None, :] == taken[None, :, :]).all(axis=2).any(axis=1)
-            design = list(probes[new]) + design
-        self._begin_restart_state(design)
+            P = self._bound_probes(best["x"], best["x"][None, :])
+            probes = list(P[~(P[:, None, :] == taken[None, :, :]).all(axis=2).any(axis=1)])
+        self._begin_restart_state(probes + design)
+        # id of each probe -> the value it must beat to join the restart
+        first = len(self._records)
+        self._side_probes = {first + i: float(best["value"]) for i in range(len(probes))}
 
     # -- surrogate and candidates -------------------------------------------------------------
     def _prepare(self) -> "_Context":
@@ -441,7 +448,8 @@ class Strategy:
         taken = np.array([r["x"] for r in recs]).reshape(-1, sp.dim)
         # Distance criterion: points of this restart (any status; with the point it went on
         # from) and everything in flight.
-        own = [r["restart"] == self._restart or r["id"] == self._anchor for r in recs]
+        own = [(r["restart"] == self._restart or r["id"] == self._anchor) and not self._aside(r)
+               for r in recs]
         near = [r["x"] for r, o in zip(recs, own) if o or r["status"] == "pending"]
         ctx = _Context(self, taken, np.array(near).reshape(-1, sp.dim))
         ctx.probing = self.settings["bound_probes"] is not None and self._anchor is not None
@@ -697,6 +705,11 @@ class Strategy:
         X[rows, pick] = np.where(to_hi, hi, lo)
         return X
 
+    def _aside(self, rec: dict) -> bool:
+        """A probe of a late fresh restart that has not (yet) beaten the run's best value."""
+        bar = self._side_probes.get(rec["id"])
+        return bar is not None and not (rec["status"] == "ok" and rec["value"] < bar)
+
     def _bound_probes(self, best: np.ndarray, phase_x: np.ndarray) -> np.ndarray:
         """The best point with one free integer on a bound, for each integer and bound that no
         point of the restart (``phase_x``) has: each end of a range is asked about once, not
@@ -839,8 +852,8 @@ class Strategy:
             return
         rec["status"], rec["value"] = "ok", value
         rec["outputs"] = None if outputs is None else [float(v) for v in np.ravel(outputs)]
-        if rec["restart"] != self._restart:
-            return  # a straggler from before the restart: recorded, not used
+        if rec["restart"] != self._restart or self._aside(rec):
+            return  # a straggler from before the restart, or a failed probe: recorded, not used
         self._failed_row = 0
         fb = self._fbest_restart
         if rec["phase"] != "initial" and fb is not None:
@@ -898,6 +911,7 @@ class Strategy:
             "fbest_restart": self._fbest_restart,
             "exhausted": self._exhausted,
             "anchor": self._anchor,
+            "side_probes": [[i, v] for i, v in self._side_probes.items()],
         }
 
     @classmethod
@@ -928,6 +942,7 @@ class Strategy:
         s._fbest_restart = None if d["fbest_restart"] is None else float(d["fbest_restart"])
         s._exhausted = bool(d["exhausted"])
         s._anchor = None if d.get("anchor") is None else int(d["anchor"])
+        s._side_probes = {int(i): float(v) for i, v in d.get("side_probes", [])}
         return s
 
     def save(self, path) -> None:

@@ -645,6 +645,60 @@ def test_late_bound_probes_put_a_composite_run_on_an_off_switch():
     assert x[2] in (0.0, 100.0) and np.array_equal(x[:2], best[:2])
 
 
+def _late_composite(seed, outs, budget=80):
+    s = Strategy(OFF_SWITCH_SPACE, budget=budget, n_initial=10, seed=seed, composite=True,
+                 bound_probes="late")
+    s.set_aggregate(lambda F: F.sum(axis=1))
+    return s
+
+
+def test_a_late_probe_that_fails_leaves_the_fresh_restart_as_it_was():
+    """Probes worse than the run's best are recorded (budget, duplicates) but are not the
+    restart's points: not its best point, not fitted, not in its success count."""
+    def outs(x):   # n = 0 is no better here: every probe from a best at n = 50 fails
+        return np.array([(x[0] - 0.6) ** 2 + (x[2] - 50) ** 2 / 100, (x[1] - 0.3) ** 2])
+
+    s = _late_composite(2, outs)
+    seen = 0
+    while not s.done:
+        for p in s.ask(1):
+            F = outs(p.x)
+            s.tell(p.id, float(F.sum()), F)
+        if s._side_probes and all(i < s.n_asked and s._records[i]["status"] == "ok"
+                                  for i in s._side_probes):
+            recs = [s._records[i] for i in s._side_probes]
+            assert all(r["value"] >= s._side_probes[r["id"]] and s._aside(r) for r in recs)
+            ctx = s._prepare()
+            assert not any(np.array_equal(ctx.best, r["x"]) for r in recs)
+            own = [r["value"] for r in s._records
+                   if r["restart"] == s._restart and r["status"] == "ok" and not s._aside(r)]
+            assert s._fbest_restart == (min(own) if own else None)
+            seen += 1
+    assert seen
+
+
+def test_a_strategy_saved_during_late_probes_proposes_the_same_after_restoring():
+    def outs(x):
+        wall = _off_switch(np.array([0.6, 0.3, x[2]]))
+        return np.array([(x[0] - 0.6) ** 2 + wall, (x[1] - 0.3) ** 2 + wall / 2])
+
+    s = _late_composite(1, outs)
+    while not s._side_probes:
+        for p in s.ask(1):
+            F = outs(p.x)
+            s.tell(p.id, float(F.sum()), F)
+    t = Strategy.from_state(json.loads(json.dumps(s.state_dict())))
+    t.set_aggregate(lambda F: F.sum(axis=1))
+    assert t._side_probes == s._side_probes
+    while not s.done:
+        a, b = s.ask(2), t.ask(2)
+        assert [x.x.tobytes() for x in a] == [x.x.tobytes() for x in b]
+        for pa, pb in zip(a, b):
+            F = outs(pa.x)
+            s.tell(pa.id, float(F.sum()), F)
+            t.tell(pb.id, float(F.sum()), F)
+
+
 def test_runs_of_generation_9_go_on_without_bound_probes():
     """Generation 10 made "anchor" the default; a run begun before (its generation journalled,
     or a saved state without the key) carries on without probes, as it began."""
