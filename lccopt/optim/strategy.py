@@ -199,8 +199,8 @@ def _default_settings(space: DesignSpace) -> dict:
         # steps of sigma from the far side. RESULTS-optimiser.md, "Generation 10". "late":
         # the same, and a late restart that starts fresh (composite surrogate) puts those
         # probes of the run's best point first in its design; a probe joins the restart (its
-        # best point, surrogate and distances) only if it beats the run's best value, so a
-        # probe that fails leaves the fresh restart as it would have been.
+        # best point, surrogate and distances) only if it improves on the run's best value by
+        # improvement_tol, so a probe that fails leaves the fresh restart as it would have been.
         # RESULTS-optimiser.md, "Bound probes in a late fresh restart".
         "bound_probes": "anchor",
         # Fraction of the DYCORS candidates in which one perturbed integer coordinate is put on
@@ -437,9 +437,13 @@ class Strategy:
             P = self._bound_probes(best["x"], best["x"][None, :])
             probes = list(P[~(P[:, None, :] == taken[None, :, :]).all(axis=2).any(axis=1)])
         self._begin_restart_state(probes + design)
-        # id of each probe -> the value it must beat to join the restart
+        # id of each probe -> the value it must beat to join the restart: a success by the
+        # step rule's tolerance, not a hair (a longer strip with the same E_max to 4 digits)
         first = len(self._records)
-        self._side_probes = {first + i: float(best["value"]) for i in range(len(probes))}
+        if probes:
+            fb = float(best["value"])
+            bar = fb - self.settings["improvement_tol"] * abs(fb)
+            self._side_probes = {first + i: bar for i in range(len(probes))}
 
     # -- surrogate and candidates -------------------------------------------------------------
     def _prepare(self) -> "_Context":
