@@ -320,7 +320,8 @@ class Strategy:
         self._fbest_restart: float | None = (
             None if anchor is None else float(self._records[anchor]["value"]))
         self._exhausted = False
-        self._side_probes: dict[int, float] = {}
+        # late bound probes: their ids and the value one must beat to join the restart
+        self._probe_ids, self._probe_bar = range(0), 0.0
 
     def set_aggregate(self, aggregate) -> None:
         """The function that maps output vectors F (n, k) to the scalar values (n,), or None.
@@ -435,15 +436,13 @@ class Strategy:
         probes = []
         if late and best and self.settings["bound_probes"] == "late":
             P = self._bound_probes(best["x"], best["x"][None, :])
-            probes = list(P[~(P[:, None, :] == taken[None, :, :]).all(axis=2).any(axis=1)])
+            probes = list(P[~_Context(self, taken, taken[:0]).is_taken(P)])
         self._begin_restart_state(probes + design)
-        # id of each probe -> the value it must beat to join the restart: a success by the
-        # step rule's tolerance, not a hair (a longer strip with the same E_max to 4 digits)
-        first = len(self._records)
-        if probes:
-            fb = float(best["value"])
-            bar = fb - self.settings["improvement_tol"] * abs(fb)
-            self._side_probes = {first + i: bar for i in range(len(probes))}
+        # A probe joins the restart by a success of the step rule's tolerance, not by a hair
+        # (a longer strip with the same E_max to 4 digits).
+        fb = float(best["value"]) if probes else 0.0
+        self._probe_ids = range(len(self._records), len(self._records) + len(probes))
+        self._probe_bar = fb - self.settings["improvement_tol"] * abs(fb)
 
     # -- surrogate and candidates -------------------------------------------------------------
     def _prepare(self) -> "_Context":
@@ -711,8 +710,8 @@ class Strategy:
 
     def _aside(self, rec: dict) -> bool:
         """A probe of a late fresh restart that has not (yet) beaten the run's best value."""
-        bar = self._side_probes.get(rec["id"])
-        return bar is not None and not (rec["status"] == "ok" and rec["value"] < bar)
+        return rec["id"] in self._probe_ids and not (
+            rec["status"] == "ok" and rec["value"] < self._probe_bar)
 
     def _bound_probes(self, best: np.ndarray, phase_x: np.ndarray) -> np.ndarray:
         """The best point with one free integer on a bound, for each integer and bound that no
@@ -915,7 +914,7 @@ class Strategy:
             "fbest_restart": self._fbest_restart,
             "exhausted": self._exhausted,
             "anchor": self._anchor,
-            "side_probes": [[i, v] for i, v in self._side_probes.items()],
+            "late_probes": [self._probe_ids.start, self._probe_ids.stop, self._probe_bar],
         }
 
     @classmethod
@@ -946,7 +945,8 @@ class Strategy:
         s._fbest_restart = None if d["fbest_restart"] is None else float(d["fbest_restart"])
         s._exhausted = bool(d["exhausted"])
         s._anchor = None if d.get("anchor") is None else int(d["anchor"])
-        s._side_probes = {int(i): float(v) for i, v in d.get("side_probes", [])}
+        start, stop, bar = d.get("late_probes", [0, 0, 0.0])
+        s._probe_ids, s._probe_bar = range(int(start), int(stop)), float(bar)
         return s
 
     def save(self, path) -> None:

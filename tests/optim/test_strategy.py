@@ -616,26 +616,33 @@ def test_bound_probes_in_a_restart_from_the_best_point_reach_an_off_switch_behin
     assert probed_in and None not in probed_in  # only in restarts from the best point
 
 
+def _off_switch_outputs(x):
+    """_off_switch as two outputs that a composite surrogate fits (their sum is the value)."""
+    wall = _off_switch(np.array([0.6, 0.3, x[2]]))
+    return np.array([(x[0] - 0.6) ** 2 + wall, (x[1] - 0.3) ** 2 + wall / 2])
+
+
+def _composite_strategy(seed, bound_probes="late"):
+    s = Strategy(OFF_SWITCH_SPACE, budget=80, n_initial=10, seed=seed, composite=True,
+                 bound_probes=bound_probes)
+    s.set_aggregate(lambda F: F.sum(axis=1))
+    return s
+
+
 def test_late_bound_probes_put_a_composite_run_on_an_off_switch():
     """A composite surrogate restarts fresh, so "anchor" probes never act and the runs stay
     in the basin near n = 70; with "late" the last fresh restart's design starts with the
     run's best point with n on each bound, and every run ends at n = 0."""
-    def outs(x):
-        wall = _off_switch(np.array([0.6, 0.3, x[2]]))
-        return np.array([(x[0] - 0.6) ** 2 + wall, (x[1] - 0.3) ** 2 + wall / 2])
-
     ends, designs = {}, []
     for mode in ("anchor", "late"):
         ends[mode] = []
         for seed in range(1, 4):
-            s = Strategy(OFF_SWITCH_SPACE, budget=80, n_initial=10, seed=seed, composite=True,
-                         bound_probes=mode)
-            s.set_aggregate(lambda F: F.sum(axis=1))
+            s = _composite_strategy(seed, mode)
             while not s.done:
                 for p in s.ask(1):
                     if mode == "late" and s._restart > 0 and s._n_init_restart > 10:
                         designs.append((p.x.copy(), s.best[0].copy()))
-                    F = outs(p.x)
+                    F = _off_switch_outputs(p.x)
                     s.tell(p.id, float(F.sum()), F)
             ends[mode].append(s.best[0][2])
     assert all(n > 15 for n in ends["anchor"])
@@ -645,29 +652,22 @@ def test_late_bound_probes_put_a_composite_run_on_an_off_switch():
     assert x[2] in (0.0, 100.0) and np.array_equal(x[:2], best[:2])
 
 
-def _late_composite(seed, outs, budget=80):
-    s = Strategy(OFF_SWITCH_SPACE, budget=budget, n_initial=10, seed=seed, composite=True,
-                 bound_probes="late")
-    s.set_aggregate(lambda F: F.sum(axis=1))
-    return s
-
-
 def test_a_late_probe_that_fails_leaves_the_fresh_restart_as_it_was():
     """Probes worse than the run's best are recorded (budget, duplicates) but are not the
     restart's points: not its best point, not fitted, not in its success count."""
     def outs(x):   # n = 0 is no better here: every probe from a best at n = 50 fails
         return np.array([(x[0] - 0.6) ** 2 + (x[2] - 50) ** 2 / 100, (x[1] - 0.3) ** 2])
 
-    s = _late_composite(2, outs)
+    s = _composite_strategy(2)
     seen = 0
     while not s.done:
         for p in s.ask(1):
             F = outs(p.x)
             s.tell(p.id, float(F.sum()), F)
-        if s._side_probes and all(i < s.n_asked and s._records[i]["status"] == "ok"
-                                  for i in s._side_probes):
-            recs = [s._records[i] for i in s._side_probes]
-            assert all(r["value"] >= s._side_probes[r["id"]] and s._aside(r) for r in recs)
+        if s._probe_ids and all(i < s.n_asked and s._records[i]["status"] == "ok"
+                                for i in s._probe_ids):
+            recs = [s._records[i] for i in s._probe_ids]
+            assert all(r["value"] >= s._probe_bar and s._aside(r) for r in recs)
             ctx = s._prepare()
             assert not any(np.array_equal(ctx.best, r["x"]) for r in recs)
             own = [r["value"] for r in s._records
@@ -678,18 +678,15 @@ def test_a_late_probe_that_fails_leaves_the_fresh_restart_as_it_was():
 
 
 def test_a_strategy_saved_during_late_probes_proposes_the_same_after_restoring():
-    def outs(x):
-        wall = _off_switch(np.array([0.6, 0.3, x[2]]))
-        return np.array([(x[0] - 0.6) ** 2 + wall, (x[1] - 0.3) ** 2 + wall / 2])
-
-    s = _late_composite(1, outs)
-    while not s._side_probes:
+    outs = _off_switch_outputs
+    s = _composite_strategy(1)
+    while not s._probe_ids:
         for p in s.ask(1):
             F = outs(p.x)
             s.tell(p.id, float(F.sum()), F)
     t = Strategy.from_state(json.loads(json.dumps(s.state_dict())))
     t.set_aggregate(lambda F: F.sum(axis=1))
-    assert t._side_probes == s._side_probes
+    assert (t._probe_ids, t._probe_bar) == (s._probe_ids, s._probe_bar)
     while not s.done:
         a, b = s.ask(2), t.ask(2)
         assert [x.x.tobytes() for x in a] == [x.x.tobytes() for x in b]
