@@ -201,7 +201,10 @@ def _default_settings(space: DesignSpace) -> dict:
         # probes of the run's best point first in its design; a probe joins the restart (its
         # best point, surrogate and distances) only if it improves on the run's best value by
         # improvement_tol, so a probe that fails leaves the fresh restart as it would have been.
-        # RESULTS-optimiser.md, "Bound probes in a late fresh restart".
+        # RESULTS-optimiser.md, "Bound probes in a late fresh restart". "stalled": as
+        # "late", but the fresh restart probes when the phase before it did not improve on the
+        # run's best by improvement_tol (a whole fresh design found no better basin), late or
+        # not; RESULTS-optimiser.md, "Bound probes after a stalled phase".
         "bound_probes": "anchor",
         # Fraction of the DYCORS candidates in which one perturbed integer coordinate is put on
         # a bound (either, not the best point's own value) instead of stepped, in every phase,
@@ -289,8 +292,8 @@ class Strategy:
             raise ValueError("tail must be 'linear', 'quadratic', 'auto' or 'auto-half'")
         if self.settings["restart_from"] not in ("fresh", "endgame", "alternate", "auto"):
             raise ValueError("restart_from must be 'fresh', 'endgame', 'alternate' or 'auto'")
-        if self.settings["bound_probes"] not in (None, "anchor", "late"):
-            raise ValueError("bound_probes must be None, 'anchor' or 'late'")
+        if self.settings["bound_probes"] not in (None, "anchor", "late", "stalled"):
+            raise ValueError("bound_probes must be None, 'anchor', 'late' or 'stalled'")
         if self.settings["composite_capping"] not in (True, False, "auto"):
             raise ValueError("composite_capping must be True, False or 'auto'")
         if not self.settings["weights"] or not all(0.0 <= w <= 1.0 for w in self.settings["weights"]):
@@ -434,7 +437,9 @@ class Strategy:
         taken = np.array([r["x"] for r in self._records]).reshape(-1, self.space.dim)
         design = list(latin_hypercube(self.space, self.n_initial, self._rng, exclude=taken))
         probes = []
-        if late and best and self.settings["bound_probes"] == "late":
+        mode = self.settings["bound_probes"]
+        stalled = mode == "stalled" and self._last_phase_stalled(ok)
+        if best and (mode == "late" and late or stalled):
             P = self._bound_probes(best["x"], best["x"][None, :])
             probes = list(P[~_Context(self, taken, taken[:0]).is_taken(P)])
         self._begin_restart_state(probes + design)
@@ -443,6 +448,16 @@ class Strategy:
         fb = float(best["value"]) if probes else 0.0
         self._probe_ids = range(len(self._records), len(self._records) + len(probes))
         self._probe_bar = fb - self.settings["improvement_tol"] * abs(fb)
+
+    def _last_phase_stalled(self, ok: list[dict]) -> bool:
+        """Whether the phase that just ended failed to improve on the best of the phases before
+        it by improvement_tol (the step rule's success): a fresh design found no better basin."""
+        before = [r["value"] for r in ok if r["restart"] < self._restart - 1]
+        last = [r["value"] for r in ok if r["restart"] == self._restart - 1]
+        if not before:
+            return False
+        fb = min(before)
+        return not (last and min(last) < fb - self.settings["improvement_tol"] * abs(fb))
 
     # -- surrogate and candidates -------------------------------------------------------------
     def _prepare(self) -> "_Context":

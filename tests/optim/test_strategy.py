@@ -652,6 +652,33 @@ def test_late_bound_probes_put_a_composite_run_on_an_off_switch():
     assert x[2] in (0.0, 100.0) and np.array_equal(x[:2], best[:2])
 
 
+def test_stalled_bound_probes_follow_a_fresh_phase_that_found_nothing_better():
+    """"stalled": a fresh restart puts the run's best point with each integer on a bound first
+    in its design when the phase before it did not improve on the run's best by
+    improvement_tol, and only then; composite runs that "anchor" leaves near n = 70 end at 0."""
+    for seed in range(1, 4):
+        ends = {}
+        for mode in ("anchor", "stalled"):
+            s = _composite_strategy(seed, mode)
+            s.budget = 120
+            starts = []   # (did the phase before improve on the run's best?, probes)
+            while not s.done:
+                r = s._restart
+                for p in s.ask(1):
+                    F = _off_switch_outputs(p.x)
+                    s.tell(p.id, float(F.sum()), F)
+                if s._restart != r:
+                    ph = [[q["value"] for q in s._records if q["restart"] == k and q["status"] == "ok"]
+                          for k in range(s._restart)]
+                    fb = min(min(v) for v in ph[:-1] if v) if len(ph) > 1 else None
+                    starts.append((fb is None or min(ph[-1]) < fb - 1e-3 * abs(fb),
+                                   len(s._probe_ids)))
+            ends[mode] = s.best[0][2]
+        assert all((n == 0) == improved for improved, n in starts), starts
+        assert any(n for _, n in starts)
+        assert ends["anchor"] > 15 and ends["stalled"] == 0.0
+
+
 def test_a_late_probe_that_fails_leaves_the_fresh_restart_as_it_was():
     """Probes worse than the run's best are recorded (budget, duplicates) but are not the
     restart's points: not its best point, not fitted, not in its success count."""
