@@ -323,7 +323,8 @@ class Strategy:
         self._fbest_restart: float | None = (
             None if anchor is None else float(self._records[anchor]["value"]))
         self._exhausted = False
-        # late bound probes: their ids and the value one must beat to join the restart
+        # bound probes of a fresh restart ("late", "stalled"): their ids and the value one
+        # must beat to join the restart
         self._probe_ids, self._probe_bar = range(0), 0.0
 
     def set_aggregate(self, aggregate) -> None:
@@ -447,7 +448,7 @@ class Strategy:
         # (a longer strip with the same E_max to 4 digits).
         fb = float(best["value"]) if probes else 0.0
         self._probe_ids = range(len(self._records), len(self._records) + len(probes))
-        self._probe_bar = fb - self.settings["improvement_tol"] * abs(fb)
+        self._probe_bar = self._success_bar(fb)
 
     def _last_phase_stalled(self, ok: list[dict]) -> bool:
         """Whether the phase that just ended failed to improve on the best of the phases before
@@ -456,8 +457,11 @@ class Strategy:
         last = [r["value"] for r in ok if r["restart"] == self._restart - 1]
         if not before:
             return False
-        fb = min(before)
-        return not (last and min(last) < fb - self.settings["improvement_tol"] * abs(fb))
+        return not (last and min(last) < self._success_bar(min(before)))
+
+    def _success_bar(self, f_best: float) -> float:
+        """The value a point must beat to improve on f_best (the step rule's success)."""
+        return f_best - self.settings["improvement_tol"] * abs(f_best)
 
     # -- surrogate and candidates -------------------------------------------------------------
     def _prepare(self) -> "_Context":
@@ -724,7 +728,7 @@ class Strategy:
         return X
 
     def _aside(self, rec: dict) -> bool:
-        """A probe of a late fresh restart that has not (yet) beaten the run's best value."""
+        """A probe of a fresh restart that has not (yet) beaten the run's best value."""
         return rec["id"] in self._probe_ids and not (
             rec["status"] == "ok" and rec["value"] < self._probe_bar)
 
@@ -875,7 +879,7 @@ class Strategy:
         self._failed_row = 0
         fb = self._fbest_restart
         if rec["phase"] != "initial" and fb is not None:
-            self._count(value < fb - self.settings["improvement_tol"] * abs(fb))
+            self._count(value < self._success_bar(fb))
         if fb is None or value < fb:
             self._fbest_restart = value
 
