@@ -18,7 +18,8 @@ Metric Stochastic Response Surface (Regis & Shoemaker) with DYCORS perturbations
 * Step F: step size sigma adapted by success/failure counters; restart with a fresh
   design when sigma collapses or evaluations keep failing (late in a run, with a scalar
   surrogate, from the run's best point instead: ``restart_from``). Such a restart also
-  tries the best point with one integer on a bound (``bound_probes``).
+  tries the best point with one integer on a bound (``bound_probes``), and may search the
+  subspace of the best such probe with that integer held on its bound ("subspace").
 * Step G: stop at a budget of told evaluations (failures included).
 
 Composite surrogate (setting ``composite``): when the minimised value is an aggregate of
@@ -204,7 +205,12 @@ def _default_settings(space: DesignSpace) -> dict:
         # RESULTS-optimiser.md, "Bound probes in a late fresh restart". "stalled": as
         # "late", but the fresh restart probes when the phase before it did not improve on the
         # run's best by improvement_tol (a whole fresh design found no better basin), late or
-        # not; RESULTS-optimiser.md, "Bound probes after a stalled phase".
+        # not; RESULTS-optimiser.md, "Bound probes after a stalled phase". "subspace": the
+        # first restart that goes on from the run's best point asks its probes first (a design);
+        # once all are told, unless one improved on the run's best by improvement_tol, half the
+        # budget left goes to a phase from the best probe with its integer held on that bound
+        # (an "off" switch whose own optimum lies away from the run's basin), then the run goes
+        # on as before. RESULTS-optimiser.md, "Subspace phases behind a failed bound probe".
         "bound_probes": "anchor",
         # Fraction of the DYCORS candidates in which one perturbed integer coordinate is put on
         # a bound (either, not the best point's own value) instead of stepped, in every phase,
@@ -252,6 +258,8 @@ class Strategy:
         self._rng = np.random.default_rng(seed)
         self._records: list[dict] = []
         self._restart = 0
+        self._subspace_tried = False  # "subspace": the run's one probe-and-subspace step taken
+        self._subspace_probes: range | None = None  # its probes, until the phase they lead to
         given = space.given_array
         lhs = latin_hypercube(space, max(0, self.n_initial - len(given)), self._rng, exclude=given)
         self._begin_restart_state(list(given) + list(lhs))
@@ -292,8 +300,8 @@ class Strategy:
             raise ValueError("tail must be 'linear', 'quadratic', 'auto' or 'auto-half'")
         if self.settings["restart_from"] not in ("fresh", "endgame", "alternate", "auto"):
             raise ValueError("restart_from must be 'fresh', 'endgame', 'alternate' or 'auto'")
-        if self.settings["bound_probes"] not in (None, "anchor", "late", "stalled"):
-            raise ValueError("bound_probes must be None, 'anchor', 'late' or 'stalled'")
+        if self.settings["bound_probes"] not in (None, "anchor", "late", "stalled", "subspace"):
+            raise ValueError("bound_probes must be None, 'anchor', 'late', 'stalled' or 'subspace'")
         if self.settings["composite_capping"] not in (True, False, "auto"):
             raise ValueError("composite_capping must be True, False or 'auto'")
         if not self.settings["weights"] or not all(0.0 <= w <= 1.0 for w in self.settings["weights"]):
@@ -306,11 +314,17 @@ class Strategy:
         self._int = space.int_mask
         self._cont = ~self._int & (span > 0)
         self._free = span > 0
+        # subspace phase ("subspace"): (variable, value) held fixed, else None
+        self._frozen: tuple[int, float] | None = None
         self._span = space.search_span  # steps are drawn in search coordinates (log scales)
 
-    def _begin_restart_state(self, design: list, anchor: int | None = None) -> None:
-        # anchor: id of the run's best record, which a restart without a design goes on from
+    def _begin_restart_state(self, design: list, anchor: int | None = None,
+                             frozen: tuple[int, float] | None = None, end: int | None = None) -> None:
+        # anchor: id of the record a restart without a design goes on from (the run's best, or
+        # a subspace phase's probe); frozen: the subspace phase's fixed (variable, value); end:
+        # the number of proposals at which the phase ends (None: by the step rule only)
         self._anchor = anchor
+        self._frozen, self._phase_end = frozen, end
         self._queue = [np.asarray(x, dtype=float) for x in design]
         self._restart_start_n = len(self._records)
         self._n_init_restart = len(self._queue)
@@ -418,13 +432,17 @@ class Strategy:
 
     def _needs_restart(self) -> bool:
         s = self.settings
-        return self._sigma < s["sigma_min"] or self._failed_row >= s["max_failed_row"]
+        return (self._sigma < s["sigma_min"] or self._failed_row >= s["max_failed_row"]
+                or self._phase_end is not None and self.n_asked >= self._phase_end
+                or self._subspace_probes is not None and not any(  # "subspace": probes told
+                    self._records[i]["status"] == "pending" for i in self._subspace_probes))
 
     def _start_restart(self) -> None:
         """Fresh design, or none from the run's best point (``restart_from``); earlier points
         stay in the record and the duplicate set (and the surrogate: restart_keeps_points)."""
         self._restart += 1
         rule = self._candidate_settings(self._composite_set_up())["restart_from"]
+        mode = self.settings["bound_probes"]
         # late: the budget left is shorter than the phases so far (the first design's and every
         # restart's, by their proposals) were on average
         lengths = np.bincount([r["restart"] for r in self._records], minlength=self._restart)
@@ -432,13 +450,25 @@ class Strategy:
         from_best = late if rule == "endgame" else rule == "alternate" and self._restart % 2 == 1
         ok = [r for r in self._records if r["status"] == "ok"]
         best = min(ok, key=lambda r: (r["value"], r["id"])) if ok else None
+        if self._subspace_probes is not None:  # the probes of "subspace" are told (or asked)
+            if self._start_subspace_phase(ok):
+                return
+            from_best = True  # a probe improved on the run's best: go on from it
+        elif from_best and best and mode == "subspace" and not self._subspace_tried:
+            self._subspace_tried = True
+            P = self._bound_probes(best["x"], best["x"][None, :])
+            taken = np.array([r["x"] for r in self._records]).reshape(-1, self.space.dim)
+            P = list(P[~_Context(self, taken, taken[:0]).is_taken(P)])
+            if P:
+                self._begin_restart_state(P, best["id"])
+                self._subspace_probes = range(len(self._records), len(self._records) + len(P))
+                return
         if from_best and best:
             self._begin_restart_state([], best["id"])
             return
         taken = np.array([r["x"] for r in self._records]).reshape(-1, self.space.dim)
         design = list(latin_hypercube(self.space, self.n_initial, self._rng, exclude=taken))
         probes = []
-        mode = self.settings["bound_probes"]
         stalled = mode == "stalled" and self._last_phase_stalled(ok)
         if best and (mode == "late" and late or stalled):
             P = self._bound_probes(best["x"], best["x"][None, :])
@@ -449,6 +479,31 @@ class Strategy:
         fb = float(best["value"]) if probes else 0.0
         self._probe_ids = range(len(self._records), len(self._records) + len(probes))
         self._probe_bar = self._success_bar(fb)
+
+    def _start_subspace_phase(self, ok: list[dict]) -> bool:
+        """After the bound probes of "subspace": unless one of them improved on the run's best,
+        a phase from the best of them with its integer held on that bound, for half the budget
+        left. The run's basin and the probe's side of the bound are different problems: an "off"
+        switch (no strip) with the other variables tuned for "on" is a poor point of a subspace
+        whose own optimum a step of sigma from the run's best never reaches."""
+        ids, self._subspace_probes = self._subspace_probes, None
+        bar = self._success_bar(self._records[self._anchor]["value"])
+        probes = [r for r in ok if r["id"] in ids]
+        if not probes or min(r["value"] for r in ok) < bar:
+            return False
+        p = min(probes, key=lambda r: (r["value"], r["id"]))
+        j = int(np.flatnonzero(p["x"] != self._records[self._anchor]["x"])[0])
+        end = self.n_asked + (self.budget - self.n_asked) // 2
+        self._begin_restart_state([], p["id"], frozen=(j, float(p["x"][j])), end=end)
+        return True
+
+    def _movable(self) -> np.ndarray:
+        """Variables the steps and the local search may change (not the frozen one)."""
+        if self._frozen is None:
+            return self._free
+        m = self._free.copy()
+        m[self._frozen[0]] = False
+        return m
 
     def _last_phase_stalled(self, ok: list[dict]) -> bool:
         """Whether the phase that just ended failed to improve on the best of the phases before
@@ -474,7 +529,8 @@ class Strategy:
                for r in recs]
         near = [r["x"] for r, o in zip(recs, own) if o or r["status"] == "pending"]
         ctx = _Context(self, taken, np.array(near).reshape(-1, sp.dim))
-        ctx.probing = self.settings["bound_probes"] is not None and self._anchor is not None
+        ctx.probing = (self.settings["bound_probes"] is not None and self._anchor is not None
+                       and self._frozen is None)
         if ctx.probing:
             ctx.phase_x = np.array([r["x"] for r, o in zip(recs, own) if o]).reshape(-1, sp.dim)
         ok = sorted((r for r, o in zip(recs, own) if r["status"] == "ok" and o), key=lambda r: r["id"])
@@ -671,11 +727,12 @@ class Strategy:
         """DYCORS: perturb each coordinate with a probability that shrinks with the budget."""
         sp, rng = self.space, self._rng
         d = sp.dim
-        free_idx = np.flatnonzero(self._free)
+        movable = self._movable()
+        free_idx = np.flatnonzero(movable)
         if len(free_idx) == 0:
             return np.repeat(best[None, :], m, axis=0)
         p = self._perturb_probability()
-        mask = (rng.random((m, d)) < p) & self._free
+        mask = (rng.random((m, d)) < p) & movable
         none = ~mask.any(axis=1)
         pick = free_idx[rng.integers(len(free_idx), size=m)]
         mask[np.flatnonzero(none), pick[none]] = True  # always at least one coordinate
@@ -710,7 +767,7 @@ class Strategy:
         """int_bound_candidates: in that fraction of the rows, one perturbed integer coordinate
         (at random) goes to a bound, drawn at random from those the best point is not on."""
         q = float(self.settings["int_bound_candidates"])
-        cols = self._int & self._free
+        cols = self._int & self._movable()
         if q <= 0.0 or not cols.any():
             return X  # no RNG use: runs without the setting propose as before
         rng, sp = self._rng, self.space
@@ -802,8 +859,9 @@ class Strategy:
             return out
 
         cont = np.flatnonzero(self._cont)
-        ints = np.flatnonzero(self._int & self._free)
-        free = np.flatnonzero(self._free)
+        movable = self._movable()
+        ints = np.flatnonzero(self._int & movable)
+        free = np.flatnonzero(movable)
         branches = [(best[ints], best)]  # (integer assignment, start of the continuous part)
         if len(ints):
             relaxed = sp.snap(sp.from_unit(minimise(bu, free)))
@@ -934,6 +992,10 @@ class Strategy:
             "exhausted": self._exhausted,
             "anchor": self._anchor,
             "late_probes": [self._probe_ids.start, self._probe_ids.stop, self._probe_bar],
+            "subspace": {"frozen": None if self._frozen is None else list(self._frozen),
+                         "end": self._phase_end, "tried": self._subspace_tried,
+                         "probes": None if self._subspace_probes is None else
+                         [self._subspace_probes.start, self._subspace_probes.stop]},
         }
 
     @classmethod
@@ -966,6 +1028,12 @@ class Strategy:
         s._anchor = None if d.get("anchor") is None else int(d["anchor"])
         start, stop, bar = d.get("late_probes", [0, 0, 0.0])
         s._probe_ids, s._probe_bar = range(int(start), int(stop)), float(bar)
+        sub = d.get("subspace") or {}
+        fr, pr = sub.get("frozen"), sub.get("probes")
+        s._frozen = None if fr is None else (int(fr[0]), float(fr[1]))
+        s._phase_end = None if sub.get("end") is None else int(sub["end"])
+        s._subspace_tried = bool(sub.get("tried", False))
+        s._subspace_probes = None if pr is None else range(int(pr[0]), int(pr[1]))
         return s
 
     def save(self, path) -> None:

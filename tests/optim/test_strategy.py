@@ -752,6 +752,100 @@ def test_a_strategy_saved_while_probing_bounds_proposes_the_same_after_restoring
     assert s.best[0][2] == 0.0
 
 
+def _off_switch_elsewhere(x):
+    """An "off" switch (n = 0) whose optimum lies elsewhere in x, y: the run's best point with
+    n on 0 is worse than the basin near n = 70, so a bound probe fails, yet n = 0 is best."""
+    if x[2] == 0:
+        return (x[0] - 0.2) ** 2 + (x[1] - 0.8) ** 2
+    wall = 3.0 if x[2] <= 15 else 0.1 + (x[2] - 70) ** 2 / 500
+    return (x[0] - 0.7) ** 2 + (x[1] - 0.3) ** 2 + wall
+
+
+def _run_delayed(s, f, workers=2, watch=None):
+    """Run with ``workers`` evaluations in flight, told oldest first (as the engine does)."""
+    pending = []
+    while not s.done:
+        pending += s.ask(workers - len(pending))
+        if watch:
+            watch(s)
+        p = pending.pop(0)
+        s.tell(p.id, f(p.x))
+    return s
+
+
+def test_a_failed_probe_leads_a_subspace_phase_that_holds_its_integer_on_the_bound():
+    """"subspace": where the run first goes on from its best point, the probes come first; when
+    all are told and none improved on the run's best, half the budget left goes to a phase from
+    the best probe with its integer held on that bound. "anchor" stays near n = 70 (its probe
+    at n = 0 fails); "subspace" ends at n = 0's own optimum."""
+    for seed in range(3):
+        ends = {}
+        for mode in ("anchor", "subspace"):
+            s = Strategy(OFF_SWITCH_SPACE, budget=100, n_initial=10, seed=seed, bound_probes=mode)
+            seen = []
+
+            def watch(s):
+                if s._frozen is not None and not seen:
+                    probes = [r for r in s._records if r["restart"] == s._restart - 1]
+                    seen.append((s._frozen, s._anchor, s._phase_end, len(s._records) - 1, probes))
+                if s._frozen is not None:  # the held integer never moves
+                    assert all(r["x"][2] == 0.0 for r in s._records if r["restart"] == s._restart)
+
+            _run_delayed(s, _off_switch_elsewhere, watch=watch)
+            ends[mode] = s.best
+            if mode == "subspace":
+                (frozen, anchor, end, start, probes), = seen
+                # the probes, then one step while the last is in flight
+                assert [r["phase"] for r in probes[-2:]] == ["initial", "adaptive"]
+                probes = [r for r in probes if r["phase"] == "initial"]
+                assert all(r["status"] == "ok" for r in probes) and len(probes) == 2
+                best_probe = min(probes, key=lambda r: r["value"])
+                assert frozen == (2, 0.0) and anchor == best_probe["id"]
+                assert end == start + (100 - start) // 2
+        assert ends["anchor"][0][2] == 70.0 and ends["anchor"][1] > 0.09
+        assert ends["subspace"][0][2] == 0.0 and ends["subspace"][1] < 1e-3
+
+
+def test_no_subspace_phase_when_a_probe_improves_and_none_in_composite_runs():
+    """A probe better than the run's best joins the run as with "anchor" (no phase is held);
+    a composite surrogate restarts fresh, where "subspace" proposes exactly what "anchor" does."""
+    s = Strategy(OFF_SWITCH_SPACE, budget=80, n_initial=10, seed=1, bound_probes="subspace")
+    held = []
+    _run_delayed(s, _off_switch, watch=lambda s: held.append(s._frozen))
+    assert s._subspace_tried and set(held) == {None} and s.best[0][2] == 0.0
+    runs = []
+    for mode in ("anchor", "subspace"):
+        t = _composite_strategy(2, mode)
+        while not t.done:
+            for p in t.ask(1):
+                F = _off_switch_outputs(p.x)
+                t.tell(p.id, float(F.sum()), F)
+        runs.append([r["x"].tolist() for r in t.history])
+    assert runs[0] == runs[1]
+
+
+def test_a_strategy_saved_in_a_subspace_phase_proposes_the_same_after_restoring():
+    for phase in ("probes", "subspace"):
+        s = Strategy(OFF_SWITCH_SPACE, budget=100, n_initial=10, seed=0, bound_probes="subspace")
+        pending = []
+        while (s._subspace_probes if phase == "probes" else s._frozen) is None:
+            pending += s.ask(2 - len(pending))
+            p = pending.pop(0)
+            s.tell(p.id, _off_switch_elsewhere(p.x))
+        t = Strategy.from_state(json.loads(json.dumps(s.state_dict())))
+        runs = []
+        for u in (s, t):
+            todo, xs = list(pending), []
+            while not u.done:
+                todo += u.ask(2 - len(todo))
+                p = todo.pop(0)
+                u.tell(p.id, _off_switch_elsewhere(p.x))
+                xs.append(p.x.tolist())
+            runs.append(xs)
+        assert runs[0] == runs[1] and len(runs[0]) > 20
+        assert s.best[0][2] == 0.0
+
+
 def test_bound_candidates_put_one_perturbed_integer_on_a_bound():
     """int_bound_candidates=q: in about q of the DYCORS candidates one perturbed integer goes to
     a bound the best point is not on; the continuous coordinates and the other rows are the
