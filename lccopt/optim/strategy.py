@@ -456,9 +456,7 @@ class Strategy:
             from_best = True  # a probe improved on the run's best: go on from it
         elif from_best and best and mode == "subspace" and not self._subspace_tried:
             self._subspace_tried = True
-            P = self._bound_probes(best["x"], best["x"][None, :])
-            taken = np.array([r["x"] for r in self._records]).reshape(-1, self.space.dim)
-            P = list(P[~_Context(self, taken, taken[:0]).is_taken(P)])
+            P = self._new_bound_probes(best["x"])
             if P:
                 self._begin_restart_state(P, best["id"])
                 self._subspace_probes = range(len(self._records), len(self._records) + len(P))
@@ -471,14 +469,19 @@ class Strategy:
         probes = []
         stalled = mode == "stalled" and self._last_phase_stalled(ok)
         if best and (mode == "late" and late or stalled):
-            P = self._bound_probes(best["x"], best["x"][None, :])
-            probes = list(P[~_Context(self, taken, taken[:0]).is_taken(P)])
+            probes = self._new_bound_probes(best["x"])
         self._begin_restart_state(probes + design)
         # A probe joins the restart by a success of the step rule's tolerance, not by a hair
         # (a longer strip with the same E_max to 4 digits).
         fb = float(best["value"]) if probes else 0.0
         self._probe_ids = range(len(self._records), len(self._records) + len(probes))
         self._probe_bar = self._success_bar(fb)
+
+    def _new_bound_probes(self, best: np.ndarray) -> list:
+        """The bound probes of ``best`` that no point of the run has taken yet."""
+        P = self._bound_probes(best, best[None, :])
+        taken = np.array([r["x"] for r in self._records]).reshape(-1, self.space.dim)
+        return list(P[~_Context(self, taken, taken[:0]).is_taken(P)])
 
     def _start_subspace_phase(self, ok: list[dict]) -> bool:
         """After the bound probes of "subspace": unless one of them improved on the run's best,
