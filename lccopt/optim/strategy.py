@@ -314,14 +314,13 @@ class Strategy:
         self._int = space.int_mask
         self._cont = ~self._int & (span > 0)
         self._free = span > 0
-        # subspace phase ("subspace"): (variable, value) held fixed, else None
-        self._frozen: tuple[int, float] | None = None
         self._span = space.search_span  # steps are drawn in search coordinates (log scales)
 
     def _begin_restart_state(self, design: list, anchor: int | None = None,
-                             frozen: tuple[int, float] | None = None, end: int | None = None) -> None:
+                             frozen: int | None = None, end: int | None = None) -> None:
         # anchor: id of the record a restart without a design goes on from (the run's best, or
-        # a subspace phase's probe); frozen: the subspace phase's fixed (variable, value); end:
+        # a subspace phase's probe); frozen: the variable a subspace phase holds at the
+        # anchor's value; end:
         # the number of proposals at which the phase ends (None: by the step rule only)
         self._anchor = anchor
         self._frozen, self._phase_end = frozen, end
@@ -490,14 +489,14 @@ class Strategy:
         switch (no strip) with the other variables tuned for "on" is a poor point of a subspace
         whose own optimum a step of sigma from the run's best never reaches."""
         ids, self._subspace_probes = self._subspace_probes, None
-        bar = self._success_bar(self._records[self._anchor]["value"])
+        anchor = self._records[self._anchor]
         probes = [r for r in ok if r["id"] in ids]
-        if not probes or min(r["value"] for r in ok) < bar:
+        if not probes or min(r["value"] for r in ok) < self._success_bar(anchor["value"]):
             return False
         p = min(probes, key=lambda r: (r["value"], r["id"]))
-        j = int(np.flatnonzero(p["x"] != self._records[self._anchor]["x"])[0])
+        j = int(np.flatnonzero(p["x"] != anchor["x"])[0])
         end = self.n_asked + (self.budget - self.n_asked) // 2
-        self._begin_restart_state([], p["id"], frozen=(j, float(p["x"][j])), end=end)
+        self._begin_restart_state([], p["id"], frozen=j, end=end)
         return True
 
     def _movable(self) -> np.ndarray:
@@ -505,7 +504,7 @@ class Strategy:
         if self._frozen is None:
             return self._free
         m = self._free.copy()
-        m[self._frozen[0]] = False
+        m[self._frozen] = False
         return m
 
     def _last_phase_stalled(self, ok: list[dict]) -> bool:
@@ -995,9 +994,8 @@ class Strategy:
             "exhausted": self._exhausted,
             "anchor": self._anchor,
             "late_probes": [self._probe_ids.start, self._probe_ids.stop, self._probe_bar],
-            "subspace": {"frozen": None if self._frozen is None else list(self._frozen),
-                         "end": self._phase_end, "tried": self._subspace_tried,
-                         "probes": None if self._subspace_probes is None else
+            "subspace": {"frozen": self._frozen, "end": self._phase_end,
+                         "tried": self._subspace_tried, "probes": None if self._subspace_probes is None else
                          [self._subspace_probes.start, self._subspace_probes.stop]},
         }
 
@@ -1033,7 +1031,7 @@ class Strategy:
         s._probe_ids, s._probe_bar = range(int(start), int(stop)), float(bar)
         sub = d.get("subspace") or {}
         fr, pr = sub.get("frozen"), sub.get("probes")
-        s._frozen = None if fr is None else (int(fr[0]), float(fr[1]))
+        s._frozen = None if fr is None else int(fr)
         s._phase_end = None if sub.get("end") is None else int(sub["end"])
         s._subspace_tried = bool(sub.get("tried", False))
         s._subspace_probes = None if pr is None else range(int(pr[0]), int(pr[1]))
