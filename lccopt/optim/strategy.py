@@ -995,7 +995,8 @@ class Strategy:
             "anchor": self._anchor,
             "late_probes": [self._probe_ids.start, self._probe_ids.stop, self._probe_bar],
             "subspace": {"frozen": self._frozen, "end": self._phase_end,
-                         "tried": self._subspace_tried, "probes": None if self._subspace_probes is None else
+                         "tried": self._subspace_tried,
+                         "probes": None if self._subspace_probes is None else
                          [self._subspace_probes.start, self._subspace_probes.stop]},
         }
 
