@@ -212,6 +212,10 @@ def _default_settings(space: DesignSpace) -> dict:
         # (an "off" switch whose own optimum lies away from the run's basin), then the run goes
         # on as before. RESULTS-optimiser.md, "Subspace phases behind a failed bound probe".
         "bound_probes": "anchor",
+        # "subspace": proposals the subspace phase has to improve on the run's best (by
+        # improvement_tol) before it may run on to its end; a phase that has not ends there and
+        # the run goes on from its best point. "auto": twice max_failed_row; None: no trial.
+        "subspace_trial": None,
         # Fraction of the DYCORS candidates in which one perturbed integer coordinate is put on
         # a bound (either, not the best point's own value) instead of stepped, in every phase,
         # at the weights of int_bound_weights (None: all). Measured, not a default
@@ -302,6 +306,10 @@ class Strategy:
             raise ValueError("restart_from must be 'fresh', 'endgame', 'alternate' or 'auto'")
         if self.settings["bound_probes"] not in (None, "anchor", "late", "stalled", "subspace"):
             raise ValueError("bound_probes must be None, 'anchor', 'late', 'stalled' or 'subspace'")
+        trial = self.settings["subspace_trial"]
+        if not (trial is None or trial == "auto" or isinstance(trial, int)
+                and not isinstance(trial, bool) and trial >= 1):
+            raise ValueError("subspace_trial must be None, 'auto' or an integer >= 1")
         if self.settings["composite_capping"] not in (True, False, "auto"):
             raise ValueError("composite_capping must be True, False or 'auto'")
         if not self.settings["weights"] or not all(0.0 <= w <= 1.0 for w in self.settings["weights"]):
@@ -324,6 +332,7 @@ class Strategy:
         # the number of proposals at which the phase ends (None: by the step rule only)
         self._anchor = anchor
         self._frozen, self._phase_end = frozen, end
+        self._trial: tuple[int, float] | None = None  # a subspace phase's trial: (end, bar)
         self._queue = [np.asarray(x, dtype=float) for x in design]
         self._restart_start_n = len(self._records)
         self._n_init_restart = len(self._queue)
@@ -434,11 +443,22 @@ class Strategy:
         return (self._sigma < s["sigma_min"] or self._failed_row >= s["max_failed_row"]
                 or self._phase_end is not None and self.n_asked >= self._phase_end
                 or self._subspace_probes is not None and not any(  # "subspace": probes told
-                    self._records[i]["status"] == "pending" for i in self._subspace_probes))
+                    self._records[i]["status"] == "pending" for i in self._subspace_probes)
+                or self._trial_failed())
+
+    def _trial_failed(self) -> bool:
+        """A subspace phase at the end of its trial, the trial's points told and none below the
+        bar (while some are pending the phase goes on: the verdict waits for them)."""
+        if self._trial is None or self.n_asked < self._trial[0]:
+            return False
+        end, bar = self._trial
+        return not any(r["status"] == "pending" or r["status"] == "ok" and r["value"] < bar
+                       for r in self._records[self._restart_start_n:end])
 
     def _start_restart(self) -> None:
         """Fresh design, or none from the run's best point (``restart_from``); earlier points
         stay in the record and the duplicate set (and the surrogate: restart_keeps_points)."""
+        trial_failed = self._trial_failed()  # of the phase that ends
         self._restart += 1
         rule = self._candidate_settings(self._composite_set_up())["restart_from"]
         mode = self.settings["bound_probes"]
@@ -453,6 +473,8 @@ class Strategy:
             if self._start_subspace_phase(ok):
                 return
             from_best = True  # a probe improved on the run's best: go on from it
+        elif trial_failed:
+            from_best = True  # back to the run's basin, as the restart before the probes was
         elif from_best and best and mode == "subspace" and not self._subspace_tried:
             self._subspace_tried = True
             P = self._new_bound_probes(best["x"])
@@ -497,6 +519,11 @@ class Strategy:
         j = int(np.flatnonzero(p["x"] != anchor["x"])[0])
         end = self.n_asked + (self.budget - self.n_asked) // 2
         self._begin_restart_state([], p["id"], frozen=j, end=end)
+        trial = self.settings["subspace_trial"]
+        if trial is not None:
+            trial = 2 * self.settings["max_failed_row"] if trial == "auto" else trial
+            run_best = min(r["value"] for r in ok)
+            self._trial = (self.n_asked + trial, self._success_bar(run_best))
         return True
 
     def _movable(self) -> np.ndarray:
@@ -996,6 +1023,7 @@ class Strategy:
             "late_probes": [self._probe_ids.start, self._probe_ids.stop, self._probe_bar],
             "subspace": {"frozen": self._frozen, "end": self._phase_end,
                          "tried": self._subspace_tried,
+                         "trial": None if self._trial is None else list(self._trial),
                          "probes": None if self._subspace_probes is None else
                          [self._subspace_probes.start, self._subspace_probes.stop]},
         }
@@ -1035,6 +1063,8 @@ class Strategy:
         s._frozen = None if fr is None else int(fr)
         s._phase_end = None if sub.get("end") is None else int(sub["end"])
         s._subspace_tried = bool(sub.get("tried", False))
+        tr = sub.get("trial")
+        s._trial = None if tr is None else (int(tr[0]), float(tr[1]))
         s._subspace_probes = None if pr is None else range(int(pr[0]), int(pr[1]))
         return s
 

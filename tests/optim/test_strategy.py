@@ -806,6 +806,67 @@ def test_a_failed_probe_leads_a_subspace_phase_that_holds_its_integer_on_the_bou
         assert ends["subspace"][0][2] == 0.0 and ends["subspace"][1] < 1e-3
 
 
+def _off_switch_poor_subspace(x):
+    """As _off_switch_elsewhere, but n = 0's own optimum (0.5) is worse than the run's basin."""
+    return _off_switch_elsewhere(x) + (0.5 if x[2] == 0 else 0.0)
+
+
+def _phases(s):
+    """Per restart: [its first id, its proposals]."""
+    out = {}
+    for r in s._records:
+        out.setdefault(r["restart"], [r["id"], 0])[1] += 1
+    return out
+
+
+def test_a_subspace_trial_ends_a_poor_subspace_early_and_lets_a_good_one_run():
+    """subspace_trial=k: a subspace phase that has not improved on the run's best (by
+    improvement_tol) after k proposals ends there, once those k are told (2 in flight: one more
+    proposal), and the run goes on from its best point; one that has runs to its end."""
+    trial = 2 * max(3, 5)  # "auto": twice max_failed_row of a 3-variable space
+    for seed in range(3):
+        held = {}
+
+        def watch(s):
+            if s._restart not in held:
+                held[s._restart] = (s._frozen, s._anchor, s._trial)
+
+        s = Strategy(OFF_SWITCH_SPACE, budget=100, n_initial=10, seed=seed,
+                     bound_probes="subspace", subspace_trial="auto")
+        _run_delayed(s, _off_switch_poor_subspace, watch=watch)
+        phases = _phases(s)
+        (r_sub, (frozen, anchor, (end, bar))), = [(r, h) for r, h in held.items() if h[0] is not None]
+        start, n = phases[r_sub]
+        assert frozen == 2 and end == start + trial and n == trial + 1
+        run_best = min(r["value"] for r in s._records[:start] if r["status"] == "ok")
+        assert bar == pytest.approx(run_best - 1e-3 * abs(run_best))
+        assert all(r["value"] >= bar for r in s._records[start:start + n])
+        after_frozen, after_anchor, _ = held[r_sub + 1]  # back to the run's best point
+        best_before = min((r for r in s._records[:start + n] if r["status"] == "ok"),
+                          key=lambda r: (r["value"], r["id"]))
+        assert after_frozen is None and after_anchor == best_before["id"]
+        assert s.best[0][2] == 70.0 and s.best[1] < 0.11
+        # no trial: the same phase runs on to half the budget left
+        t = Strategy(OFF_SWITCH_SPACE, budget=100, n_initial=10, seed=seed, bound_probes="subspace")
+        _run_delayed(t, _off_switch_poor_subspace)
+        start_t, n_t = _phases(t)[r_sub]
+        assert start_t == start and n_t == (100 - start) // 2 > trial + 1
+        # a good subspace passes its trial and runs as without one
+        runs = []
+        for trial_setting in (None, "auto"):
+            u = Strategy(OFF_SWITCH_SPACE, budget=100, n_initial=10, seed=seed,
+                         bound_probes="subspace", subspace_trial=trial_setting)
+            _run_delayed(u, _off_switch_elsewhere)
+            runs.append([r["x"].tolist() for r in u.history])
+        assert runs[0] == runs[1] and u.best[0][2] == 0.0
+
+
+def test_subspace_trial_must_be_a_positive_count():
+    for bad in (0, -3, 2.5, True, "half"):
+        with pytest.raises(ValueError, match="subspace_trial"):
+            Strategy(OFF_SWITCH_SPACE, subspace_trial=bad)
+
+
 def test_no_subspace_phase_when_a_probe_improves_and_none_in_composite_runs():
     """A probe better than the run's best joins the run as with "anchor" (no phase is held);
     a composite surrogate restarts fresh, where "subspace" proposes exactly what "anchor" does."""
@@ -826,7 +887,8 @@ def test_no_subspace_phase_when_a_probe_improves_and_none_in_composite_runs():
 
 def test_a_strategy_saved_in_a_subspace_phase_proposes_the_same_after_restoring():
     for phase in ("probes", "subspace"):
-        s = Strategy(OFF_SWITCH_SPACE, budget=100, n_initial=10, seed=0, bound_probes="subspace")
+        s = Strategy(OFF_SWITCH_SPACE, budget=100, n_initial=10, seed=0, bound_probes="subspace",
+                     subspace_trial=40)
         pending = []
         while (s._subspace_probes if phase == "probes" else s._frozen) is None:
             pending += s.ask(2 - len(pending))
