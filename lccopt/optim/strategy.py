@@ -214,7 +214,8 @@ def _default_settings(space: DesignSpace) -> dict:
         "bound_probes": "anchor",
         # "subspace": proposals the subspace phase has to improve on the run's best (by
         # improvement_tol) before it may run on to its end; a phase that has not ends there and
-        # the run goes on from its best point. "auto": twice max_failed_row; None: no trial.
+        # the run goes on from its best point. "auto": max_failed_row (as many proposals as the
+        # failures in a row that end any phase); None: no trial.
         "subspace_trial": None,
         # Fraction of the DYCORS candidates in which one perturbed integer coordinate is put on
         # a bound (either, not the best point's own value) instead of stepped, in every phase,
@@ -521,7 +522,7 @@ class Strategy:
         self._begin_restart_state([], p["id"], frozen=j, end=end)
         trial = self.settings["subspace_trial"]
         if trial is not None:
-            trial = 2 * self.settings["max_failed_row"] if trial == "auto" else trial
+            trial = self.settings["max_failed_row"] if trial == "auto" else trial
             run_best = min(r["value"] for r in ok)
             self._trial = (self.n_asked + trial, self._success_bar(run_best))
         return True

@@ -823,7 +823,7 @@ def test_a_subspace_trial_ends_a_poor_subspace_early_and_lets_a_good_one_run():
     """subspace_trial=k: a subspace phase that has not improved on the run's best (by
     improvement_tol) after k proposals ends there, once those k are told (2 in flight: one more
     proposal), and the run goes on from its best point; one that has runs to its end."""
-    trial = 2 * max(3, 5)  # "auto": twice max_failed_row of a 3-variable space
+    trial = max(3, 5)  # "auto": max_failed_row of a 3-variable space
     for seed in range(3):
         held = {}
 
