@@ -18,8 +18,9 @@ Metric Stochastic Response Surface (Regis & Shoemaker) with DYCORS perturbations
 * Step F: step size sigma adapted by success/failure counters; restart with a fresh
   design when sigma collapses or evaluations keep failing (late in a run, with a scalar
   surrogate, from the run's best point instead: ``restart_from``). Such a restart also
-  tries the best point with one integer on a bound (``bound_probes``), and may search the
-  subspace of the best such probe with that integer held on its bound ("subspace").
+  tries the best point with one integer on a bound (``bound_probes``) and, if none improves,
+  searches the subspace of the best such probe with that integer held on its bound for as
+  long as it proves itself (generation 11: "subspace" with ``subspace_trial``).
 * Step G: stop at a budget of told evaluations (failures included).
 
 Composite surrogate (setting ``composite``): when the minimised value is an aggregate of
@@ -90,7 +91,7 @@ class Proposal:
 #      past three digits of the unit box
 #  10: a restart that goes on from the run's best point also tries that point with one
 #      integer on a bound (bound_probes "anchor")
-GENERATION = 10
+GENERATION = 11
 
 
 def generation_settings(space: DesignSpace, generation: int) -> dict:
@@ -126,6 +127,7 @@ _BEFORE_GENERATION = {
     8: {"restart_from": "fresh"},
     9: {"dist_tol": 1e-3},
     10: {"bound_probes": None},
+    11: {"bound_probes": "anchor", "subspace_trial": None},
 }
 
 
@@ -192,10 +194,10 @@ def _default_settings(space: DesignSpace) -> dict:
         # point, every even one fresh (after BIPOP-CMA-ES; measured, a trade). "auto": see
         # _AUTO_SETTINGS.
         "restart_from": "auto",
-        # Bound probes (generation 10: "anchor"; None: none): in a restart that goes on from
-        # the run's best point, where the run's basin is spent and a fresh design would not get
-        # far, the best point with one integer on a bound joins the candidates at every
-        # weight, for each integer and bound that no point of the restart has yet. An integer
+        # Bound probes (generation 10: "anchor"; 11: "subspace"; None: none): in a restart that
+        # goes on from the run's best point, where the run's basin is spent and a fresh design
+        # would not get far, the best point with one integer on a bound joins the candidates at
+        # every weight, for each integer and bound that no point of the restart has yet. An integer
         # whose end is an "off" switch behind a wall (no strip: x_l = 0) is out of reach of
         # steps of sigma from the far side. RESULTS-optimiser.md, "Generation 10". "late":
         # the same, and a late restart that starts fresh (composite surrogate) puts those
@@ -211,12 +213,13 @@ def _default_settings(space: DesignSpace) -> dict:
         # budget left goes to a phase from the best probe with its integer held on that bound
         # (an "off" switch whose own optimum lies away from the run's basin), then the run goes
         # on as before. RESULTS-optimiser.md, "Subspace phases behind a failed bound probe".
-        "bound_probes": "anchor",
-        # "subspace": proposals the subspace phase has to improve on the run's best (by
-        # improvement_tol) before it may run on to its end; a phase that has not ends there and
-        # the run goes on from its best point. "auto": max_failed_row (as many proposals as the
-        # failures in a row that end any phase); None: no trial.
-        "subspace_trial": None,
+        "bound_probes": "subspace",
+        # "subspace" (generation 11, with "auto"): proposals the subspace phase has to improve
+        # on the run's best (by improvement_tol) before it may run on to its end; a phase that
+        # has not ends there and the run goes on from its best point. "auto": max_failed_row (as
+        # many proposals as the failures in a row that end any phase); None: no trial.
+        # RESULTS-optimiser.md, "Generation 11".
+        "subspace_trial": "auto",
         # Fraction of the DYCORS candidates in which one perturbed integer coordinate is put on
         # a bound (either, not the best point's own value) instead of stepped, in every phase,
         # at the weights of int_bound_weights (None: all). Measured, not a default
@@ -1038,7 +1041,7 @@ class Strategy:
         s = cls.__new__(cls)
         settings = {**{k: _BEFORE_GENERATION_3[k] for k in _ADDED_IN_GENERATION_3},
                     **_BEFORE_GENERATION_5, **_BEFORE_GENERATION[7], **_BEFORE_GENERATION[8],
-                    **_BEFORE_GENERATION[10],
+                    **_BEFORE_GENERATION[11], **_BEFORE_GENERATION[10],
                     **d["settings"]}
         s._setup(DesignSpace.from_dict(d["space"]), int(d["budget"]), int(d["n_initial"]),
                  d["seed"], settings)

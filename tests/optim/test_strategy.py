@@ -203,7 +203,8 @@ def test_a_late_restart_goes_on_from_the_run_best_with_a_scalar_surrogate(tmp_pa
     assert Strategy(p.space, budget=20).settings["restart_from"] == "auto"
     with pytest.raises(ValueError, match="restart_from"):
         Strategy(p.space, budget=20, restart_from="best")
-    kw = dict(budget=150, n_initial=10, seed=5, fail_tol=1, sigma_min=0.05)
+    # bound_probes "anchor": a late restart of generation 11 asks its bound probes first
+    kw = dict(budget=150, n_initial=10, seed=5, fail_tol=1, sigma_min=0.05, bound_probes="anchor")
     s = run_serial(Strategy(p.space, **kw), p)
     starts = restart_starts(s)
     assert {late for *_, late in starts} == {True, False}  # both kinds occur
@@ -226,7 +227,7 @@ def test_a_late_restart_goes_on_from_the_run_best_with_a_scalar_surrogate(tmp_pa
     resumed.tell(first_late, p(resumed.history[first_late]["x"]))
     assert fingerprint(run_serial(t, p)) == fingerprint(run_serial(resumed, p)) == fingerprint(s)
     for kw_old in (generation_settings(p.space, 7), {"restart_from": "fresh"}):
-        old = run_serial(Strategy(p.space, **kw, **kw_old), p)
+        old = run_serial(Strategy(p.space, **{**kw, **kw_old}), p)
         assert old.restart >= 2 and all(ph == "initial" for _, _, ph, _ in restart_starts(old))
 
 
@@ -235,7 +236,7 @@ def test_alternate_restarts_go_on_from_the_run_best_then_start_fresh():
     restarts go on from the run's best point, even ones start a fresh design."""
     p = problems.paper_size("ackley")
     s = run_serial(Strategy(p.space, budget=150, n_initial=10, seed=5, fail_tol=1, sigma_min=0.05,
-                            restart_from="alternate"), p)
+                            restart_from="alternate", bound_probes="anchor"), p)
     starts = restart_starts(s)
     assert len(starts) >= 2
     assert all((phase != "initial") == (r % 2 == 1) for r, _, phase, _ in starts)
@@ -723,15 +724,24 @@ def test_a_strategy_saved_during_late_probes_proposes_the_same_after_restoring()
             t.tell(pb.id, float(F.sum()), F)
 
 
-def test_runs_of_generation_9_go_on_without_bound_probes():
-    """Generation 10 made "anchor" the default; a run begun before (its generation journalled,
-    or a saved state without the key) carries on without probes, as it began."""
-    assert Strategy(OFF_SWITCH_SPACE, seed=0).settings["bound_probes"] == "anchor"
+def test_runs_of_earlier_generations_go_on_with_their_bound_probes():
+    """Generation 10 made "anchor" the default, generation 11 "subspace" with a trial; a run
+    begun before (its generation journalled, or a saved state without the keys) carries on
+    as it began."""
+    s = Strategy(OFF_SWITCH_SPACE, seed=0)
+    assert (s.settings["bound_probes"], s.settings["subspace_trial"]) == ("subspace", "auto")
     assert generation_settings(OFF_SWITCH_SPACE, 9)["bound_probes"] is None
-    assert "bound_probes" not in generation_settings(OFF_SWITCH_SPACE, 10)
-    d = Strategy(OFF_SWITCH_SPACE, seed=0).state_dict()
-    del d["settings"]["bound_probes"]
-    assert Strategy.from_state(json.loads(json.dumps(d))).settings["bound_probes"] is None
+    g10 = generation_settings(OFF_SWITCH_SPACE, 10)
+    assert (g10["bound_probes"], g10["subspace_trial"]) == ("anchor", None)
+    assert not {"bound_probes", "subspace_trial"} & set(generation_settings(OFF_SWITCH_SPACE, 11))
+    d = s.state_dict()
+    del d["settings"]["bound_probes"], d["settings"]["subspace_trial"]
+    old = Strategy.from_state(json.loads(json.dumps(d))).settings
+    assert old["bound_probes"] is None and old["subspace_trial"] is None
+    d = s.state_dict()
+    d["settings"]["bound_probes"] = "anchor"
+    del d["settings"]["subspace_trial"]
+    assert Strategy.from_state(json.loads(json.dumps(d))).settings["subspace_trial"] is None
 
 
 def test_a_strategy_saved_while_probing_bounds_proposes_the_same_after_restoring():
@@ -847,7 +857,8 @@ def test_a_subspace_trial_ends_a_poor_subspace_early_and_lets_a_good_one_run():
         assert after_frozen is None and after_anchor == best_before["id"]
         assert s.best[0][2] == 70.0 and s.best[1] < 0.11
         # no trial: the same phase runs on to half the budget left
-        t = Strategy(OFF_SWITCH_SPACE, budget=100, n_initial=10, seed=seed, bound_probes="subspace")
+        t = Strategy(OFF_SWITCH_SPACE, budget=100, n_initial=10, seed=seed, bound_probes="subspace",
+                     subspace_trial=None)
         _run_delayed(t, _off_switch_poor_subspace)
         start_t, n_t = _phases(t)[r_sub]
         assert start_t == start and n_t == (100 - start) // 2 > trial + 1
