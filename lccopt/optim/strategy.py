@@ -91,6 +91,9 @@ class Proposal:
 #      past three digits of the unit box
 #  10: a restart that goes on from the run's best point also tries that point with one
 #      integer on a bound (bound_probes "anchor")
+#  11: such a restart asks its probes first; behind a failed one, a phase in the probe's
+#      subspace that must beat the run's best within max_failed_row proposals (bound_probes
+#      "subspace", subspace_trial "auto")
 GENERATION = 11
 
 
@@ -1041,6 +1044,7 @@ class Strategy:
         s = cls.__new__(cls)
         settings = {**{k: _BEFORE_GENERATION_3[k] for k in _ADDED_IN_GENERATION_3},
                     **_BEFORE_GENERATION_5, **_BEFORE_GENERATION[7], **_BEFORE_GENERATION[8],
+                    # newest first: a state without bound_probes predates generation 10
                     **_BEFORE_GENERATION[11], **_BEFORE_GENERATION[10],
                     **d["settings"]}
         s._setup(DesignSpace.from_dict(d["space"]), int(d["budget"]), int(d["n_initial"]),
