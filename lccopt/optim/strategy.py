@@ -20,7 +20,9 @@ Metric Stochastic Response Surface (Regis & Shoemaker) with DYCORS perturbations
   surrogate, from the run's best point instead: ``restart_from``). Such a restart also
   tries the best point with one integer on a bound (``bound_probes``) and, if none improves,
   searches the subspace of the best such probe with that integer held on its bound for as
-  long as it proves itself (generation 11: "subspace" with ``subspace_trial``).
+  long as it proves itself (generation 11: "subspace" with ``subspace_trial``). A composite
+  surrogate's runs, which always restart fresh, take that step after the first fresh phase
+  that found nothing better than the run's best (generation 12: ``subspace_start``).
 * Step G: stop at a budget of told evaluations (failures included).
 
 Composite surrogate (setting ``composite``): when the minimised value is an aggregate of
@@ -94,7 +96,9 @@ class Proposal:
 #  11: such a restart asks its probes first; behind a failed one, a phase in the probe's
 #      subspace that must beat the run's best within max_failed_row proposals (bound_probes
 #      "subspace", subspace_trial "auto")
-GENERATION = 11
+#  12: with a composite surrogate (fresh restarts), the same probes and subspace phase after
+#      the first phase that found nothing better than the run's best (subspace_start "auto")
+GENERATION = 12
 
 
 def generation_settings(space: DesignSpace, generation: int) -> dict:
@@ -131,6 +135,7 @@ _BEFORE_GENERATION = {
     9: {"dist_tol": 1e-3},
     10: {"bound_probes": None},
     11: {"bound_probes": "anchor", "subspace_trial": None},
+    12: {"subspace_start": "endgame"},
 }
 
 
@@ -223,6 +228,12 @@ def _default_settings(space: DesignSpace) -> dict:
         # many proposals as the failures in a row that end any phase); None: no trial.
         # RESULTS-optimiser.md, "Generation 11".
         "subspace_trial": "auto",
+        # Which restart takes the run's one probe-and-subspace step of "subspace": "endgame",
+        # the first that goes on from the run's best point (generation 11); "stalled", the first
+        # after a phase that did not improve on the best of the phases before it by
+        # improvement_tol (a whole fresh design found no better basin). "auto": see
+        # _AUTO_SETTINGS.
+        "subspace_start": "auto",
         # Fraction of the DYCORS candidates in which one perturbed integer coordinate is put on
         # a bound (either, not the best point's own value) instead of stepped, in every phase,
         # at the weights of int_bound_weights (None: all). Measured, not a default
@@ -243,15 +254,20 @@ def _default_settings(space: DesignSpace) -> dict:
 # with a scalar surrogate (generation 5: better on the broad benchmark and the paper's F_max),
 # not with a composite one (a trade on the paper's moo and E_max cases). The candidate
 # settings follow the surrogate a proposal is scored with; restart_keeps_points, which decides
-# what is fitted, follows whether a composite surrogate is set up (``_keeps_points``).
+# what is fitted, follows whether a composite surrogate is set up (``_keeps_points``). The
+# probe-and-subspace step of "subspace" comes where a run's basin looks spent: with a scalar
+# surrogate at the first restart from the run's best point; with a composite one, whose
+# restarts are fresh, after a fresh phase that found nothing better (generation 12: the
+# paper's moo, RESULTS-optimiser.md "Generation 12"). Scalar runs keep "endgame": probes
+# after a stalled phase were a trade on the broad benchmark (bound_probes "stalled").
 _AUTO_SETTINGS = {
     "scalar": {"perturbation": "truncnorm", "probability_schedule": "run", "local_weights": "greedy",
-               "restart_keeps_points": True, "restart_from": "endgame"},
+               "restart_keeps_points": True, "restart_from": "endgame", "subspace_start": "endgame"},
     "composite": {"perturbation": "reflect", "probability_schedule": "restart", "local_weights": None,
-                  "restart_keeps_points": False, "restart_from": "fresh"},
+                  "restart_keeps_points": False, "restart_from": "fresh", "subspace_start": "stalled"},
 }
 _AUTO_KEYS = ("perturbation", "probability_schedule", "local_weights", "restart_keeps_points",
-              "restart_from")
+              "restart_from", "subspace_start")
 
 
 class Strategy:
@@ -311,6 +327,8 @@ class Strategy:
             raise ValueError("tail must be 'linear', 'quadratic', 'auto' or 'auto-half'")
         if self.settings["restart_from"] not in ("fresh", "endgame", "alternate", "auto"):
             raise ValueError("restart_from must be 'fresh', 'endgame', 'alternate' or 'auto'")
+        if self.settings["subspace_start"] not in ("endgame", "stalled", "auto"):
+            raise ValueError("subspace_start must be 'endgame', 'stalled' or 'auto'")
         if self.settings["bound_probes"] not in (None, "anchor", "late", "stalled", "subspace"):
             raise ValueError("bound_probes must be None, 'anchor', 'late', 'stalled' or 'subspace'")
         trial = self.settings["subspace_trial"]
@@ -467,7 +485,8 @@ class Strategy:
         stay in the record and the duplicate set (and the surrogate: restart_keeps_points)."""
         trial_failed = self._trial_failed()  # of the phase that ends
         self._restart += 1
-        rule = self._candidate_settings(self._composite_set_up())["restart_from"]
+        auto = self._candidate_settings(self._composite_set_up())
+        rule, start = auto["restart_from"], auto["subspace_start"]
         mode = self.settings["bound_probes"]
         # late: the budget left is shorter than the phases so far (the first design's and every
         # restart's, by their proposals) were on average
@@ -481,8 +500,9 @@ class Strategy:
                 return
             from_best = True  # a probe improved on the run's best: go on from it
         elif trial_failed:
-            from_best = True  # back to the run's basin, as the restart before the probes was
-        elif from_best and best and mode == "subspace" and not self._subspace_tried:
+            from_best = True  # back to the run's best point: its basin is the best found
+        elif (best and mode == "subspace" and not self._subspace_tried
+              and (from_best if start == "endgame" else self._last_phase_stalled(ok))):
             self._subspace_tried = True
             P = self._new_bound_probes(best["x"])
             if P:
@@ -592,7 +612,10 @@ class Strategy:
     def _keeps_points(self) -> bool:
         """restart_keeps_points, "auto" resolved (_AUTO_SETTINGS) by whether a composite
         surrogate is set up: it decides which points are fitted, so it is known before the
-        surrogate is (restart_from likewise decides a restart's design)."""
+        surrogate is (restart_from likewise decides a restart's design). A phase anchored on a
+        point (a composite run's subspace phase too) fits the run's points."""
+        if self._anchor is not None:
+            return True  # a phase that goes on from a point goes on with the run's points
         return bool(self._candidate_settings(self._composite_set_up())["restart_keeps_points"])
 
     def _scalar(self, X: np.ndarray, f: np.ndarray) -> CubicRBF:
@@ -1045,7 +1068,7 @@ class Strategy:
         settings = {**{k: _BEFORE_GENERATION_3[k] for k in _ADDED_IN_GENERATION_3},
                     **_BEFORE_GENERATION_5, **_BEFORE_GENERATION[7], **_BEFORE_GENERATION[8],
                     # newest first: a state without bound_probes predates generation 10
-                    **_BEFORE_GENERATION[11], **_BEFORE_GENERATION[10],
+                    **_BEFORE_GENERATION[12], **_BEFORE_GENERATION[11], **_BEFORE_GENERATION[10],
                     **d["settings"]}
         s._setup(DesignSpace.from_dict(d["space"]), int(d["budget"]), int(d["n_initial"]),
                  d["seed"], settings)

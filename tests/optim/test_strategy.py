@@ -734,7 +734,12 @@ def test_runs_of_earlier_generations_go_on_with_their_bound_probes():
     g10 = generation_settings(OFF_SWITCH_SPACE, 10)
     assert (g10["bound_probes"], g10["subspace_trial"]) == ("anchor", None)
     assert not {"bound_probes", "subspace_trial"} & set(generation_settings(OFF_SWITCH_SPACE, 11))
+    # generation 12: composite runs take the step after a stalled phase
+    assert generation_settings(OFF_SWITCH_SPACE, 11)["subspace_start"] == "endgame"
+    assert generation_settings(OFF_SWITCH_SPACE, 12) == {}
     d = s.state_dict()
+    del d["settings"]["subspace_start"]
+    assert Strategy.from_state(json.loads(json.dumps(d))).settings["subspace_start"] == "endgame"
     del d["settings"]["bound_probes"], d["settings"]["subspace_trial"]
     old = Strategy.from_state(json.loads(json.dumps(d))).settings
     assert old["bound_probes"] is None and old["subspace_trial"] is None
@@ -771,15 +776,20 @@ def _off_switch_elsewhere(x):
     return (x[0] - 0.7) ** 2 + (x[1] - 0.3) ** 2 + wall
 
 
-def _run_delayed(s, f, workers=2, watch=None):
-    """Run with ``workers`` evaluations in flight, told oldest first (as the engine does)."""
+def _run_delayed(s, f, workers=2, watch=None, outputs=False):
+    """Run with ``workers`` evaluations in flight, told oldest first (as the engine does);
+    ``outputs``: f gives the outputs of a composite surrogate, their sum the value."""
     pending = []
     while not s.done:
         pending += s.ask(workers - len(pending))
         if watch:
             watch(s)
         p = pending.pop(0)
-        s.tell(p.id, f(p.x))
+        if outputs:
+            F = f(p.x)
+            s.tell(p.id, float(F.sum()), F)
+        else:
+            s.tell(p.id, f(p.x))
     return s
 
 
@@ -876,6 +886,8 @@ def test_subspace_trial_must_be_a_positive_count():
     for bad in (0, -3, 2.5, True, "half"):
         with pytest.raises(ValueError, match="subspace_trial"):
             Strategy(OFF_SWITCH_SPACE, subspace_trial=bad)
+    with pytest.raises(ValueError, match="subspace_start"):
+        Strategy(OFF_SWITCH_SPACE, subspace_start="late")
 
 
 def test_no_subspace_phase_when_a_probe_improves_and_none_in_composite_runs():
@@ -978,3 +990,81 @@ def test_bound_candidates_at_chosen_weights_only():
     assert seen == {0: {False}, 1: {False}, 2: {False}, 3: {True}}  # weights 0.3, 0.5, 0.8, 0.95
     with pytest.raises(ValueError, match="int_bound_weights"):
         Strategy(space, budget=50, int_bound_candidates=0.1, int_bound_weights=[0.7])
+
+
+def _as_outputs(f):
+    """f as two outputs of a composite surrogate (their sum is f): f - g and a smooth g."""
+    def outputs(x):
+        g = (x[1] - 0.3) ** 2
+        return np.array([f(x) - g, g])
+    return outputs
+
+
+def _composite_subspace_run(seed, f, **settings):
+    s = Strategy(OFF_SWITCH_SPACE, budget=150, n_initial=10, seed=seed, composite=True, **settings)
+    s.set_aggregate(lambda F: F.sum(axis=1))
+    held = {}
+
+    def watch(s):
+        if s._restart not in held:
+            held[s._restart] = (s._frozen, s._anchor, s._trial, s._n_init_restart)
+
+    _run_delayed(s, _as_outputs(f), watch=watch, outputs=True)
+    return s, held
+
+
+def _phase_stalled(s, r):
+    """Whether phase r improved on the best of the phases before it by improvement_tol."""
+    vals = [[q["value"] for q in s._records if q["restart"] == k and q["status"] == "ok"]
+            for k in range(r + 1)]
+    before = min(min(v) for v in vals[:-1] if v)
+    return not (vals[-1] and min(vals[-1]) < before - 1e-3 * abs(before))
+
+
+def test_a_composite_run_takes_the_subspace_step_after_a_phase_that_found_nothing_better():
+    """subspace_start "auto" (generation 12): a composite surrogate restarts fresh, so the
+    probe-and-subspace step of generation 11 ("endgame") never comes and its runs stay near
+    n = 70; with "stalled" the first restart after a fresh phase that did not improve on the
+    run's best asks the probes of the run's best point, and the subspace phase behind the
+    failed n = 0 probe ends at n = 0's own optimum."""
+    for seed in range(3):
+        old, held_old = _composite_subspace_run(seed, _off_switch_elsewhere, subspace_start="endgame")
+        assert all(h[0] is None and h[1] is None for h in held_old.values())
+        assert old.best[0][2] == 70.0 and old.best[1] > 0.09
+        s, held = _composite_subspace_run(seed, _off_switch_elsewhere)
+        assert s._candidate_settings(True)["subspace_start"] == "stalled"
+        probes = [r for r, h in held.items() if h[1] is not None and h[0] is None and h[3] > 0]
+        (r_probes,) = probes
+        assert r_probes >= 2 and _phase_stalled(s, r_probes - 1)
+        assert not any(_phase_stalled(s, r) for r in range(1, r_probes - 1))
+        frozen, anchor, trial, _ = held[r_probes + 1]
+        assert frozen == 2 and s._records[anchor]["x"][2] == 0.0 and trial is not None
+        assert s.best[0][2] == 0.0 and s.best[1] < old.best[1]
+
+
+def test_a_composite_run_whose_subspace_fails_its_trial_goes_on_from_its_best_point():
+    """After a failed trial a composite run, like a scalar one, goes on from the run's best
+    point (no design; the surrogate fits the run's points), not with a fresh design: a stalled
+    fresh phase and failed probes both say its basin is the best found."""
+    for seed in range(3):
+        s, held = _composite_subspace_run(seed, _off_switch_poor_subspace)
+        (r_sub,) = [r for r, h in held.items() if h[0] is not None]
+        start, n = _phases(s)[r_sub]
+        assert n == 5 + 1  # max_failed_row of a 3-variable space, one more in flight
+        after_frozen, after_anchor, _, after_design = held[r_sub + 1]
+        best_before = min((r for r in s._records[:start + n] if r["status"] == "ok"),
+                          key=lambda r: (r["value"], r["id"]))
+        assert after_frozen is None and after_design == 0 and after_anchor == best_before["id"]
+        assert s.best[0][2] == 70.0
+
+
+def test_generation_12_leaves_scalar_runs_as_they_were():
+    """subspace_start "auto" resolves to generation 11's "endgame" with a scalar surrogate:
+    the same proposals, through the probes and the subspace phase."""
+    runs = []
+    for kw in ({}, generation_settings(OFF_SWITCH_SPACE, 11)):
+        s = Strategy(OFF_SWITCH_SPACE, budget=100, n_initial=10, seed=1, **kw)
+        _run_delayed(s, _off_switch_elsewhere)
+        runs.append([r["x"].tolist() for r in s.history])
+        assert any(r["phase"] == "initial" and r["restart"] > 0 for r in s.history)
+    assert runs[0] == runs[1]
