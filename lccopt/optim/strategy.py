@@ -186,7 +186,8 @@ def _default_settings(space: DesignSpace) -> dict:
         # aggregate rewards elsewhere (a spread max - min) hides what the surrogate must see.
         "composite_capping": "auto",
         # A restart's surrogate also fits the earlier restarts' points (the perturbations still
-        # centre on the restart's own best point). "auto": see _AUTO_SETTINGS.
+        # centre on the restart's own best point). "auto": see _AUTO_SETTINGS. A phase that goes
+        # on from a point (the run's best, a probe) always does: it carries on the run's search.
         "restart_keeps_points": "auto",
         "clip_to_bounds": False,           # a step past a bound stops on it (else: reflected)
         # The scalar surrogate's polynomial tail: "linear" (paper Eq. 8), "quadratic" (every
@@ -486,7 +487,7 @@ class Strategy:
         trial_failed = self._trial_failed()  # of the phase that ends
         self._restart += 1
         auto = self._candidate_settings(self._composite_set_up())
-        rule, start = auto["restart_from"], auto["subspace_start"]
+        rule, subspace_start = auto["restart_from"], auto["subspace_start"]
         mode = self.settings["bound_probes"]
         # late: the budget left is shorter than the phases so far (the first design's and every
         # restart's, by their proposals) were on average
@@ -502,7 +503,7 @@ class Strategy:
         elif trial_failed:
             from_best = True  # back to the run's best point: its basin is the best found
         elif (best and mode == "subspace" and not self._subspace_tried
-              and (from_best if start == "endgame" else self._last_phase_stalled(ok))):
+              and (from_best if subspace_start == "endgame" else self._last_phase_stalled(ok))):
             self._subspace_tried = True
             P = self._new_bound_probes(best["x"])
             if P:

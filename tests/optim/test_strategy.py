@@ -623,9 +623,9 @@ def _off_switch_outputs(x):
     return np.array([(x[0] - 0.6) ** 2 + wall, (x[1] - 0.3) ** 2 + wall / 2])
 
 
-def _composite_strategy(seed, bound_probes="late"):
-    s = Strategy(OFF_SWITCH_SPACE, budget=80, n_initial=10, seed=seed, composite=True,
-                 bound_probes=bound_probes)
+def _composite_strategy(seed, bound_probes="late", budget=80, **settings):
+    s = Strategy(OFF_SWITCH_SPACE, budget=budget, n_initial=10, seed=seed, composite=True,
+                 bound_probes=bound_probes, **settings)
     s.set_aggregate(lambda F: F.sum(axis=1))
     return s
 
@@ -890,16 +890,17 @@ def test_subspace_trial_must_be_a_positive_count():
         Strategy(OFF_SWITCH_SPACE, subspace_start="late")
 
 
-def test_no_subspace_phase_when_a_probe_improves_and_none_in_composite_runs():
+def test_no_subspace_phase_when_a_probe_improves_and_none_in_composite_runs_of_generation_11():
     """A probe better than the run's best joins the run as with "anchor" (no phase is held);
-    a composite surrogate restarts fresh, where "subspace" proposes exactly what "anchor" does."""
+    a composite surrogate restarts fresh, where "subspace" of generation 11 (subspace_start
+    "endgame") proposes exactly what "anchor" does (generation 12: the test below)."""
     s = Strategy(OFF_SWITCH_SPACE, budget=80, n_initial=10, seed=1, bound_probes="subspace")
     held = []
     _run_delayed(s, _off_switch, watch=lambda s: held.append(s._frozen))
     assert s._subspace_tried and set(held) == {None} and s.best[0][2] == 0.0
     runs = []
     for mode in ("anchor", "subspace"):
-        t = _composite_strategy(2, mode)
+        t = _composite_strategy(2, mode, subspace_start="endgame")
         while not t.done:
             for p in t.ask(1):
                 F = _off_switch_outputs(p.x)
@@ -1001,8 +1002,7 @@ def _as_outputs(f):
 
 
 def _composite_subspace_run(seed, f, **settings):
-    s = Strategy(OFF_SWITCH_SPACE, budget=150, n_initial=10, seed=seed, composite=True, **settings)
-    s.set_aggregate(lambda F: F.sum(axis=1))
+    s = _composite_strategy(seed, "subspace", budget=150, **settings)
     held = {}
 
     def watch(s):
