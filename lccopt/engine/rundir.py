@@ -63,9 +63,10 @@ def versions() -> dict:
     import scipy
 
     from .. import __version__
+    from . import machine
 
     return {"lccopt": __version__, "numpy": np.__version__, "scipy": scipy.__version__,
-            "h5py": h5py.__version__, "python": platform.python_version()}
+            "h5py": h5py.__version__, "python": platform.python_version(), **machine.describe()}
 
 
 def now_iso() -> str:

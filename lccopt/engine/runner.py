@@ -45,11 +45,12 @@ from ..errors import EnvironmentFault, UsageError, describe_os_error, environmen
 from ..optim.strategy import GENERATION
 from ..problem import Problem
 from ..terminal import wrap_items
+from . import machine
 from .executors import ExecutorError, make_executor
 from .journal import Journal, JournalError, read_journal
 from .progress import Progress, fmt, hms, objective_text, objective_value, reference_objectives
 from .rundir import (RunDir, RunError, Table, eval_name, journal_generation, now_iso, sha256_text,
-                     write_results)
+                     versions, write_results)
 from .schedule import may_ask, release
 from .worker import Outcome, Task, evaluator_spec
 
@@ -178,6 +179,9 @@ def resume(run, workers: int | None = None, scheduler=None, case=None, allow_cha
             meta.update(case_sha256=sha256_text(case_obj.resolved), case_file=str(Path(case_obj.path).resolve()))
             rd.write_meta(meta)
         strategy, table = restore(problem, events, rd.load_state())
+        note = machine.resume_note(events[0].get("versions"), versions())
+        if note and not (strategy.done and not table.pending_ids()):
+            out.log(note)
         spec = evaluator_spec(evaluator if evaluator is not None else _saved_evaluator(meta))
         removed = rd.clean(pending={eval_name(i) for i in table.pending_ids()})
         if removed:
@@ -522,7 +526,7 @@ class Engine:
                     "session", time=now_iso(), wall_time=wall, evaluations=self.table.n_done - n_start,
                     optimiser_time=self.t_optimiser, bookkeeping_time=self.t_bookkeeping,
                     held_time=self.t_held, workers=self.lag,
-                    executor=self.executor.description))
+                    executor=self.executor.description, versions=versions()))
                 if self.strategy.done and not self.table.pending_ids() and not self.table.finished:
                     self.table.apply(self.journal.append("finished", time=now_iso(),
                                                          evaluations=self.table.n_done))

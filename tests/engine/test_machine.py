@@ -1,0 +1,98 @@
+"""The machine entries of a run (OpenBLAS kernels, numpy's SIMD targets): recorded, compared on
+resume, and the environment that pins them named (README, "Reproducibility")."""
+
+from __future__ import annotations
+
+import json
+import platform
+import subprocess
+import sys
+
+import h5py
+import pytest
+
+from lccopt.engine import machine
+from lccopt.engine.journal import read_journal
+
+from .conftest import FAKE, REPO, cli_run, write_case
+
+NATIVE = machine.describe()
+x86_openblas = pytest.mark.skipif(
+    platform.machine() not in ("x86_64", "AMD64") or NATIVE["blas_kernels"] == "unknown",
+    reason="needs OpenBLAS on x86-64 (the kernel names are x86's)")
+
+
+def _describe_with(env: dict) -> dict:
+    code = "import json; from lccopt.engine import machine; print(json.dumps(machine.describe()))"
+    out = subprocess.run([sys.executable, "-c", code], env={"PYTHONPATH": str(REPO), **env},
+                         capture_output=True, text=True, check=True)
+    return json.loads(out.stdout)
+
+
+@x86_openblas
+def test_the_recorded_kernels_follow_openblas_coretype():
+    other = "Nehalem" if NATIVE["blas_kernels"] != "Nehalem" else "Sandybridge"
+    assert _describe_with({})["blas_kernels"] == NATIVE["blas_kernels"]
+    assert _describe_with({"OPENBLAS_CORETYPE": other})["blas_kernels"] == other
+
+
+def test_the_recorded_simd_targets_follow_npy_disable_cpu_features():
+    on = NATIVE["numpy_simd"].split()
+    if len(on) < 2 or "unknown" in on:
+        pytest.skip("numpy dispatches to fewer than two SIMD targets here")
+    assert _describe_with({"NPY_DISABLE_CPU_FEATURES": " ".join(on[1:])})["numpy_simd"] == on[0]
+
+
+def test_resume_note_names_what_changed_and_how_to_pin_it():
+    started = {"numpy": "2.4.6", "blas_kernels": "Haswell", "numpy_simd": "X86_V3"}
+    now = {"numpy": "2.4.6", "blas_kernels": "SkylakeX", "numpy_simd": "X86_V3 X86_V4 AVX512_ICL"}
+    note = machine.resume_note(started, now)
+    assert "blas_kernels Haswell" in note and "blas_kernels SkylakeX" in note
+    assert 'OPENBLAS_CORETYPE=Haswell NPY_DISABLE_CPU_FEATURES="X86_V4 AVX512_ICL"' in note
+    assert machine.resume_note(started, dict(started)) is None
+    # a library version or a SIMD target this CPU lacks cannot be pinned: said, no advice
+    note = machine.resume_note({**started, "numpy": "2.4.5"}, now)
+    assert "numpy 2.4.5" in note and "resume with" not in note
+    note = machine.resume_note({"numpy_simd": "X86_V3 X86_V4"}, {"numpy_simd": "X86_V3"})
+    assert "numpy_simd X86_V3 X86_V4" in note and "resume with" not in note
+    # a run of an lccopt that did not record the machine: nothing to compare
+    assert machine.resume_note({"numpy": "2.4.6"}, now) is None
+    assert machine.resume_note(None, now) is None
+
+
+@x86_openblas
+def test_a_run_records_its_kernels_and_a_resume_elsewhere_says_how_to_match_them(tmp_path):
+    other = "Nehalem" if NATIVE["blas_kernels"] != "Nehalem" else "Sandybridge"
+    case = write_case(tmp_path, "m", budget=4, initial=3)
+    runs, run = tmp_path / "runs", tmp_path / "runs" / "m"
+    env = {"LCCOPT_EVALUATOR": FAKE, "OPENBLAS_CORETYPE": other}
+    r = cli_run("optimise", case, "--workers", "1", "--runs", runs, env=env)
+    assert r.returncode == 0, r.stderr
+    events, _, _ = read_journal(run / "journal.jsonl")
+    assert json.loads((run / "run.json").read_text())["versions"]["blas_kernels"] == other
+    assert events[0]["versions"]["blas_kernels"] == other
+    assert [e["versions"]["blas_kernels"] for e in events if e["event"] == "session"] == [other]
+    with h5py.File(run / "results.h5", "r") as f:
+        assert json.loads(f["versions"].attrs["run_started_with"])["blas_kernels"] == other
+
+    # the same machine entries: a resume (of a run given more budget) says nothing about them
+    case.write_text(case.read_text().replace("budget: 4", "budget: 5"))
+    r = cli_run("resume", run, "--allow-changed-case", env=env)
+    assert r.returncode == 0 and "may differ" not in r.stderr, r.stderr
+    # this machine's own kernels: said once, with the setting that gives the run's back
+    case.write_text(case.read_text().replace("budget: 5", "budget: 6"))
+    r = cli_run("resume", run, "--allow-changed-case", env={"LCCOPT_EVALUATOR": FAKE})
+    assert r.returncode == 0, r.stderr
+    notes = [line for line in r.stderr.splitlines() if "may differ" in line]
+    assert len(notes) == 1 and f"resume with OPENBLAS_CORETYPE={other}" in notes[0], r.stderr
+    events, _, _ = read_journal(run / "journal.jsonl")
+    assert [e["versions"]["blas_kernels"] for e in events if e["event"] == "session"] == \
+        [other, other, NATIVE["blas_kernels"]]
+
+
+def test_resume_note_shows_and_suggests_nothing_a_crafted_journal_puts_there():
+    started = {"blas_kernels": "Haswell; rm -rf ~", "numpy_simd": "X86_V3\x1b[2J", "numpy": "2" * 500}
+    now = {"blas_kernels": "SkylakeX", "numpy_simd": "X86_V3 X86_V4", "numpy": "2.4.6"}
+    note = machine.resume_note(started, now)
+    assert "rm" not in note and "\x1b" not in note and "222" not in note and "resume with" not in note
+    assert "blas_kernels unknown" in note
