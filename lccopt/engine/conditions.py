@@ -30,6 +30,7 @@ import numpy as np
 
 from ..errors import describe_os_error, environment_errno
 from ..store import merge_condition_files, read_evaluation, write_condition_evaluations
+from . import machine
 from .worker import Outcome, Task
 
 
@@ -124,7 +125,8 @@ class ConditionPool:
         info = dict(ev.info)
         return Outcome(task.id, condition=c, objectives=dict(ev.objectives), info=info,
                        file_written=True, wall_time=float(info.get("wall_time", math.nan)),
-                       worker=str(info.get("worker", "")))
+                       worker=str(info.get("worker", "")),
+                       machine={k: str(info[k]) for k in machine.describe() if k in info})
 
     def _combine(self, task: Task, parts: dict[int, Outcome]) -> Outcome:
         names = [c.name for c in self.case.conditions]
@@ -146,10 +148,15 @@ class ConditionPool:
         info = {"conditions": len(per), **{f"{k}@{names[c]}": v for c in range(self.m)
                                             for k, v in parts[c].info.items()
                                             if k in ("wall_time", "contact_loss_steps")}}
-        out = Outcome(task.id, objectives=objectives, info=info, wall_time=wall, worker=workers)
+        # the conditions' machines, one entry each where they agree (a Dask cluster may differ)
+        entries = {k: ",".join(sorted({str(o.machine[k]) for o in parts.values() if k in o.machine}))
+                   for k in machine.describe()}
+        entries = {k: v for k, v in entries.items() if v}
+        out = Outcome(task.id, objectives=objectives, info=info, wall_time=wall, worker=workers,
+                      machine=entries)
         target = self.run_path / f"evals/{task.id:06d}.h5"
         attrs = {"id": task.id, "phase": task.phase, "restart": task.restart, "worker": workers,
-                 "wall_time": wall}
+                 "wall_time": wall, **entries}
         try:
             if task.out_path is not None:   # the workers wrote the parts
                 paths = [self.run_path / part_name(task.id, c) for c in range(self.m)]

@@ -646,7 +646,7 @@ class Engine:
 
                 write_evaluation(self.rd.path / eval_name(o.id), o.evaluation, row["x"], self.case.names,
                                  attrs={"id": o.id, "phase": row["phase"], "restart": row["restart"],
-                                        "worker": o.worker, "wall_time": o.wall_time})
+                                        "worker": o.worker, "wall_time": o.wall_time, **o.machine})
                 file = eval_name(o.id)
         common = dict(id=o.id, objectives=objectives or {}, wall_time=o.wall_time, worker=o.worker, file=file)
         if error is None:
@@ -677,7 +677,7 @@ class Engine:
 
             write_evaluation(self.rd.path / eval_name(o.id), o.evaluation, row["x"], self.case.names,
                              attrs={"id": o.id, "phase": row["phase"], "restart": row["restart"],
-                                    "worker": o.worker, "wall_time": o.wall_time})
+                                    "worker": o.worker, "wall_time": o.wall_time, **o.machine})
         if o.error is not None:
             self.progress.log(f"could not simulate #{o.id} again ({o.error}); its file stays missing")
             return

@@ -80,6 +80,9 @@ class Outcome:
     fault: str | None = None      # the machine refused to store the result (disk full, ...)
     wall_time: float = float("nan")
     worker: str = ""
+    # The worker's floating-point entries (machine.py): on a Dask cluster each evaluation's
+    # own machine, recorded in its file.
+    machine: dict = field(default_factory=dict)
 
     @classmethod
     def of(cls, task: "Task", **fields) -> "Outcome":
@@ -106,15 +109,18 @@ def run_task(case, task: Task, evaluator: Callable, worker: str) -> Outcome:
         return Outcome.of(task, error=f"{type(exc).__name__}: {msg}{where}"[:500],
                        wall_time=time.perf_counter() - t0, worker=worker)
     wall = time.perf_counter() - t0
+    from . import machine
+
     out = Outcome.of(task, objectives=objectives, parts=parts, info=_plain(ev.info), wall_time=wall,
-                     worker=worker)
+                     worker=worker, machine=machine.describe())
     if task.out_path:
         try:
             from ..store import write_evaluation
 
             write_evaluation(task.out_path, ev, task.x, case.names,
                              attrs={"id": task.id, "phase": task.phase, "restart": task.restart,
-                                    "worker": worker, "wall_time": wall, "condition": task.condition})
+                                    "worker": worker, "wall_time": wall, "condition": task.condition,
+                                    **out.machine})
             out.file_written = True
         except Exception as exc:  # noqa: BLE001
             from ..errors import describe_os_error, environment_errno

@@ -15,7 +15,8 @@ import pytest
 from lccopt.case import CaseError, load_case
 from lccopt.engine.runner import optimise, resume
 from lccopt.problem import Problem
-from lccopt.store import read_conditions
+from lccopt.engine import machine
+from lccopt.store import read_conditions, read_evaluation
 from tests.engine import fakesim
 from tests.engine.conftest import FAKE, cli, cli_run, optimise_on_local_dask, read_table, write_case
 
@@ -125,6 +126,8 @@ def test_a_run_over_conditions_stores_every_condition_and_its_combination(tmp_pa
     assert list(conds) == ["v140", "v80", "v160"]
     assert conds["v80"].objectives["F_max"] == cols["v80"]["F_max"][3]
     assert "contact_force" in conds["v160"].histories
+    _, ev = read_evaluation(run / "evals" / "000003.h5")   # the workers' machine, recorded
+    assert {k: ev.info[k] for k in machine.describe()} == machine.describe()
 
 
 def test_kill_9_mid_design_keeps_the_finished_conditions_and_resumes_to_the_same_end(tmp_path):
@@ -188,3 +191,5 @@ def test_conditions_on_dask_give_the_process_pools_evaluations_and_files(tmp_pat
         np.testing.assert_array_equal(local[k], dask[k], err_msg=k)
     conds = read_conditions(run / dask["file"][2])   # written by the parent from the evaluations
     assert list(conds) == ["v140", "v80", "v160"] and "contact_force" in conds["v80"].histories
+    _, ev = read_evaluation(run / dask["file"][2])        # the Dask workers' machine, recorded
+    assert {k: ev.info[k] for k in machine.describe()} == machine.describe()

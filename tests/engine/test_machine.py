@@ -14,7 +14,9 @@ import pytest
 from lccopt.engine import machine
 from lccopt.engine.journal import read_journal
 
-from .conftest import FAKE, REPO, cli_run, write_case
+from lccopt.store import read_evaluation
+
+from .conftest import FAKE, REPO, cli_run, optimise_on_local_dask, write_case
 
 NATIVE = machine.describe()
 x86_openblas = pytest.mark.skipif(
@@ -74,6 +76,8 @@ def test_a_run_records_its_kernels_and_a_resume_elsewhere_says_how_to_match_them
     assert [e["versions"]["blas_kernels"] for e in events if e["event"] == "session"] == [other]
     with h5py.File(run / "results.h5", "r") as f:
         assert json.loads(f["versions"].attrs["run_started_with"])["blas_kernels"] == other
+    _, ev = read_evaluation(run / "evals" / "000001.h5")
+    assert ev.info["blas_kernels"] == other
 
     # the same machine entries: a resume (of a run given more budget) says nothing about them
     case.write_text(case.read_text().replace("budget: 4", "budget: 5"))
@@ -96,3 +100,17 @@ def test_resume_note_shows_and_suggests_nothing_a_crafted_journal_puts_there():
     note = machine.resume_note(started, now)
     assert "rm" not in note and "\x1b" not in note and "222" not in note and "resume with" not in note
     assert "blas_kernels unknown" in note
+
+
+@x86_openblas
+def test_each_evaluation_file_records_the_machine_of_the_worker_that_ran_it(tmp_path, monkeypatch):
+    """On Dask the parent writes the files from the evaluations the workers send back: the
+    entries must be the workers' (here: workers started with other kernels than the parent's)."""
+    other = "Nehalem" if NATIVE["blas_kernels"] != "Nehalem" else "Sandybridge"
+    monkeypatch.setenv("OPENBLAS_CORETYPE", other)  # the workers' start; this process keeps its own
+    case = write_case(tmp_path, "w", budget=3, initial=3)
+    run = optimise_on_local_dask(case, tmp_path / "runs", FAKE, n_workers=1)
+    for i in range(3):
+        _, ev = read_evaluation(run / f"evals/{i:06d}.h5")
+        assert ev.info["blas_kernels"] == other and ev.info["numpy_simd"] == NATIVE["numpy_simd"]
+    assert machine.describe()["blas_kernels"] == NATIVE["blas_kernels"] != other
