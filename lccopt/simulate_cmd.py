@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 import typer
 
+from . import machine
 from .case import design_items, load_case, parse_design
 from .store import write_evaluation
 from .terminal import wrap_items
@@ -56,7 +57,8 @@ def run_simulate(case_path: Path, design: str | None, out: Path | None, plots: b
         typer.echo(f"WARNING: contact lost (force <= 0) in {info['contact_loss_steps']} steps, first at "
                    f"{info['contact_loss_first_position']:.2f} m; the linear contact spring pulled the wheel",
                    err=True)
-    h5 = write_evaluation(out / "simulation.h5", ev, x, case.names, {"case": case.resolved})
+    h5 = write_evaluation(out / "simulation.h5", ev, x, case.names,
+                          {"case": case.resolved, **machine.describe()})
     typer.echo(f"histories: {h5}")
     if plots:
         for p in plot_evaluation(ev, case, out):
@@ -91,7 +93,8 @@ def _simulate_conditions(case, case_path: Path, x, out: Path, plots: bool, evalu
     vals = "".join(f"{combined[k] * objective_display(k)[0]:12.5g}" for k in keys)
     typer.echo(f"{label:<22}{vals}")
     h5 = write_condition_evaluations(out / "simulation.h5", evs, x, case.names, names,
-                                     [c.weight for c in case.conditions], combined, {"case": case.resolved})
+                                     [c.weight for c in case.conditions], combined,
+                                     {"case": case.resolved, **machine.describe()})
     typer.echo(f"histories: {h5}")
     if plots:
         for c, ev in zip(case.conditions, evs):

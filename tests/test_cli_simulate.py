@@ -4,6 +4,8 @@ import h5py
 import numpy as np
 import pytest
 
+from lccopt import machine
+
 from tests.conftest import CONFIGS
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
@@ -43,6 +45,8 @@ def test_simulate_writes_readable_histories_and_plots(reference_run):
         f_max = f["objectives"].attrs["F_max"]
         e_max = f["objectives"].attrs["E_max"]
         assert len(force) == len(f["histories/wheel_position"][()]) == f["info"].attrs["n_steps"] + 1
+        # what decides its floating point on this machine (lccopt/machine.py), recorded
+        assert {k: f["info"].attrs[k] for k in machine.describe()} == machine.describe()
         assert "vehicle:" in f["info"].attrs["case"]
     # the stored objectives are those of the stored histories
     assert f_max == pytest.approx(force[zone].max() - force[zone].min())

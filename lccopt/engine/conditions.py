@@ -30,7 +30,7 @@ import numpy as np
 
 from ..errors import describe_os_error, environment_errno
 from ..store import merge_condition_files, read_evaluation, write_condition_evaluations
-from . import machine
+from .. import machine
 from .worker import Outcome, Task
 
 

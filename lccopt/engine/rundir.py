@@ -63,7 +63,7 @@ def versions() -> dict:
     import scipy
 
     from .. import __version__
-    from . import machine
+    from .. import machine
 
     return {"lccopt": __version__, "numpy": np.__version__, "scipy": scipy.__version__,
             "h5py": h5py.__version__, "python": platform.python_version(), **machine.describe()}

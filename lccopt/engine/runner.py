@@ -45,7 +45,7 @@ from ..errors import EnvironmentFault, UsageError, describe_os_error, environmen
 from ..optim.strategy import GENERATION
 from ..problem import Problem
 from ..terminal import wrap_items
-from . import machine
+from .. import machine
 from .executors import ExecutorError, make_executor
 from .journal import Journal, JournalError, read_journal
 from .progress import Progress, fmt, hms, objective_text, objective_value, reference_objectives

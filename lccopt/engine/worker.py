@@ -109,7 +109,7 @@ def run_task(case, task: Task, evaluator: Callable, worker: str) -> Outcome:
         return Outcome.of(task, error=f"{type(exc).__name__}: {msg}{where}"[:500],
                        wall_time=time.perf_counter() - t0, worker=worker)
     wall = time.perf_counter() - t0
-    from . import machine
+    from .. import machine
 
     out = Outcome.of(task, objectives=objectives, parts=parts, info=_plain(ev.info), wall_time=wall,
                      worker=worker, machine=machine.describe())

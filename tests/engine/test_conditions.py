@@ -15,7 +15,7 @@ import pytest
 from lccopt.case import CaseError, load_case
 from lccopt.engine.runner import optimise, resume
 from lccopt.problem import Problem
-from lccopt.engine import machine
+from lccopt import machine
 from lccopt.store import read_conditions, read_evaluation
 from tests.engine import fakesim
 from tests.engine.conftest import FAKE, cli, cli_run, optimise_on_local_dask, read_table, write_case

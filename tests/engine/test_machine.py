@@ -11,7 +11,7 @@ import sys
 import h5py
 import pytest
 
-from lccopt.engine import machine
+from lccopt import machine
 from lccopt.engine.journal import read_journal
 
 from lccopt.store import read_evaluation
@@ -25,7 +25,7 @@ x86_openblas = pytest.mark.skipif(
 
 
 def _describe_with(env: dict) -> dict:
-    code = "import json; from lccopt.engine import machine; print(json.dumps(machine.describe()))"
+    code = "import json; from lccopt import machine; print(json.dumps(machine.describe()))"
     out = subprocess.run([sys.executable, "-c", code], env={"PYTHONPATH": str(REPO), **env},
                          capture_output=True, text=True, check=True)
     return json.loads(out.stdout)
