@@ -6,9 +6,8 @@ designs. Two choices made at load time decide it (README, "Reproducibility"): th
 OpenBLAS picks for the CPU (``OPENBLAS_CORETYPE`` overrides the pick) and the SIMD loops numpy
 dispatches to (``NPY_DISABLE_CPU_FEATURES`` turns some off). Measured: pinning both repeats
 another machine's runs to the last printed digit. They are recorded with the versions of each
-run (run.json, the journal, results.h5) and of each evaluation (its file: the worker's; also
-`lccopt simulate`'s file), and
-compared on resume.
+run (run.json, the journal, results.h5), in each evaluation's file (the worker's entries) and
+in ``lccopt simulate``'s file, and compared on resume.
 """
 
 from __future__ import annotations
