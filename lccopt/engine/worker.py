@@ -176,6 +176,9 @@ def local_worker_main(fd: int, parent_pid: int, slot: int) -> None:
     except Exception as exc:  # noqa: BLE001
         conn.send(("fatal", f"cannot load the evaluator {spec!r}: {type(exc).__name__}: {exc}"))
         return
+    from .. import machine
+
+    machine.describe()  # once here, not in every forked child (it loads scipy.linalg)
     fork = hasattr(os, "fork")
     conn.send(("ready", os.getpid()))
     while True:
