@@ -65,6 +65,10 @@ def numpy_simd() -> str:
     return " ".join(f for f in __cpu_dispatch__ if __cpu_features__.get(f)) or "none"
 
 
+# The entries, as recorded (beside the versions, in evaluation files' /info).
+ENTRIES = ("blas_kernels", "numpy_simd")
+
+
 @functools.cache  # fixed once the libraries are loaded
 def describe() -> dict:
     """The entries recorded beside the library versions."""
@@ -77,7 +81,7 @@ def describe() -> dict:
 
 # Versions and machine entries whose change makes a resumed run's later proposals differ from
 # an uninterrupted run's (lccopt's own version does not: the journal keeps the generation).
-NUMERIC_KEYS = ("numpy", "scipy", "blas_kernels", "numpy_simd")
+NUMERIC_KEYS = ("numpy", "scipy", *ENTRIES)
 
 
 def resume_note(started: dict, now: dict) -> str | None:

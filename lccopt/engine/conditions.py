@@ -28,9 +28,9 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import machine
 from ..errors import describe_os_error, environment_errno
 from ..store import merge_condition_files, read_evaluation, write_condition_evaluations
-from .. import machine
 from .worker import Outcome, Task
 
 
@@ -126,7 +126,7 @@ class ConditionPool:
         return Outcome(task.id, condition=c, objectives=dict(ev.objectives), info=info,
                        file_written=True, wall_time=float(info.get("wall_time", math.nan)),
                        worker=str(info.get("worker", "")),
-                       machine={k: str(info[k]) for k in machine.describe() if k in info})
+                       machine={k: str(info[k]) for k in machine.ENTRIES if k in info})
 
     def _combine(self, task: Task, parts: dict[int, Outcome]) -> Outcome:
         names = [c.name for c in self.case.conditions]
@@ -150,7 +150,7 @@ class ConditionPool:
                                             if k in ("wall_time", "contact_loss_steps")}}
         # the conditions' machines, one entry each where they agree (a Dask cluster may differ)
         entries = {k: ",".join(sorted({str(o.machine[k]) for o in parts.values() if k in o.machine}))
-                   for k in machine.describe()}
+                   for k in machine.ENTRIES}
         entries = {k: v for k, v in entries.items() if v}
         out = Outcome(task.id, objectives=objectives, info=info, wall_time=wall, worker=workers,
                       machine=entries)

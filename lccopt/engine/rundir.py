@@ -62,8 +62,7 @@ def versions() -> dict:
     import h5py
     import scipy
 
-    from .. import __version__
-    from .. import machine
+    from .. import __version__, machine
 
     return {"lccopt": __version__, "numpy": np.__version__, "scipy": scipy.__version__,
             "h5py": h5py.__version__, "python": platform.python_version(), **machine.describe()}

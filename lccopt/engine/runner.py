@@ -40,12 +40,12 @@ from pathlib import Path
 import numpy as np
 import typer
 
+from .. import machine
 from ..case import SAFE_NAME, Case, CaseError, design_items, load_case
 from ..errors import EnvironmentFault, UsageError, describe_os_error, environment_errno
 from ..optim.strategy import GENERATION
 from ..problem import Problem
 from ..terminal import wrap_items
-from .. import machine
 from .executors import ExecutorError, make_executor
 from .journal import Journal, JournalError, read_journal
 from .progress import Progress, fmt, hms, objective_text, objective_value, reference_objectives
@@ -179,9 +179,6 @@ def resume(run, workers: int | None = None, scheduler=None, case=None, allow_cha
             meta.update(case_sha256=sha256_text(case_obj.resolved), case_file=str(Path(case_obj.path).resolve()))
             rd.write_meta(meta)
         strategy, table = restore(problem, events, rd.load_state())
-        note = machine.resume_note(events[0].get("versions"), versions())
-        if note and not (strategy.done and not table.pending_ids()):
-            out.log(note)
         spec = evaluator_spec(evaluator if evaluator is not None else _saved_evaluator(meta))
         removed = rd.clean(pending={eval_name(i) for i in table.pending_ids()})
         if removed:
@@ -198,6 +195,9 @@ def resume(run, workers: int | None = None, scheduler=None, case=None, allow_cha
             if best:
                 out.log(f"best #{best['id']} value {fmt(best['value'])}")
             return rd.path
+        note = machine.resume_note(events[0].get("versions"), versions())
+        if note:
+            out.log(note)
         executor = _start_executor(case_obj, spec, workers, scheduler, problem)
         try:
             engine = Engine(rd, case_obj, problem, journal, table, strategy, executor,

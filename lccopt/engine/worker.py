@@ -22,6 +22,8 @@ import traceback
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
+from .. import machine  # no numpy at import: the thread settings below still come first
+
 DEFAULT_EVALUATOR = "lccopt.vti.simulate:evaluate"
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)  # the parent handles these
 ENV_EVALUATOR = "LCCOPT_EVALUATOR"
@@ -109,8 +111,6 @@ def run_task(case, task: Task, evaluator: Callable, worker: str) -> Outcome:
         return Outcome.of(task, error=f"{type(exc).__name__}: {msg}{where}"[:500],
                        wall_time=time.perf_counter() - t0, worker=worker)
     wall = time.perf_counter() - t0
-    from .. import machine
-
     out = Outcome.of(task, objectives=objectives, parts=parts, info=_plain(ev.info), wall_time=wall,
                      worker=worker, machine=machine.describe())
     if task.out_path:
@@ -176,8 +176,6 @@ def local_worker_main(fd: int, parent_pid: int, slot: int) -> None:
     except Exception as exc:  # noqa: BLE001
         conn.send(("fatal", f"cannot load the evaluator {spec!r}: {type(exc).__name__}: {exc}"))
         return
-    from .. import machine
-
     machine.describe()  # once here, not in every forked child (it loads scipy.linalg)
     fork = hasattr(os, "fork")
     conn.send(("ready", os.getpid()))

@@ -19,6 +19,8 @@ from lccopt.store import read_evaluation
 from .conftest import FAKE, REPO, cli_run, optimise_on_local_dask, write_case
 
 NATIVE = machine.describe()
+# Kernels other than this machine's that any x86-64 CPU can run
+OTHER = "Nehalem" if NATIVE["blas_kernels"] != "Nehalem" else "Sandybridge"
 x86_openblas = pytest.mark.skipif(
     platform.machine() not in ("x86_64", "AMD64") or NATIVE["blas_kernels"] == "unknown",
     reason="needs OpenBLAS on x86-64 (the kernel names are x86's)")
@@ -33,9 +35,8 @@ def _describe_with(env: dict) -> dict:
 
 @x86_openblas
 def test_the_recorded_kernels_follow_openblas_coretype():
-    other = "Nehalem" if NATIVE["blas_kernels"] != "Nehalem" else "Sandybridge"
     assert _describe_with({})["blas_kernels"] == NATIVE["blas_kernels"]
-    assert _describe_with({"OPENBLAS_CORETYPE": other})["blas_kernels"] == other
+    assert _describe_with({"OPENBLAS_CORETYPE": OTHER})["blas_kernels"] == OTHER
 
 
 def test_the_recorded_simd_targets_follow_npy_disable_cpu_features():
@@ -64,20 +65,19 @@ def test_resume_note_names_what_changed_and_how_to_pin_it():
 
 @x86_openblas
 def test_a_run_records_its_kernels_and_a_resume_elsewhere_says_how_to_match_them(tmp_path):
-    other = "Nehalem" if NATIVE["blas_kernels"] != "Nehalem" else "Sandybridge"
     case = write_case(tmp_path, "m", budget=4, initial=3)
     runs, run = tmp_path / "runs", tmp_path / "runs" / "m"
-    env = {"LCCOPT_EVALUATOR": FAKE, "OPENBLAS_CORETYPE": other}
+    env = {"LCCOPT_EVALUATOR": FAKE, "OPENBLAS_CORETYPE": OTHER}
     r = cli_run("optimise", case, "--workers", "1", "--runs", runs, env=env)
     assert r.returncode == 0, r.stderr
     events, _, _ = read_journal(run / "journal.jsonl")
-    assert json.loads((run / "run.json").read_text())["versions"]["blas_kernels"] == other
-    assert events[0]["versions"]["blas_kernels"] == other
-    assert [e["versions"]["blas_kernels"] for e in events if e["event"] == "session"] == [other]
+    assert json.loads((run / "run.json").read_text())["versions"]["blas_kernels"] == OTHER
+    assert events[0]["versions"]["blas_kernels"] == OTHER
+    assert [e["versions"]["blas_kernels"] for e in events if e["event"] == "session"] == [OTHER]
     with h5py.File(run / "results.h5", "r") as f:
-        assert json.loads(f["versions"].attrs["run_started_with"])["blas_kernels"] == other
+        assert json.loads(f["versions"].attrs["run_started_with"])["blas_kernels"] == OTHER
     _, ev = read_evaluation(run / "evals" / "000001.h5")
-    assert ev.info["blas_kernels"] == other
+    assert ev.info["blas_kernels"] == OTHER
 
     # the same machine entries: a resume (of a run given more budget) says nothing about them
     case.write_text(case.read_text().replace("budget: 4", "budget: 5"))
@@ -88,10 +88,10 @@ def test_a_run_records_its_kernels_and_a_resume_elsewhere_says_how_to_match_them
     r = cli_run("resume", run, "--allow-changed-case", env={"LCCOPT_EVALUATOR": FAKE})
     assert r.returncode == 0, r.stderr
     notes = [line for line in r.stderr.splitlines() if "may differ" in line]
-    assert len(notes) == 1 and f"resume with OPENBLAS_CORETYPE={other}" in notes[0], r.stderr
+    assert len(notes) == 1 and f"resume with OPENBLAS_CORETYPE={OTHER}" in notes[0], r.stderr
     events, _, _ = read_journal(run / "journal.jsonl")
     assert [e["versions"]["blas_kernels"] for e in events if e["event"] == "session"] == \
-        [other, other, NATIVE["blas_kernels"]]
+        [OTHER, OTHER, NATIVE["blas_kernels"]]
 
 
 def test_resume_note_shows_and_suggests_nothing_a_crafted_journal_puts_there():
@@ -106,11 +106,10 @@ def test_resume_note_shows_and_suggests_nothing_a_crafted_journal_puts_there():
 def test_each_evaluation_file_records_the_machine_of_the_worker_that_ran_it(tmp_path, monkeypatch):
     """On Dask the parent writes the files from the evaluations the workers send back: the
     entries must be the workers' (here: workers started with other kernels than the parent's)."""
-    other = "Nehalem" if NATIVE["blas_kernels"] != "Nehalem" else "Sandybridge"
-    monkeypatch.setenv("OPENBLAS_CORETYPE", other)  # the workers' start; this process keeps its own
+    monkeypatch.setenv("OPENBLAS_CORETYPE", OTHER)  # the workers' start; this process keeps its own
     case = write_case(tmp_path, "w", budget=3, initial=3)
     run = optimise_on_local_dask(case, tmp_path / "runs", FAKE, n_workers=1)
     for i in range(3):
         _, ev = read_evaluation(run / f"evals/{i:06d}.h5")
-        assert ev.info["blas_kernels"] == other and ev.info["numpy_simd"] == NATIVE["numpy_simd"]
-    assert machine.describe()["blas_kernels"] == NATIVE["blas_kernels"] != other
+        assert ev.info["blas_kernels"] == OTHER and ev.info["numpy_simd"] == NATIVE["numpy_simd"]
+    assert machine.describe()["blas_kernels"] == NATIVE["blas_kernels"] != OTHER
