@@ -85,9 +85,12 @@ def test_kill_9_at_random_moments_then_resume_equals_an_uninterrupted_run(tmp_pa
         args = ["resume", run, "--workers", "2"] if run.exists() else \
             ["optimise", case, "--workers", "2", "--runs", runs]
         p = cli(*args, env=env)
-        # A random moment once the run is under way (start-up time varies with the load).
+        # A random moment once the run is under way, counted in evaluations so that the kill
+        # lands mid-run on a fast machine as on a slow one, then a random fraction of one more.
         _wait_for(lambda: (run / "journal.jsonl").exists() or p.poll() is not None, what="the run to start")
-        time.sleep(rng.uniform(0.0, 2.0))
+        target = _n_done(run) + rng.randint(1, 3)
+        _wait_for(lambda: _n_done(run) >= target or p.poll() is not None, what="evaluations to finish")
+        time.sleep(rng.uniform(0.0, 0.15))
         workers = _children(p.pid)
         if p.poll() is None:
             p.kill()  # SIGKILL to the lccopt process only: its workers must die with it
