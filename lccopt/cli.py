@@ -23,7 +23,7 @@ import typer
 
 from .case import CaseError
 from .errors import UsageError, describe_os_error
-from .terminal import wrap_items
+from .terminal import PipeGuard, wrap_items
 
 EXIT_OK, EXIT_INTERNAL, EXIT_USAGE, EXIT_INTERRUPTED, EXIT_PIPE = 0, 1, 2, 130, 141
 
@@ -135,6 +135,13 @@ def report(
 def main(argv: list[str] | None = None) -> int:
     """Console entry point: map errors to exit codes and one-line messages."""
     usage_errors, aborts = _click_exception_types()
+    if not isinstance(sys.stdout, PipeGuard):
+        sys.stdout, sys.stderr = PipeGuard(sys.stdout), PipeGuard(sys.stderr)
+    code = _main(argv, usage_errors, aborts)
+    return EXIT_PIPE if PipeGuard.closed_pipe else code
+
+
+def _main(argv, usage_errors, aborts) -> int:
     try:
         # non-standalone click returns the code of a typer.Exit instead of raising it
         code = app(args=argv, standalone_mode=False)

@@ -14,6 +14,7 @@ import h5py
 import numpy as np
 
 from .atomic import atomic_path
+from .safeio import h5_open_owned
 from .vti.response import HISTORY_DOC, OBJECTIVE_UNITS, Evaluation
 
 
@@ -27,9 +28,32 @@ def write_evaluation(path: str | Path, evaluation: Evaluation, x, names, attrs: 
 
 
 def read_evaluation(path: str | Path) -> tuple[np.ndarray, Evaluation]:
-    """Read a file written by :func:`write_evaluation`; return (x, evaluation)."""
-    with h5py.File(path, "r") as f:
+    """Read a file written by :func:`write_evaluation`; return (x, evaluation).
+
+    Never through a link, never a FIFO (``lccopt.safeio``); the file is read through a
+    descriptor, so another process's HDF5 lock on it does not stop a reader."""
+    with h5_open_owned(path) as f:
         return f["design"][()], _read_group(f)
+
+
+def evaluation_problem(path: str | Path, i: int, x) -> str | None:
+    """Why the file at ``path`` is not a complete evaluation ``i`` of design ``x`` (missing,
+    damaged, a link, or another evaluation's file put in its place); None if it is."""
+    try:
+        with h5_open_owned(path) as f:
+            if "objectives" not in f or "histories" not in f or "design" not in f:
+                return "incomplete"
+            design = f["design"][()]
+            stored = f["info"].attrs.get("id") if "info" in f else None
+    except FileNotFoundError:
+        return "missing"
+    except (OSError, ValueError, RuntimeError, KeyError) as exc:
+        return f"unreadable ({type(exc).__name__})"
+    if stored is not None and int(stored) != int(i):
+        return f"holds evaluation #{int(stored)}"
+    if np.shape(design) != np.shape(x) or not np.array_equal(design, np.asarray(x, dtype=float)):
+        return "holds another design"
+    return None
 
 
 # Traffic conditions (engine/conditions.py): one file per design holds every condition under
@@ -42,7 +66,7 @@ def merge_condition_files(path: str | Path, parts, names, weights, objectives: d
     path = Path(path)
     with atomic_path(path) as tmp, h5py.File(tmp, "w") as f:
         for i, (part, name) in enumerate(zip(parts, names)):
-            with h5py.File(part, "r") as src:
+            with h5_open_owned(part) as src:
                 if i == 0:
                     for key in ("design", "histories", "info"):
                         src.copy(src[key], f, name=key)
@@ -72,7 +96,7 @@ def write_condition_evaluations(path: str | Path, evaluations, x, design_names, 
 def read_conditions(path: str | Path) -> dict[str, Evaluation]:
     """Every condition's evaluation of a merged file, in condition order ({} for a file of
     one simulation)."""
-    with h5py.File(path, "r") as f:
+    with h5_open_owned(path) as f:
         if "conditions" not in f:
             return {}
         return {str(name): _read_group(f["conditions"][name]) for name in f.attrs["conditions"]}

@@ -17,3 +17,50 @@ def wrap_items(items: list[str], head: str, width: int = WIDTH) -> list[str]:
         else:
             line += ("" if line == head else " ") + piece
     return lines + [line]
+
+
+class PipeGuard:
+    """A text stream that survives its reader going away (``lccopt ... | head``).
+
+    The first write or flush that meets a closed pipe points the descriptor at /dev/null and
+    sets :attr:`closed_pipe`; every later write goes nowhere. The command then finishes what
+    it must not leave half done (a simulation's files, a run's journal and snapshot) and the
+    command line exits 141, as a process killed by SIGPIPE would."""
+
+    closed_pipe = False   # class-wide: any guarded stream that met a closed pipe
+
+    def __init__(self, stream):
+        self._stream = stream
+        self.encoding = getattr(stream, "encoding", "utf-8")
+        self.errors = getattr(stream, "errors", "strict")
+
+    def __getattr__(self, name):  # isatty, fileno, buffer, ...
+        return getattr(self._stream, name)
+
+    def _closed(self) -> None:
+        import os
+
+        PipeGuard.closed_pipe = True
+        try:
+            devnull = os.open(os.devnull, os.O_WRONLY)
+            os.dup2(devnull, self._stream.fileno())
+            os.close(devnull)
+        except (OSError, ValueError, AttributeError):
+            pass
+
+    def write(self, text: str) -> int:
+        if PipeGuard.closed_pipe:
+            return len(text)
+        try:
+            return self._stream.write(text)
+        except BrokenPipeError:
+            self._closed()
+            return len(text)
+
+    def flush(self) -> None:
+        if PipeGuard.closed_pipe:
+            return
+        try:
+            self._stream.flush()
+        except BrokenPipeError:
+            self._closed()

@@ -56,8 +56,8 @@ class ConditionPool:
     def description(self) -> str:
         return f"{self.inner.description}, {self.m} conditions per design"
 
-    def start(self) -> None:
-        self.inner.start()
+    def start(self, log=None) -> None:
+        self.inner.start(log)
 
     @property
     def slots(self) -> int:

@@ -42,11 +42,57 @@ class ExecutorError(Exception):
     """The executor cannot run at all (bad evaluator, no Dask, scheduler unreachable)."""
 
 
+# What one local worker costs: its interpreter with numpy, scipy and h5py loaded (~55 MB
+# resident) and the child forked for each evaluation (~40-60 MB more with a paper-case
+# simulation), with room to spare; and four descriptors of this process (socket, pidfd, and
+# the pipes of a process being replaced).
+WORKER_MEMORY = 150 * 2 ** 20
+WORKER_FILES = 4
+
+
+def max_local_workers() -> tuple[int, str]:
+    """(how many local workers this machine can hold, why: the binding limit in words).
+
+    Raises the soft open-file limit to the hard one on the way (what many workers need)."""
+    import resource
+
+    try:
+        soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
+        if soft != hard and hard != resource.RLIM_INFINITY:
+            resource.setrlimit(resource.RLIMIT_NOFILE, (hard, hard))
+            soft = hard
+    except (ValueError, OSError):
+        pass
+    by_files = max(1, (soft - 64) // WORKER_FILES) if soft != resource.RLIM_INFINITY else 1 << 20
+    available = _memory_available()
+    by_memory = max(1, available // WORKER_MEMORY) if available else 1 << 20
+    if by_memory <= by_files:
+        return int(by_memory), (f"{available / 2 ** 30:.1f} GB free, "
+                                f"~{WORKER_MEMORY // 2 ** 20} MB each")
+    return int(by_files), f"ulimit -n {soft}, {WORKER_FILES} files each"
+
+
+def _memory_available() -> int | None:
+    try:
+        with open("/proc/meminfo", encoding="ascii") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError):
+        pass
+    return None
+
+
 def default_workers() -> int:
     try:
         return max(1, len(os.sched_getaffinity(0)))
     except AttributeError:  # not Linux
         return max(1, os.cpu_count() or 1)
+
+
+# A task whose process is killed by a signal this many times fails (a design that makes the
+# simulation crash every time must not hold the run); fewer times, it simply runs again.
+MAX_KILLS = 3
 
 
 def _ignore_stop_signals() -> None:
@@ -72,6 +118,8 @@ class _Slot:
     deaths_before_ready: int = 0
 
     def waitables(self) -> list:
+        if self.proc is None:   # stopped for good (the run is stopping)
+            return []
         return [self.conn] + ([self.pidfd] if self.pidfd is not None else [])
 
 
@@ -84,10 +132,12 @@ class LocalPool:
         self.case, self.spec, self.timeout = case, spec, float(timeout)
         self.slots = int(workers)
         self._slots = [_Slot(i) for i in range(self.slots)]
+        self._retry: list[Task] = []        # tasks whose worker was killed, to run again
+        self._deaths: dict[tuple, int] = {}  # (id, condition) -> times its worker was killed
         self.description = f"{self.slots} local worker process{'es' if self.slots > 1 else ''}"
 
     # -- lifecycle --------------------------------------------------------------------------
-    def start(self, wait: float = 120.0) -> None:
+    def start(self, log=None, wait: float = 120.0) -> None:
         """Start the workers; return once they are ready (ExecutorError if they cannot start)."""
         for s in self._slots:
             self._spawn(s)
@@ -117,12 +167,17 @@ class LocalPool:
             pass  # died already: wait() notices
 
     def close(self) -> None:
+        """Stop the workers: an idle one is asked to exit (it is between tasks, so nothing is
+        lost), one still starting or busy is killed (its task, if any, stays pending)."""
         for s in self._slots:
             if s.proc is None:
                 continue
             if s.task is None and s.ready:
                 with contextlib.suppress(OSError):
                     s.conn.send(None)
+            else:
+                with contextlib.suppress(OSError):
+                    s.proc.kill()
         deadline = time.monotonic() + 3.0
         for s in self._slots:
             if s.proc is None:
@@ -138,28 +193,47 @@ class LocalPool:
     # -- tasks --------------------------------------------------------------------------------
     @property
     def running(self) -> int:
-        return sum(s.task is not None for s in self._slots)
+        return sum(s.task is not None for s in self._slots) + len(self._retry)
 
     def free(self) -> int:
-        return sum(s.ready and s.task is None for s in self._slots)
+        return max(0, sum(s.ready and s.task is None for s in self._slots) - len(self._retry))
 
     def submit(self, task: Task) -> None:
         for s in self._slots:
             if s.ready and s.task is None:
-                s.task, s.started = task, time.monotonic()
-                try:
-                    s.conn.send(task)
-                except OSError:
-                    pass  # the worker died: noticed by wait() through its sentinel
+                self._give(s, task)
                 return
         raise RuntimeError("submit() without a free worker")
 
+    def _give(self, s: _Slot, task: Task) -> None:
+        s.task, s.started = task, time.monotonic()
+        try:
+            s.conn.send(task)
+        except OSError:
+            pass  # the worker died: noticed by wait() through its sentinel
+
+    def _lost(self, s: _Slot, reason: str, killed: bool, out: list) -> None:
+        """The slot's task lost its process. Killed by a signal (the OOM killer, kill -9 of a
+        worker) says nothing about the design: it runs again, up to MAX_KILLS times; any other
+        death (an exit status) is the evaluation's own failure."""
+        task, s.task = s.task, None
+        key = (task.id, task.condition)
+        self._deaths[key] = self._deaths.get(key, 0) + 1
+        if killed and self._deaths[key] < MAX_KILLS:
+            self._retry.append(task)
+            return
+        if killed:
+            reason = f"{reason}, {self._deaths[key]} times"
+        out.append(Outcome.of(task, error=reason, wall_time=time.monotonic() - s.started,
+                              worker=f"local-{s.index}"))
+
     def kill_running(self) -> None:
+        """Stop every task in flight at once (the run is stopping: no worker is started again)."""
+        self._retry.clear()
         for s in self._slots:
             if s.task is not None:
                 self._kill(s)
-                s.task = None
-                self._spawn(s)
+                s.task, s.proc, s.ready = None, None, False
 
     def _kill(self, s: _Slot) -> None:
         with contextlib.suppress(Exception):
@@ -187,6 +261,8 @@ class LocalPool:
         ready = set(mpc.wait(objs, timeout=max(0.0, limit)))
         out: list[Outcome] = []
         for s in self._slots:
+            if s.proc is None:
+                continue
             if s.conn in ready or (s.pidfd is not None and s.pidfd in ready) or s.proc.poll() is not None:
                 self._drain(s, out)
         now = time.monotonic()
@@ -207,16 +283,18 @@ class LocalPool:
                 msg = s.conn.recv()
                 if msg[0] == "ready":
                     s.ready, s.deaths_before_ready = True, 0
+                    if self._retry and s.task is None:
+                        self._give(s, self._retry.pop(0))
                 elif msg[0] == "done":
                     outcome = msg[1]
                     if s.task is not None and outcome.id == s.task.id:
                         out.append(outcome)
                         s.task = None
-                elif msg[0] == "crashed":  # the evaluation killed its (forked) process
+                elif msg[0] == "crashed":  # the evaluation's (forked) process died
                     if s.task is not None:
-                        out.append(Outcome.of(s.task, error=msg[1], wall_time=time.monotonic() - s.started,
-                                           worker=f"local-{s.index}"))
-                        s.task = None
+                        self._lost(s, msg[1], msg[2] if len(msg) > 2 else False, out)
+                        if self._retry and s.ready:
+                            self._give(s, self._retry.pop(0))
                 elif msg[0] == "fatal":
                     self.close()
                     raise ExecutorError(msg[1])
@@ -227,9 +305,7 @@ class LocalPool:
                 s.proc.wait(5)
             reason = _death_reason(s.proc.returncode)
             if s.task is not None:
-                out.append(Outcome.of(s.task, error=reason, wall_time=time.monotonic() - s.started,
-                                   worker=f"local-{s.index}"))
-                s.task = None
+                self._lost(s, reason, s.proc.returncode is not None and s.proc.returncode < 0, out)
             if not s.ready:
                 s.deaths_before_ready += 1
                 if s.deaths_before_ready >= 3:
@@ -263,6 +339,26 @@ def dask_task(case, task: Task, spec) -> Outcome:
     return run_task(case, task, fn, name)
 
 
+CONNECT_TIMEOUT = 10         # [s] to reach the scheduler (distributed retries meanwhile)
+WORKERS_TIMEOUT = 600        # [s] for the first worker to join a scheduler that has none
+_SCHEMES = ("tcp", "tls", "ws", "wss", "ucx")
+
+
+def _check_scheduler_address(address: str) -> None:
+    """Refuse an address distributed cannot parse before a Client is made: a Client that fails
+    on one hangs for 40 s in its finaliser and prints a traceback."""
+    from distributed.comm.addressing import parse_address, parse_host_port
+
+    try:
+        scheme, location = parse_address(address, strict=False)
+        if scheme not in _SCHEMES:
+            raise ValueError(f"unknown scheme '{scheme}://' (expected one of {', '.join(_SCHEMES)})")
+        parse_host_port(location)
+    except (ValueError, TypeError) as exc:
+        raise ExecutorError(f"--scheduler {address[:60]!r}: {exc}; expected e.g. "
+                            f"tcp://head-node:8786") from None
+
+
 class DaskExecutor:
     kind = "dask"
 
@@ -279,18 +375,33 @@ class DaskExecutor:
         self._slots_cache = (0.0, 0)
         self.description = f"Dask scheduler {address if isinstance(address, str) else 'in-process'}"
 
-    def start(self) -> None:
+    def start(self, log=None) -> None:
+        """Connect; wait (saying so through ``log``) for the first worker to join."""
         from distributed import Client
 
+        if isinstance(self.address, str):
+            _check_scheduler_address(self.address)
         try:
             if isinstance(self.address, str):
-                self.client = Client(self.address, timeout="20s", set_as_default=False)
+                self.client = Client(self.address, timeout=f"{CONNECT_TIMEOUT}s", set_as_default=False)
             else:  # a Cluster object (tests, notebooks)
                 self.client = Client(self.address, set_as_default=False)
         except Exception as exc:  # noqa: BLE001
-            raise ExecutorError(f"cannot connect to the Dask scheduler at {self.address}: "
-                                f"{type(exc).__name__}: {exc}") from None
+            reason = f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__
+            raise ExecutorError(f"cannot connect to the Dask scheduler at {self.address}: {reason} "
+                                f"(is it running?)") from None
         n = self._n_threads(force=True)
+        if n == 0:
+            if log is not None:
+                log(f"the Dask scheduler has no workers yet; waiting up to {WORKERS_TIMEOUT // 60} "
+                    f"min for one (dask worker {self.client.scheduler.address} --nthreads 1)")
+            try:
+                self.client.wait_for_workers(1, timeout=WORKERS_TIMEOUT)
+            except Exception:  # noqa: BLE001 - distributed raises its own TimeoutError
+                self.close()
+                raise ExecutorError(f"no Dask worker joined the scheduler at {self.address} in "
+                                    f"{WORKERS_TIMEOUT // 60} min; start workers, then run again") from None
+            n = self._n_threads(force=True)
         self.description = f"Dask scheduler {self.client.scheduler.address} ({n} worker threads)"
 
     def _n_threads(self, force: bool = False) -> int:

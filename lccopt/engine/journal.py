@@ -14,6 +14,8 @@ import json
 import os
 from pathlib import Path
 
+from ..safeio import open_owned, read_owned
+
 
 class JournalError(Exception):
     """The journal is damaged beyond a torn last line."""
@@ -23,7 +25,7 @@ def read_journal(path: str | Path) -> tuple[list[dict], int, bool]:
     """Return (events, length of the committed part in bytes, whether a torn tail was found)."""
     path = Path(path)
     try:
-        data = path.read_bytes()
+        data = read_owned(path)
     except FileNotFoundError:
         return [], 0, False
     events: list[dict] = []
@@ -50,6 +52,15 @@ def read_journal(path: str | Path) -> tuple[list[dict], int, bool]:
     return events, pos, torn
 
 
+def line_mark(ev: dict) -> str:
+    """A fingerprint of one committed line (its JSON as written): what a snapshot records of the
+    line it reflects, so that a snapshot of another run or another state is never trusted."""
+    import hashlib
+
+    line = json.dumps(ev, allow_nan=True, separators=(",", ":"))
+    return hashlib.sha256(line.encode("utf-8")).hexdigest()[:32]
+
+
 class Journal:
     """Appends events; ``seq`` continues from the committed lines."""
 
@@ -63,7 +74,7 @@ class Journal:
         """Open for appending after dropping a torn tail; return (journal, events, torn)."""
         path = Path(path)
         events, length, torn = read_journal(path)
-        fh = open(path, "ab")
+        fh = open_owned(path, "ab")
         if fh.tell() != length:
             fh.truncate(length)
             fh.flush()

@@ -31,12 +31,15 @@ from pathlib import Path
 import numpy as np
 
 from ..atomic import atomic_path, atomic_write_bytes, fsync_dir, normal_mode
+from ..safeio import (UnsafeFile, check_owned_dir, is_regular_file, kind_of, open_owned,
+                      read_owned)
 from ..optim.strategy import GENERATION
 
 RESULTS_FORMAT = "lccopt-results"
 RESULTS_VERSION = 1
 RUN_FORMAT = "lccopt-run"
 RUN_VERSION = 1
+MAX_META_BYTES = 1_000_000  # run.json is a few hundred bytes
 OBJECTIVE_NAMES = ("F_rms", "F_max", "E_rms", "E_max")
 
 
@@ -144,13 +147,41 @@ class RunDir:
         path = Path(path)
         if not path.is_dir():
             raise RunError(f"{path}: no such run directory")
-        if not (path / "run.json").is_file() or not (path / "journal.jsonl").is_file():
+        if not all(os.path.lexists(path / name) for name in ("run.json", "journal.jsonl")):
             raise RunError(f"{path}: not an lccopt run directory (no run.json or journal.jsonl)")
-        return cls(path)
+        rd = cls(path)
+        rd.check_entries()
+        return rd
+
+    OWNED_FILES = ("run.json", "journal.jsonl", "lock", "state.json", "results.h5", "case.yaml",
+                   "case.source.yaml")
+
+    def check_entries(self) -> None:
+        """Every file and folder lccopt keeps in the run is what lccopt made: a regular file
+        (a real folder for evals/), never a link or a special file planted there (RunError)."""
+        for name in self.OWNED_FILES:
+            p = self.path / name
+            if os.path.lexists(p) and not is_regular_file(p):
+                raise RunError(f"{p}: {kind_of(os.lstat(p).st_mode)}, where lccopt keeps a file of its own; "
+                               f"lccopt never reads or writes through it: remove it")
+        if os.path.lexists(self.evals_path):
+            try:
+                check_owned_dir(self.evals_path)
+            except UnsafeFile as exc:
+                raise RunError(f"{exc}") from None
+
+    def evals_dir(self) -> Path:
+        """evals/, made again if it was deleted under the run; never a link (UnsafeFile)."""
+        try:
+            self.evals_path.mkdir()
+        except FileExistsError:
+            pass
+        check_owned_dir(self.evals_path)
+        return self.evals_path
 
     def meta(self) -> dict:
         try:
-            meta = json.loads(self.meta_path.read_text(encoding="utf-8"))
+            meta = json.loads(read_owned(self.meta_path, MAX_META_BYTES).decode("utf-8"))
         except (OSError, ValueError) as exc:
             raise RunError(f"{self.meta_path}: unreadable ({exc})") from None
         if not isinstance(meta, dict) or meta.get("format") != RUN_FORMAT:
@@ -160,9 +191,11 @@ class RunDir:
     def locked_by_other(self) -> bool:
         """True while another process holds the run's lock (flock: immune to PID reuse)."""
         try:
-            fh = open(self.path / "lock", "rb")
-        except OSError:
+            fh = open_owned(self.path / "lock", "rb")
+        except FileNotFoundError:
             return False
+        except OSError as exc:
+            raise RunError(f"{exc}") from None
         try:
             fcntl.flock(fh.fileno(), fcntl.LOCK_SH | fcntl.LOCK_NB)
         except OSError:
@@ -177,7 +210,9 @@ class RunDir:
     # -- lock -------------------------------------------------------------------------------
     def lock(self) -> None:
         try:
-            fh = open(self.path / "lock", "a+")
+            fh = open_owned(self.path / "lock", "a+")
+        except UnsafeFile as exc:
+            raise RunError(f"{exc}") from None
         except OSError as exc:
             raise RunError(f"{self.path / 'lock'}: cannot open the run's lock file ({exc.strerror or exc}); "
                            f"lccopt needs to write in the run directory") from None
@@ -205,29 +240,39 @@ class RunDir:
             self._lock_fh = None
 
     # -- snapshot -----------------------------------------------------------------------------
-    def save_state(self, seq: int, state: dict) -> None:
-        data = json.dumps({"seq": seq, "strategy": state}, allow_nan=False, separators=(",", ":"))
+    def save_state(self, seq: int, state: dict, mark: str) -> None:
+        """The optimiser's state after journal line ``seq`` (``mark``: that line's line_mark)."""
+        data = json.dumps({"seq": seq, "mark": mark, "strategy": state}, allow_nan=False,
+                          separators=(",", ":"))
         atomic_write_bytes(self.state_path, data.encode())
 
+    def write_case(self, resolved: str) -> None:
+        atomic_write_bytes(self.case_path, resolved.encode("utf-8"))
+
     def load_state(self) -> dict | None:
+        """The optimiser snapshot, or None if there is none or it is not usable (it is a
+        cache: resume then replays the whole journal)."""
         try:
-            d = json.loads(self.state_path.read_text(encoding="utf-8"))
-            return d if isinstance(d, dict) and "seq" in d and "strategy" in d else None
+            d = json.loads(read_owned(self.state_path).decode("utf-8"))
+            return d if isinstance(d, dict) and isinstance(d.get("seq"), int) and "strategy" in d else None
         except (OSError, ValueError):
             return None
 
     def clean(self, pending: set[str]) -> list[str]:
         """Remove temporary files and the unfinished files of pending evaluations; return them.
 
-        Only files lccopt itself would write again: an evaluation file the journal does not
-        account for is never removed (it may be the only copy of a result)."""
+        Only files lccopt itself would write again, and only regular files directly in the run
+        directory or in its own evals/ (never through a link): an evaluation file the journal
+        does not account for is never removed (it may be the only copy of a result)."""
         gone = []
         for d in (self.path, self.evals_path):
-            if not d.is_dir():
-                continue
+            if d == self.evals_path:
+                if not os.path.lexists(d):
+                    continue
+                check_owned_dir(d)
             for f in d.iterdir():
                 rel = f.relative_to(self.path).as_posix()
-                if f.is_file() and not f.is_symlink() and (f.name.endswith(".tmp") or rel in pending):
+                if is_regular_file(f) and (f.name.endswith(".tmp") or rel in pending):
                     f.unlink()
                     gone.append(rel)
         return gone
@@ -245,10 +290,12 @@ class Table:
         self.reference: dict | None = None   # objectives, point, worst, ...
         self.finished = False
         self.seq = -1
+        self.last_event: dict | None = None
         self.lag: int | None = None          # the schedule's lag (workers) of the last session
 
     def apply(self, ev: dict) -> None:
         self.seq = ev["seq"]
+        self.last_event = ev
         kind = ev["event"]
         if kind == "asked":
             self.rows[ev["id"]] = {

@@ -45,9 +45,9 @@ from ..case import SAFE_NAME, Case, CaseError, design_items, load_case
 from ..errors import EnvironmentFault, UsageError, describe_os_error, environment_errno
 from ..optim.strategy import GENERATION
 from ..problem import Problem
-from ..terminal import wrap_items
+from ..terminal import PipeGuard, wrap_items
 from .executors import ExecutorError, make_executor
-from .journal import Journal, JournalError, read_journal
+from .journal import Journal, JournalError, line_mark, read_journal
 from .progress import Progress, fmt, hms, objective_text, objective_value, reference_objectives
 from .rundir import (RunDir, RunError, Table, eval_name, journal_generation, now_iso, sha256_text,
                      versions, write_results)
@@ -88,7 +88,8 @@ def optimise(case, workers: int | None = None, scheduler=None, runs: Path = Path
             raise _usage_error(f"{run_path} already exists: carry it on with 'lccopt resume {run_path}', "
                                f"or start again with 'lccopt optimise {case_obj.path} --force'")
         _check_replaceable(run_path, Path(runs))
-    executor = _start_executor(case_obj, spec, workers, scheduler, problem)
+    executor = _start_executor(case_obj, spec, workers, scheduler, problem,
+                               Progress(0, stream, progress).log)
     try:
         if run_path.exists():
             old = RunDir(run_path)
@@ -133,10 +134,10 @@ def _check_replaceable(run_path: Path, runs: Path) -> None:
                            f"--force only replaces run directories: move or remove it yourself")
 
 
-def _start_executor(case, spec, workers, scheduler, problem):
+def _start_executor(case, spec, workers, scheduler, problem, log=None):
     try:
         executor = make_executor(case, spec, workers, scheduler, problem.timeout)
-        executor.start()
+        executor.start(log)
     except ExecutorError as exc:
         raise _usage_error(str(exc)) from None
     return executor
@@ -175,7 +176,7 @@ def resume(run, workers: int | None = None, scheduler=None, case=None, allow_cha
             ev = journal.append("case_changed", time=now_iso(), case_sha256=sha256_text(case_obj.resolved),
                                 budget=problem.budget, case_file=str(case_obj.path), **extra)
             events.append(ev)
-            rd.case_path.write_text(case_obj.resolved, encoding="utf-8")
+            rd.write_case(case_obj.resolved)
             meta.update(case_sha256=sha256_text(case_obj.resolved), case_file=str(Path(case_obj.path).resolve()))
             rd.write_meta(meta)
         strategy, table = restore(problem, events, rd.load_state())
@@ -198,7 +199,7 @@ def resume(run, workers: int | None = None, scheduler=None, case=None, allow_cha
         note = machine.resume_note(events[0].get("versions"), versions())
         if note:
             out.log(note)
-        executor = _start_executor(case_obj, spec, workers, scheduler, problem)
+        executor = _start_executor(case_obj, spec, workers, scheduler, problem, out.log)
         try:
             engine = Engine(rd, case_obj, problem, journal, table, strategy, executor,
                             Progress(problem.budget, stream, progress))
@@ -214,20 +215,12 @@ def resume(run, workers: int | None = None, scheduler=None, case=None, allow_cha
 
 
 def _lost_files(rd: RunDir, table: Table) -> list[int]:
-    """Ids of evaluations whose file the journal names but which is missing or unreadable."""
-    import h5py
+    """Ids of evaluations whose file the journal names but which is missing, unreadable or not
+    theirs (another evaluation's file copied over it): each is simulated again."""
+    from ..store import evaluation_problem
 
-    lost = []
-    for i, r in sorted(table.rows.items()):
-        if r["status"] != "ok" or not r["file"]:
-            continue
-        try:
-            with h5py.File(rd.path / r["file"], "r") as f:
-                if "objectives" not in f or "histories" not in f:
-                    raise ValueError("incomplete")
-        except (OSError, ValueError, RuntimeError):
-            lost.append(i)
-    return lost
+    return [i for i, r in sorted(table.rows.items()) if r["status"] == "ok" and r["file"]
+            and evaluation_problem(rd.path / r["file"], i, r["x"]) is not None]
 
 
 def _saved_evaluator(meta: dict):
@@ -245,6 +238,14 @@ def _saved_evaluator(meta: dict):
 def _check_options(workers, scheduler) -> None:
     if workers is not None and workers < 1:
         raise _usage_error(f"--workers must be at least 1, got {workers}")
+    if workers is not None:
+        from .executors import max_local_workers
+
+        most, why = max_local_workers()
+        if workers > most:
+            shown = str(workers) if len(str(workers)) <= 12 else f"{str(workers)[:8]}..."
+            raise _usage_error(f"--workers {shown}: at most {most} local workers fit this machine "
+                               f"({why}); use fewer, or --scheduler")
     if workers is not None and scheduler is not None:
         raise _usage_error("--workers and --scheduler exclude each other (the Dask cluster decides "
                            "how many evaluations run at once)")
@@ -279,7 +280,20 @@ def _resume_case(rd: RunDir, meta: dict, case, allow_changed: bool, out: Progres
 # ------------------------------------------------------------------------------ restore
 
 def restore(problem: Problem, events: list[dict], snapshot: dict | None):
-    """Optimiser and table after the journal's events (snapshot + replay of the rest)."""
+    """Optimiser and table after the journal's events (snapshot + replay of the rest).
+
+    The snapshot is a cache: one that does not replay (stale, foreign, from another version)
+    is dropped and the whole journal replayed."""
+    seq = snapshot.get("seq") if isinstance(snapshot, dict) else None
+    if isinstance(seq, int) and 0 <= seq < len(events) and snapshot.get("mark") == line_mark(events[seq]):
+        try:
+            return _restore(problem, events, snapshot)
+        except JournalError:
+            pass
+    return _restore(problem, events, None)
+
+
+def _restore(problem: Problem, events: list[dict], snapshot: dict | None):
     from ..optim.strategy import Strategy
 
     table = Table(list(problem.names), list(problem.objectives))
@@ -291,7 +305,7 @@ def restore(problem: Problem, events: list[dict], snapshot: dict | None):
                                f" is not a valid event ({type(exc).__name__}: {exc}); the journal was "
                                f"changed by something other than lccopt") from None
     strategy, start = None, 0
-    if snapshot is not None and 0 <= int(snapshot["seq"]) < len(events):
+    if snapshot is not None and 0 <= snapshot["seq"] < len(events):
         try:
             strategy = Strategy.from_state(snapshot["strategy"])
             start = int(snapshot["seq"]) + 1
@@ -449,8 +463,8 @@ class Engine:
     def restore_files(self, ids: list[int], out: Progress) -> None:
         """Simulate again the evaluations whose file was deleted or damaged (no budget spent)."""
         if ids:
-            out.log(f"{len(ids)} evaluation file(s) missing or unreadable, simulating them again: "
-                    f"{', '.join('#' + str(i) for i in ids[:8])}{' ...' if len(ids) > 8 else ''}")
+            out.log(f"{len(ids)} evaluation file(s) lost or damaged, simulating them again: "
+                    f"{', '.join('#' + str(i) for i in ids[:6])}{' ...' if len(ids) > 6 else ''}")
         self._restore = list(ids)
 
     # -- main ---------------------------------------------------------------------------------------
@@ -484,6 +498,8 @@ class Engine:
                 p.log(f"running again {len(requeue)} evaluation(s) that were in flight: "
                       f"{', '.join('#' + str(i) for i in requeue)}")
             while True:
+                if PipeGuard.closed_pipe and not self.abort:  # | head went away: stop as SIGPIPE would
+                    self.stop = self.abort = True
                 if self.stop:
                     self._held = False
                 submitted = 0 if self.stop else self._fill(requeue)
@@ -615,8 +631,7 @@ class Engine:
     def _submit(self, row: dict) -> None:
         out = None
         if self.executor.kind == "local":
-            self.rd.evals_path.mkdir(exist_ok=True)  # deleted under the run: make it again
-            out = str(self.rd.path / eval_name(row["id"]))
+            out = str(self.rd.evals_dir() / Path(eval_name(row["id"])).name)
         self.executor.submit(Task(row["id"], list(row["x"]), row["phase"], row["restart"], out))
 
     def _record(self, o: Outcome) -> None:
@@ -696,7 +711,7 @@ class Engine:
         if self.table.seq == self._saved_seq:
             return
         t0 = time.perf_counter()
-        self.rd.save_state(self.table.seq, self.strategy.state_dict())
+        self.rd.save_state(self.table.seq, self.strategy.state_dict(), line_mark(self.table.last_event))
         self._saved_seq = self.table.seq
         self._snapshot_at = time.monotonic()
         self.t_bookkeeping += time.perf_counter() - t0

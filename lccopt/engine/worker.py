@@ -194,9 +194,9 @@ def local_worker_main(fd: int, parent_pid: int, slot: int) -> None:
             code = os.waitstatus_to_exitcode(status)
             if code == _STOP:  # stop message, or the pipe closed
                 return
-            if code != 0:      # the evaluation killed its process: report it for the task
+            if code != 0:      # the evaluation's process died: report it for the task
                 try:
-                    conn.send(("crashed", _death_reason(code)))
+                    conn.send(("crashed", _death_reason(code), code < 0))
                 except OSError:
                     return
         else:

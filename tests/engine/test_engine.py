@@ -10,7 +10,7 @@ import pytest
 
 from lccopt.case import CaseError, design_items, load_case
 from lccopt.cli import UsageError
-from lccopt.engine.journal import Journal, JournalError, read_journal
+from lccopt.engine.journal import Journal, JournalError, line_mark, read_journal
 from lccopt.engine.rundir import RunDir
 from lccopt.engine.runner import optimise, restore, resume
 from lccopt.problem import Problem
@@ -119,7 +119,7 @@ def test_snapshot_plus_replay_equals_full_replay(tmp_path):
     # And from a snapshot taken at any earlier point: state after k events, then replay the rest.
     for k in (3, 10, 20, len(events) - 3):
         part, _ = restore(pb, events[:k], None)
-        mid = {"seq": k - 1, "strategy": part.state_dict()}
+        mid = {"seq": k - 1, "mark": line_mark(events[k - 1]), "strategy": part.state_dict()}
         again, _ = restore(pb, events, mid)
         assert again.state_dict() == full.state_dict()
 

@@ -171,7 +171,7 @@ def test_deleted_evaluation_files_are_simulated_again_without_spending_budget(tm
     shutil.rmtree(run / "evals")
     r = cli_run("resume", run, "--workers", "1", env=ENV)
     assert r.returncode == 0, r.stderr
-    assert "8 evaluation file(s) missing or unreadable" in r.stderr
+    assert "8 evaluation file(s) lost or damaged" in r.stderr
     assert_same_evaluations(before, read_table(run))
     assert sorted(p.name for p in (run / "evals").iterdir()) == [f"{i:06d}.h5" for i in range(8)]
     assert not [e for e in _events(run) if e["event"] == "failed"]
