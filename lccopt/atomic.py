@@ -34,6 +34,13 @@ def atomic_path(path):
     """Yield a temporary path next to ``path``; on success it is fsynced and renamed to
     ``path``; on failure it is removed."""
     path = Path(path)
+    # a link in the way is replaced, never followed (rename does not follow it); a folder or a
+    # special file is refused with its own name (rename would otherwise name the temporary file)
+    if os.path.lexists(path) and not os.path.islink(path) and not os.path.isfile(path):
+        from .safeio import UnsafeFile, kind_of
+
+        raise UnsafeFile(path, f"{kind_of(os.lstat(path).st_mode)} where lccopt writes a file of its "
+                               f"own: remove it")
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name + ".", suffix=".tmp")
     os.close(fd)
     normal_mode(tmp)

@@ -125,11 +125,12 @@ def report(
     run: Path = typer.Argument(..., help="run directory, e.g. runs/moo"),
     format: Format = typer.Option(Format.both, "--format", help="summary format"),
     out: Optional[Path] = typer.Option(None, "--out", help="output directory (default: RUN/report)"),
+    force: bool = typer.Option(False, "--force", help="replace a report already in --out"),
 ) -> None:
     """Write figures and a summary of a run into RUN/report/ (or --out)."""
     from .report import write_report
 
-    write_report(run, format.value, out)
+    write_report(run, format.value, out, force)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -169,6 +169,11 @@ class RunDir:
                 check_owned_dir(self.evals_path)
             except UnsafeFile as exc:
                 raise RunError(f"{exc}") from None
+            for entry in os.scandir(self.evals_path):
+                if not entry.is_file(follow_symlinks=False):
+                    raise RunError(f"{entry.path}: {kind_of(entry.stat(follow_symlinks=False).st_mode)} "
+                                   f"among the run's evaluation files; lccopt never reads or writes "
+                                   f"through it: remove it")
 
     def evals_dir(self) -> Path:
         """evals/, made again if it was deleted under the run; never a link (UnsafeFile)."""

@@ -30,6 +30,7 @@ objectives fix the ASF reference point (``reference`` line) before any value is 
 
 from __future__ import annotations
 
+import os
 import shutil
 import signal
 import sys
@@ -83,6 +84,10 @@ def optimise(case, workers: int | None = None, scheduler=None, runs: Path = Path
     run_path = Path(runs) / case_obj.name
     if not SAFE_NAME.fullmatch(case_obj.name):  # load_case checks it too: never '.', '..' or a path
         raise _usage_error(f"case name {case_obj.name!r} cannot name a run directory")
+    _check_runs_folder(Path(runs))
+    if os.path.lexists(run_path) and not run_path.is_dir():
+        raise _usage_error(f"{run_path} is {_kind(run_path)}, not a run directory: move it, or give "
+                           f"the case another name")
     if run_path.exists() or run_path.is_symlink():
         if not force:
             raise _usage_error(f"{run_path} already exists: carry it on with 'lccopt resume {run_path}', "
@@ -116,6 +121,29 @@ def optimise(case, workers: int | None = None, scheduler=None, runs: Path = Path
         executor.close()
         rd.unlock()
     return rd.path
+
+
+def _kind(path: Path) -> str:
+    from ..safeio import kind_of
+
+    try:
+        if path.is_symlink() and not path.exists():
+            return "a symbolic link that leads nowhere (a loop or a missing target)"
+        return "a regular file" if path.is_file() else kind_of(os.lstat(path).st_mode)
+    except OSError as exc:  # e.g. a symbolic link loop
+        return f"unusable ({exc.strerror or exc})"
+
+
+def _check_runs_folder(runs: Path) -> None:
+    """--runs must be a folder (or one that can be made): never a file, a device or a loop."""
+    if not os.path.lexists(runs):
+        return
+    try:
+        if runs.is_dir():
+            return
+    except OSError:
+        pass
+    raise _usage_error(f"--runs {runs} is {_kind(runs)}, not a folder for run directories")
 
 
 def _check_replaceable(run_path: Path, runs: Path) -> None:
@@ -171,6 +199,10 @@ def resume(run, workers: int | None = None, scheduler=None, case=None, allow_cha
         if events and events[0].get("objectives") not in (None, list(problem.objectives)):
             raise _usage_error(f"the case's objectives {list(problem.objectives)} differ from the run's "
                                f"{events[0]['objectives']}; start a new run instead")
+        asked = sum(ev.get("event") == "asked" for ev in events)
+        if problem.budget < asked:
+            raise _usage_error(f"the case's budget of {problem.budget} is below the {asked} evaluations "
+                               f"the run has already asked for; give a budget of at least {asked}")
         if meta.get("case_sha256") != sha256_text(case_obj.resolved):
             extra = {"worst": list(problem.worst), "rho": problem.rho} if problem.multi and problem.worst else {}
             ev = journal.append("case_changed", time=now_iso(), case_sha256=sha256_text(case_obj.resolved),
@@ -225,8 +257,6 @@ def _lost_files(rd: RunDir, table: Table) -> list[int]:
 
 def _saved_evaluator(meta: dict):
     """The evaluator the run was started with, unless it was the default."""
-    import os
-
     from .worker import DEFAULT_EVALUATOR, ENV_EVALUATOR
 
     if os.environ.get(ENV_EVALUATOR):
@@ -244,8 +274,8 @@ def _check_options(workers, scheduler) -> None:
         most, why = max_local_workers()
         if workers > most:
             shown = str(workers) if len(str(workers)) <= 12 else f"{str(workers)[:8]}..."
-            raise _usage_error(f"--workers {shown}: at most {most} local workers fit this machine "
-                               f"({why}); use fewer, or --scheduler")
+            raise _usage_error(f"--workers {shown}: at most {most} local workers fit here ({why}); "
+                               f"use fewer, or --scheduler")
     if workers is not None and scheduler is not None:
         raise _usage_error("--workers and --scheduler exclude each other (the Dask cluster decides "
                            "how many evaluations run at once)")
@@ -267,14 +297,36 @@ def _resume_case(rd: RunDir, meta: dict, case, allow_changed: bool, out: Progres
                 f"the case file {case_obj.path} changed since the run started (the resolved case "
                 f"differs from {rd.case_path}); restore it, resume with --case {rd.case_path} (the "
                 f"run's copy), or with --allow-changed-case to use the changed case")
-        old = Problem.from_case(load_case(rd.case_path))
-        new = Problem.from_case(case_obj)
+        old_case = load_case(rd.case_path)
+        old, new = Problem.from_case(old_case), Problem.from_case(case_obj)
         if not old.same_space(new):
             raise _usage_error(f"the changed case {case_obj.path} has other design variables, bounds, "
                                f"scales, reference design or objectives; start a new run instead")
+        refused = [k for k in changed_keys(old_case.data, case_obj.data) if k not in HONOURED_CHANGES]
+        if refused:
+            raise _usage_error(f"{case_obj.path}: {refused[0]} changed since the run started; only "
+                               f"budget, timeout, asf.worst and asf.rho may: start a new run")
         out.log(f"the case file {case_obj.path} changed since the run started: carrying on with it "
                 f"(--allow-changed-case)")
     return case_obj
+
+
+# What a run can carry on with when its case changed: how far it goes and how long an
+# evaluation may take, and the ASF's worst values and rho (journalled, so a replay scores the
+# later evaluations as the run did). Anything else (the seed, the initial design, the track,
+# the simulation) would make the run's evaluations disagree with its case.
+HONOURED_CHANGES = ("optimisation.budget", "optimisation.timeout", "optimisation.asf.worst",
+                    "optimisation.asf.rho", "description")
+
+
+def changed_keys(old, new, path: str = "") -> list[str]:
+    """Dotted key paths whose values differ between two resolved cases."""
+    if isinstance(old, dict) and isinstance(new, dict):
+        out = []
+        for k in list(old) + [k for k in new if k not in old]:
+            out += changed_keys(old.get(k), new.get(k), f"{path}.{k}" if path else k)
+        return out
+    return [] if old == new else [path]
 
 
 # ------------------------------------------------------------------------------ restore
@@ -287,10 +339,29 @@ def restore(problem: Problem, events: list[dict], snapshot: dict | None):
     seq = snapshot.get("seq") if isinstance(snapshot, dict) else None
     if isinstance(seq, int) and 0 <= seq < len(events) and snapshot.get("mark") == line_mark(events[seq]):
         try:
-            return _restore(problem, events, snapshot)
+            strategy, table = _restore(problem, events, snapshot)
+            if _agrees(strategy, table):
+                return strategy, table
         except JournalError:
             pass
     return _restore(problem, events, None)
+
+
+def _agrees(strategy, table: Table) -> bool:
+    """The optimiser restored from a snapshot holds exactly the journal's proposals, and the
+    results it was told are the journal's (a snapshot that claims a line it does not reflect
+    would otherwise carry on from another state)."""
+    history = strategy.history
+    if len(history) != len(table.rows):
+        return False
+    for rec in history:
+        row = table.rows.get(rec["id"])
+        if row is None or not np.array_equal(np.asarray(row["x"], dtype=float), rec["x"]):
+            return False
+        if rec["status"] != "pending" and (rec["status"] != row["status"] or (
+                row["status"] == "ok" and rec["value"] != row["value"])):
+            return False
+    return True
 
 
 def _restore(problem: Problem, events: list[dict], snapshot: dict | None):

@@ -30,9 +30,11 @@ from __future__ import annotations
 
 import json
 import math
+import os
 from pathlib import Path
 
 from ..atomic import atomic_write_text
+from ..safeio import UnsafeFile, check_owned_dir
 from .data import FIGURES, FORMATS, _usage, load_run, pct, read_history
 from .figures import (fig_best_vs_reference, fig_conditions, fig_contact_force, fig_objective_space,
                       fig_search_history, fig_sensitivity, fig_sleeper_energy, fig_track_layout)
@@ -41,9 +43,13 @@ from .summary import build_summary, history_facts
 __all__ = ["write_report"]
 
 
-def write_report(run: Path, format: str = "both", out: Path | None = None) -> Path:
+REPORT_FILES = ("report.md", "report.html", "summary.json")
+
+
+def write_report(run: Path, format: str = "both", out: Path | None = None, force: bool = False) -> Path:
     """Write figures and the summary of run directory RUN into OUT (default RUN/report/);
-    return that directory."""
+    return that directory. A folder of the user's (``out``) that already holds a report's
+    files is refused unless ``force``: a report replaces its own files only."""
     import time
 
     t0 = time.perf_counter()
@@ -51,18 +57,35 @@ def write_report(run: Path, format: str = "both", out: Path | None = None) -> Pa
     if fmt_ not in FORMATS:
         raise _usage(f"--format must be one of {', '.join(FORMATS)}, got {format!r}")
     data = load_run(Path(run))
+    import typer
+
+    for warning in data.warnings:
+        typer.echo(f"lccopt: warning: {warning}", err=True)
     own = data.path / "report"
-    out = own if out is None else Path(out)
+    theirs = out is not None and Path(out).absolute() != own.absolute()
+    out = Path(out) if theirs else own
+    if not theirs and os.path.lexists(own):
+        try:
+            check_owned_dir(own)   # a link planted as RUN/report is never written through
+        except UnsafeFile as exc:
+            raise _usage(str(exc)) from None
+    if out.exists() and not out.is_dir():
+        raise _usage(f"--out {out} is a file, not a folder")
+    if theirs and not force:
+        taken = [n for n in (*REPORT_FILES, *(f"{f}.png" for f in FIGURES)) if os.path.lexists(out / n)]
+        if taken:
+            raise _usage(f"{out} already holds {taken[0]}{' and more' if len(taken) > 1 else ''}: "
+                         f"choose another --out, or add --force to replace them")
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise _usage(f"cannot create {out}: {exc.strerror or exc}") from None
-    if out.resolve() == own.resolve():
+    if not theirs:
         # figures of an earlier report that this one may not redraw; only ever inside the run
         # directory: a user's --out folder is written to, never cleaned
         for name in FIGURES:
             p = out / f"{name}.png"
-            if p.exists():
+            if os.path.lexists(p):
                 p.unlink()
 
     figs: dict[str, Path] = {}
@@ -106,7 +129,6 @@ def write_report(run: Path, format: str = "both", out: Path | None = None) -> Pa
         wrote.append(out / "report.html")
     summary["seconds"] = round(time.perf_counter() - t0, 2)
     atomic_write_text(out / "summary.json", json.dumps(summary, indent=2, allow_nan=True) + "\n")
-    import typer
 
     typer.echo(f"report of '{data.name}' ({data.n}/{data.budget} evaluations, {data.state})")
     if "best" in summary:  # a line of its own: one line would wrap on an 80-column terminal

@@ -4,12 +4,14 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from ..safeio import h5_open_owned, is_regular_file, read_owned
 from ..vti.response import OBJECTIVE_DOC, objective_display as obj_display  # noqa: F401 (re-exported)
 
 FORMATS = ("md", "html", "both")
@@ -89,6 +91,7 @@ class RunData:
     case: object = None            # lccopt.case.Case when the run's case could be loaded
     case_note: str = ""
     notes: list[str] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)   # also said on the screen
     created: str = ""
     updated: str = ""
     sessions_wall: float = math.nan
@@ -154,7 +157,7 @@ def _load_case(run: Path, resolved_text: str | None):
     from ..case import CaseError, load_case
 
     candidates = []
-    if (run / "case.yaml").is_file():
+    if is_regular_file(run / "case.yaml"):   # never a link planted in the run
         candidates.append(run / "case.yaml")
     why = "no case.yaml in the run directory"
     for p in candidates:
@@ -184,7 +187,12 @@ def _lock_state(run: Path) -> str:
     could have been reused by another program; the kernel's lock cannot lie)."""
     from ..engine.rundir import RunDir
 
-    return "running" if RunDir(run).locked_by_other() else "stopped"
+    from ..engine.rundir import RunError
+
+    try:
+        return "running" if RunDir(run).locked_by_other() else "stopped"
+    except RunError as exc:
+        raise _usage(str(exc)) from None
 
 
 def load_run(path: Path) -> RunData:
@@ -197,8 +205,8 @@ def load_run(path: Path) -> RunData:
         raise _usage(f"{run}: no such run directory")
     if not run.is_dir():
         raise _usage(f"{run}: not a directory (expected a run directory such as runs/<case name>)")
-    has_results = (run / "results.h5").is_file()
-    has_journal = (run / "journal.jsonl").is_file()
+    has_results = os.path.lexists(run / "results.h5")
+    has_journal = os.path.lexists(run / "journal.jsonl")
     if not has_results and not has_journal:
         raise _usage(f"{run}: not an lccopt run directory (no results.h5 or journal.jsonl)")
 
@@ -210,17 +218,19 @@ def load_run(path: Path) -> RunData:
         except (OSError, KeyError, ValueError) as exc:
             res_error = f"{run / 'results.h5'} is unreadable ({exc})"
     events: list[dict] = []
+    journal_error = ""
     if has_journal:
         try:
             events, _, _ = read_journal(run / "journal.jsonl")
         except (JournalError, OSError) as exc:
             if res is None:
                 raise _usage(f"{run}: cannot read the run: {res_error or 'no results.h5'}; {exc}") from None
+            journal_error = f"{exc}; the table is results.h5's, which may lag the run"
     if res is None and not events:
         raise _usage(f"{run}: cannot read the run: {res_error or 'no results.h5 and an empty journal'}")
 
     journal_seq = events[-1]["seq"] if events else -1
-    notes = []
+    notes = [journal_error] if journal_error else []
     if res is not None and (not events or res["journal_seq"] >= journal_seq):
         d, source = res, "results.h5"
     else:
@@ -279,7 +289,7 @@ def load_run(path: Path) -> RunData:
         pareto=d["pareto"], ref_x=d["ref_x"], ref_objectives=d["ref_objectives"], ref_point=d["ref_point"],
         worst=d["worst"], rho=d["rho"], improvement=d["improvement"], n_pending=int(d["n_pending"]),
         finished=bool(d["finished"]), state=state, source=source, case=case, case_note=case_note,
-        notes=notes, created=created, updated=d.get("updated", ""),
+        notes=notes, warnings=[journal_error] if journal_error else [], created=created, updated=d.get("updated", ""),
         sessions_wall=float(sum(sessions)) if sessions else math.nan,
         conditions=list(d.get("conditions", [])), cond_obj=d.get("cond_obj", {}))
 
@@ -288,7 +298,7 @@ def _read_results(path: Path) -> dict:
     """Everything the report needs from results.h5, read at once into memory."""
     import h5py
 
-    with h5py.File(path, "r") as f:
+    with h5_open_owned(path) as f:
         a = f.attrs
         e = f["evaluations"]
         ids = e["id"][()].astype(int)
@@ -391,14 +401,14 @@ def _names_from_case_yaml(run: Path) -> list[str] | None:
 
 def _case_name(run: Path) -> str:
     try:
-        return json.loads((run / "run.json").read_text(encoding="utf-8")).get("name", run.name)
+        return json.loads(read_owned(run / "run.json", 1_000_000).decode("utf-8")).get("name", run.name)
     except (OSError, ValueError):
         return run.name
 
 
 def read_history(run: RunData, index: int | None) -> tuple[dict | None, dict, str]:
     """(histories, info, note) of evaluation ``index`` from its file; histories None if unreadable."""
-    from ..store import read_evaluation
+    from ..store import evaluation_problem, read_evaluation
 
     if index is None:
         return None, {}, "no evaluation"
@@ -406,8 +416,9 @@ def read_history(run: RunData, index: int | None) -> tuple[dict | None, dict, st
     if not f:
         return None, {}, f"evaluation #{run.ids[index]} has no histories file"
     p = run.path / f
-    if not p.is_file():
-        return None, {}, f"{f} is missing"
+    problem = evaluation_problem(p, int(run.ids[index]), run.x[index])
+    if problem is not None:
+        return None, {}, f"{f} is {problem}" if problem in ("missing", "incomplete") else f"{f} {problem}"
     try:
         _, ev = read_evaluation(p)
     except Exception as exc:  # noqa: BLE001 - a damaged file is a note, not a crash
