@@ -110,6 +110,10 @@ def open_owned(path, mode: str = "rb"):
     flags = {"rb": os.O_RDONLY, "ab": os.O_WRONLY | os.O_APPEND | os.O_CREAT,
              "a+": os.O_RDWR | os.O_APPEND | os.O_CREAT}[mode]
     fd = _open(path, flags, follow=False)
+    if mode != "rb" and os.fstat(fd).st_nlink > 1:   # a hard link is a link too
+        os.close(fd)
+        raise UnsafeFile(path, "has other hard links; lccopt never writes to a file that is also "
+                               "elsewhere (copy it instead)", errno.EMLINK)
     return os.fdopen(fd, mode)
 
 

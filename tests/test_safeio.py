@@ -47,6 +47,12 @@ def test_owned_files_are_never_opened_through_a_link(tmp_path):
     for mode in ("rb", "ab", "a+"):
         with pytest.raises(safeio.UnsafeFile, match="FIFO"):
             safeio.open_owned(fifo, mode)
+    hard = tmp_path / "hard"
+    os.link(outside, hard)       # a hard link: the same file under two names
+    for mode in ("ab", "a+"):
+        with pytest.raises(safeio.UnsafeFile, match="hard links"):
+            safeio.open_owned(hard, mode)
+    assert outside.read_text() == "precious"
     new = tmp_path / "new"
     with safeio.open_owned(new, "ab") as fh:
         fh.write(b"ok")
