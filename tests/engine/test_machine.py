@@ -4,6 +4,7 @@ resume, and the environment that pins them named (README, "Reproducibility")."""
 from __future__ import annotations
 
 import json
+import os
 import platform
 import subprocess
 import sys
@@ -27,8 +28,11 @@ x86_openblas = pytest.mark.skipif(
 
 
 def _describe_with(env: dict) -> dict:
+    """The entries of a new process started with ENV on top of this one's environment (which
+    may pin kernels or SIMD targets itself: the tests compare with this process, NATIVE)."""
     code = "import json; from lccopt import machine; print(json.dumps(machine.describe()))"
-    out = subprocess.run([sys.executable, "-c", code], env={"PYTHONPATH": str(REPO), **env},
+    out = subprocess.run([sys.executable, "-c", code],
+                         env={**os.environ, "PYTHONPATH": str(REPO), **env},
                          capture_output=True, text=True, check=True)
     return json.loads(out.stdout)
 
@@ -43,7 +47,8 @@ def test_the_recorded_simd_targets_follow_npy_disable_cpu_features():
     on = NATIVE["numpy_simd"].split()
     if len(on) < 2 or "unknown" in on:
         pytest.skip("numpy dispatches to fewer than two SIMD targets here")
-    assert _describe_with({"NPY_DISABLE_CPU_FEATURES": " ".join(on[1:])})["numpy_simd"] == on[0]
+    off = os.environ.get("NPY_DISABLE_CPU_FEATURES", "").split() + on[1:]   # the user's, and more
+    assert _describe_with({"NPY_DISABLE_CPU_FEATURES": " ".join(off)})["numpy_simd"] == on[0]
 
 
 def test_resume_note_names_what_changed_and_how_to_pin_it():
