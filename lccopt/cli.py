@@ -121,6 +121,19 @@ def resume(
 
 
 @app.command()
+def status(run: Path = typer.Argument(..., help="run directory, e.g. runs/moo")) -> None:
+    """Where a run stands: state, evaluations, best so far, pace (safe while it runs)."""
+    from .engine.rundir import RunError
+    from .engine.status import status_lines
+
+    try:
+        lines = status_lines(run)
+    except RunError as exc:
+        raise UsageError(str(exc)) from None
+    typer.echo("\n".join(lines))
+
+
+@app.command()
 def report(
     run: Path = typer.Argument(..., help="run directory, e.g. runs/moo"),
     format: Format = typer.Option(Format.both, "--format", help="summary format"),

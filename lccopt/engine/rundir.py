@@ -107,6 +107,8 @@ class RunDir:
                 "format": RUN_FORMAT, "version": RUN_VERSION, "name": case.name,
                 "case_file": str(Path(case.path).resolve()), "case_sha256": sha256_text(resolved),
                 "created": now_iso(), "versions": versions(), "evaluator": evaluator,
+                # how each design variable is shown (name, unit, factor from SI): status reads it
+                "variables": [[v.name, *v.display] for v in case.variables],
             }
             (tmp / "case.yaml").write_text(resolved, encoding="utf-8")
             (tmp / "case.source.yaml").write_text(case.text, encoding="utf-8")

@@ -734,7 +734,8 @@ class Engine:
                                  attrs={"id": o.id, "phase": row["phase"], "restart": row["restart"],
                                         "worker": o.worker, "wall_time": o.wall_time, **o.machine})
                 file = eval_name(o.id)
-        common = dict(id=o.id, objectives=objectives or {}, wall_time=o.wall_time, worker=o.worker, file=file)
+        common = dict(id=o.id, objectives=objectives or {}, wall_time=o.wall_time, worker=o.worker, file=file,
+                      at=round(time.time(), 3))  # when it was committed: `lccopt status` rates
         if error is None:
             if o.id == 0 and self.table.reference is None:
                 point = pb.reference_point(objectives)  # CaseError if worst <= reference point
