@@ -27,7 +27,7 @@ from .terminal import PipeGuard, wrap_items
 
 EXIT_OK, EXIT_INTERNAL, EXIT_USAGE, EXIT_INTERRUPTED, EXIT_PIPE = 0, 1, 2, 130, 141
 
-app = typer.Typer(no_args_is_help=True, pretty_exceptions_enable=False,
+app = typer.Typer(no_args_is_help=True, pretty_exceptions_enable=False, rich_markup_mode=None,
                   help="Optimise railway level crossings and their transition zones.\n\n"
                        "Objectives (paper Sec. 2.2.2), over the evaluation zone next to the interface: "
                        "F_rms and F_max, the rms and the max - min of the wheel-rail contact force (kN); "
@@ -156,6 +156,8 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _main(argv, usage_errors, aborts) -> int:
+    if not (sys.argv[1:] if argv is None else argv):
+        argv = ["--help"]  # bare `lccopt`: its help, and success
     try:
         # non-standalone click returns the code of a typer.Exit instead of raising it
         code = app(args=argv, standalone_mode=False)
