@@ -101,20 +101,30 @@ def write_report(run: Path, format: str = "both", out: Path | None = None, force
         p = fig_conditions(data, bi, ri, out)
         if p is not None:
             figs["conditions"] = p
-        hb, ib, nb = read_history(data, bi)
-        hr, ir, nr = read_history(data, ri) if ri is not None else (None, {}, "the reference design was not "
-                                                                       "evaluated successfully")
-        why = "; ".join(n for n in (nb and f"best: {nb}", nr and f"reference: {nr}") if n)
+        # with traffic conditions, each figure shows the condition that sets its objective's
+        # worst case for the best design (the histories of one simulation)
+        shown = {"contact-force": data.setting_condition("F_max", bi),
+                 "sleeper-energy": data.setting_condition("E_max", bi), "track-layout": None}
+        histories = {}
         for key, fn in (("contact-force", fig_contact_force), ("sleeper-energy", fig_sleeper_energy),
                         ("track-layout", fig_track_layout)):
-            p = fn(data, (hb, ib), (hr, ir), bi, out)
+            c = shown[key]
+            if c not in histories:
+                hb, ib, nb = read_history(data, bi, c)
+                hr, ir, nr = read_history(data, ri, c) if ri is not None else (
+                    None, {}, "the reference design was not evaluated successfully")
+                why = "; ".join(n for n in (nb and f"best: {nb}", nr and f"reference: {nr}") if n)
+                histories[c] = ((hb, ib), (hr, ir), why)
+            best, ref, why = histories[c]
+            p = fn(data, best, ref, bi, out, condition=c)
             if p is not None:
                 figs[key] = p
                 if why and key != "track-layout":
                     notes[key] = why
             else:
                 notes[key] = why or "the evaluation files hold no such histories (e.g. a test evaluator)"
-        facts = history_facts((hb, ib), (hr, ir))
+        best, ref, _ = histories[shown["sleeper-energy"]]
+        facts = history_facts(best, ref, shown["sleeper-energy"])
     else:
         facts = []
     figs["sensitivity"] = fig_sensitivity(data, out)

@@ -116,6 +116,16 @@ class RunData:
             return None
         return int(ok[np.lexsort((self.ids[ok], self.value[ok]))[0]])
 
+    def setting_condition(self, objective: str, index: int | None) -> str | None:
+        """The traffic condition whose value of ``objective`` is the largest for evaluation
+        ``index``: the one that sets a worst case (None without conditions)."""
+        if not self.conditions or index is None or objective not in self.cond_obj.get(self.conditions[0], {}):
+            return None
+        values = [float(self.cond_obj[c][objective][index]) for c in self.conditions]
+        if not np.isfinite(values).any():
+            return None
+        return self.conditions[int(np.nanargmax(values))]
+
     def ref_index(self) -> int | None:
         """The reference design's evaluation (always proposal 0), or one with the same x."""
         hit = np.flatnonzero(self.ids == 0)
@@ -406,9 +416,11 @@ def _case_name(run: Path) -> str:
         return run.name
 
 
-def read_history(run: RunData, index: int | None) -> tuple[dict | None, dict, str]:
-    """(histories, info, note) of evaluation ``index`` from its file; histories None if unreadable."""
-    from ..store import evaluation_problem, read_evaluation
+def read_history(run: RunData, index: int | None, condition: str | None = None
+                 ) -> tuple[dict | None, dict, str]:
+    """(histories, info, note) of evaluation ``index`` from its file (under traffic condition
+    ``condition``, if given); histories None if unreadable."""
+    from ..store import evaluation_problem, read_conditions, read_evaluation
 
     if index is None:
         return None, {}, "no evaluation"
@@ -420,9 +432,11 @@ def read_history(run: RunData, index: int | None) -> tuple[dict | None, dict, st
     if problem is not None:
         return None, {}, f"{f} is {problem}" if problem in ("missing", "incomplete") else f"{f} {problem}"
     try:
-        _, ev = read_evaluation(p)
+        ev = read_conditions(p).get(condition) if condition else read_evaluation(p)[1]
     except Exception as exc:  # noqa: BLE001 - a damaged file is a note, not a crash
         return None, {}, f"{f} is unreadable ({type(exc).__name__}: {exc})"
+    if ev is None:
+        return None, {}, f"{f} holds no condition {condition}"
     return ev.histories, ev.info, ""
 
 
@@ -447,6 +461,8 @@ def fnum(v: float, sig: int = 5) -> str:
 def pct(new: float, old: float) -> str:
     if not (np.isfinite(new) and np.isfinite(old)) or old == 0:
         return "–"
+    if new == old:
+        return "0 %"
     return f"{(new - old) / abs(old) * 100:+.1f} %"
 
 

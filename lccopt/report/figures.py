@@ -366,8 +366,13 @@ def _zone_marks(ax, info: dict, xmax: float, label: bool = True):
         ax.axvspan(x_a, min(x_b, xmax), color="0.88", zorder=0, label="ERS (level crossing)" if label else None)
         ax.axvline(x_a, color="0.3", lw=0.9, zorder=1)
     if "zone_start" in info and "zone_end" in info:
-        ax.axvspan(info["zone_start"], info["zone_end"], color=ZONE_COLOR, alpha=0.18, zorder=0,
+        # a solid strip along the bottom and dashed ends, not a translucent band: over the ERS's
+        # grey a band would mix into a colour that no legend entry shows
+        lo, hi = sorted((info["zone_start"], info["zone_end"]))
+        ax.axvspan(lo, hi, ymin=0.0, ymax=0.025, color=ZONE_COLOR, zorder=1,
                    label="force evaluation zone" if label else None)
+        for x in (lo, hi):
+            ax.axvline(x, color=ZONE_COLOR, lw=0.8, ls="--", zorder=1)
 
 
 def speed_text(info: dict, case=None) -> str:
@@ -397,9 +402,11 @@ def sleeper_ticks(ax, positions, color: str, row: int, label: str | None) -> Non
                   color=color, lw=1.2, zorder=5, label=label)
 
 
-def fig_contact_force(run: RunData, best: tuple, ref: tuple, bi: int, out: Path) -> Path | None:
-    """Contact force along the track for the best and the reference design, with the force zone,
-    the sleepers of each design, and F_max drawn as the max - min range it is."""
+def fig_contact_force(run: RunData, best: tuple, ref: tuple, bi: int, out: Path,
+                      condition: str | None = None) -> Path | None:
+    """Contact force along the track for the best and the reference design (under traffic
+    ``condition``, the one that sets the worst F_max), with the force zone, the sleepers of each
+    design, and F_max drawn as the max - min range it is."""
     (hb, ib), (hr, ir) = best, ref
     have = [(h, i) for h, i in (best, ref) if h is not None and "wheel_position" in h and "contact_force" in h]
     if not have:
@@ -413,8 +420,7 @@ def fig_contact_force(run: RunData, best: tuple, ref: tuple, bi: int, out: Path)
     if "zone_start" in info:  # the run-in from static equilibrium is not of interest
         x0 = max(x0, float(info["zone_start"]) - 2.0)
     zone = (info.get("zone_start", x0), info.get("zone_end", xmax))
-    # a run over traffic conditions: the files' top-level histories are its first condition's
-    first = run.conditions[0] if run.conditions else None
+    first = condition
     fmax_of = (lambda i: run.cond_obj[first]["F_max"][i]) if first else (lambda i: run.obj["F_max"][i])
     ri = run.ref_index()
     curves = []
@@ -450,7 +456,8 @@ def fig_contact_force(run: RunData, best: tuple, ref: tuple, bi: int, out: Path)
     speed = speed_text(info, run.case)
     ax.set(xlabel="wheel position along the track [m]", ylabel="wheel-rail contact force [kN]",
            title="Contact force: best against reference design" + (f", vehicle at {speed}" if speed else "")
-                 + (f"\ncondition {first} (leading wheel; every condition: conditions.png)" if first else ""))
+                 + (f"\ncondition {first}, the best design's worst F_max (leading wheel; every "
+                    f"condition: conditions.png)" if first else ""))
     ax.set_xlim(x0, xmax)
     shown = [h["contact_force"][h["wheel_position"] >= x0] / 1e3 for h, _ in have]
     lo, hi = min(float(v.min()) for v in shown), max(float(v.max()) for v in shown)
@@ -460,7 +467,8 @@ def fig_contact_force(run: RunData, best: tuple, ref: tuple, bi: int, out: Path)
     return _save(fig, out / "contact-force.png")
 
 
-def fig_sleeper_energy(run: RunData, best: tuple, ref: tuple, bi: int, out: Path) -> Path | None:
+def fig_sleeper_energy(run: RunData, best: tuple, ref: tuple, bi: int, out: Path,
+                       condition: str | None = None) -> Path | None:
     """Energy per zone sleeper (profile, as the paper's Fig. 11); E_max = max - min shown as a band."""
     (hb, _), (hr, _) = best, ref
     eb = None if hb is None else hb.get("sleeper_energy")
@@ -495,7 +503,8 @@ def fig_sleeper_energy(run: RunData, best: tuple, ref: tuple, bi: int, out: Path
                        label="standard sleeper (open)")]
     ax.set(xlabel="sleeper number (1 = next to the interface)", ylabel="energy dissipated in the support [J]",
            title="Energy dissipated under each sleeper of the evaluation zone (cf. paper Fig. 11)"
-                 + (f"\ncondition {run.conditions[0]} (every condition: conditions.png)" if run.conditions else ""),
+                 + (f"\ncondition {condition}, the best design's worst E_max (every condition: "
+                    f"conditions.png)" if condition else ""),
            xlim=(0.5, n + 0.5))
     ax.set_xticks(np.arange(1, n + 1))
     fig.legend(handles=handles, loc="lower center", ncol=2, frameon=False)
@@ -529,7 +538,8 @@ def _layout_of(run: RunData, h: dict | None, info: dict, x: np.ndarray) -> dict 
     return lay
 
 
-def fig_track_layout(run: RunData, best: tuple, ref: tuple, bi: int, out: Path) -> Path | None:
+def fig_track_layout(run: RunData, best: tuple, ref: tuple, bi: int, out: Path,
+                     condition: str | None = None) -> Path | None:
     lays = [("reference design", _layout_of(run, ref[0], ref[1], run.ref_x)),
             (f"best design #{run.ids[bi]}", _layout_of(run, best[0], best[1], run.x[bi]))]
     lays = [(t, l) for t, l in lays if l is not None]

@@ -94,15 +94,17 @@ class Doc:
                 f"</title><style>{style}</style></head><body>\n" + "\n".join(body) + "\n</body></html>\n")
 
 
-def history_facts(best: tuple, ref: tuple) -> list[str]:
-    """Sentences on the histories of the best and the reference design (for 'Why it is better')."""
+def history_facts(best: tuple, ref: tuple, condition: str | None = None) -> list[str]:
+    """Sentences on the histories of the best and the reference design (for 'Why it is better'),
+    under ``condition`` (the traffic condition that sets the worst E_max), if given."""
     (hb, ib), (hr, ir) = best, ref
     out = []
     eb = None if hb is None else hb.get("sleeper_energy")
     er = None if hr is None else hr.get("sleeper_energy")
     if eb is not None and er is not None and len(eb) and len(er):
         eb, er = np.asarray(eb, float), np.asarray(er, float)
-        out.append(f"Under sleeper 1, next to the interface, the ballast dissipates {fnum(eb[0], 4)} J instead of "
+        under = f"In condition {condition} (which sets the best design's worst E_max), u" if condition else "U"
+        out.append(f"{under}nder sleeper 1, next to the interface, the ballast dissipates {fnum(eb[0], 4)} J instead of "
                    f"{fnum(er[0], 4)} J ({pct(eb[0], er[0])}); the most loaded zone sleeper is number "
                    f"{int(np.argmax(eb)) + 1} ({fnum(eb.max(), 4)} J) instead of number {int(np.argmax(er)) + 1} "
                    f"({fnum(er.max(), 4)} J), and the spread max - min (E_max) is {fnum(eb.max() - eb.min(), 4)} J "
@@ -298,8 +300,13 @@ def _why_text(run: RunData, bi: int, ri: int | None, notes: dict) -> str:
         r, b = run.ref_objectives.get(k, math.nan), float(run.obj[k][bi])
         if np.isfinite(r) and r:
             s, u = obj_display(k)
-            word = "falls" if b < r else "rises"
-            parts.append(f"{k} {word} from {fnum(r * s, 4)} to {fnum(b * s, 4)} {u} ({pct(b, r)})")
+            setter = run.setting_condition(k, bi)
+            name = f"{k} (worst case, set by {setter})" if setter and _worst_case(run) else k
+            if abs(b - r) <= 5e-4 * abs(r):
+                parts.append(f"{name} is unchanged at {fnum(r * s, 4)} {u}")
+            else:
+                word = "falls" if b < r else "rises"
+                parts.append(f"{name} {word} from {fnum(r * s, 4)} to {fnum(b * s, 4)} {u} ({pct(b, r)})")
     text = "Against the reference design, " + "; ".join(parts) + "." if parts else ""
     diffs = []
     for j, v in enumerate(run.variables):
@@ -312,6 +319,10 @@ def _why_text(run: RunData, bi: int, ri: int | None, notes: dict) -> str:
     else:
         text += " The best design is the reference design."
     return text.strip()
+
+
+def _worst_case(run: RunData) -> bool:
+    return (run.case.condition_mode if run.case is not None else "worst") == "worst"
 
 
 def _conditions_section(doc: Doc, run: RunData, bi: int, ri: int, figs: dict) -> None:
