@@ -15,7 +15,8 @@ Writes into ``RUN/report/`` (or ``--out DIR``):
                            evaluation zone marked)
     sleeper-energy.png     energy dissipated under each zone sleeper, best and reference (Fig. 11)
     track-layout.png       drawing of the entry side next to the interface, best and reference
-    sensitivity.png        each design variable against the value over all evaluations
+    sensitivity.png        variance-based (Sobol') indices of each objective over the design
+                           space, from a cubic RBF of the run's evaluations
     report.md / report.html  the summary (HTML self-contained: figures embedded as base64)
     summary.json           the key numbers, machine-readable
 
@@ -37,7 +38,8 @@ from ..atomic import atomic_write_text
 from ..safeio import UnsafeFile, check_owned_dir
 from .data import FIGURES, FORMATS, _usage, load_run, pct, read_history
 from .figures import (fig_best_vs_reference, fig_conditions, fig_contact_force, fig_objective_space,
-                      fig_search_history, fig_sensitivity, fig_sleeper_energy, fig_track_layout)
+                      fig_search_history, fig_sensitivity, fig_sleeper_energy, fig_track_layout,
+                      sensitivity_of)
 from .summary import build_summary, history_facts
 
 __all__ = ["write_report"]
@@ -127,9 +129,14 @@ def write_report(run: Path, format: str = "both", out: Path | None = None, force
         facts = history_facts(best, ref, shown["sleeper-energy"])
     else:
         facts = []
-    figs["sensitivity"] = fig_sensitivity(data, out)
+    indices = sensitivity_of(data)
+    p = fig_sensitivity(data, out, indices)
+    if p is not None:
+        figs["sensitivity"] = p
+    else:
+        notes["sensitivity"] = "too few successful evaluations to fit a surrogate for the sensitivity indices"
 
-    doc, summary = build_summary(data, figs, notes, facts)
+    doc, summary = build_summary(data, figs, notes, facts, indices)
     wrote = []
     if fmt_ in ("md", "both"):
         atomic_write_text(out / "report.md", doc.markdown())

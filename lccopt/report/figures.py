@@ -31,15 +31,19 @@ def _save(fig, path: Path) -> Path:
     return path
 
 
-def _history_panel(ax, run: RunData, vals: np.ndarray, ylo: float, yhi: float, arrows: bool = True) -> list:
-    """One panel of the search history; returns the legend handles."""
+def _history_panel(ax, run: RunData, vals: np.ndarray, ylo: float, yhi: float, arrows: bool = True,
+                   unit: str | None = None, asf_track: bool = False) -> list:
+    """One panel of the search history; returns the legend handles. ``asf_track``: VALS are one
+    objective of a multi-objective run, and the best-so-far line follows the design that is
+    best by the ASF so far (with a thin line for that objective's own lowest so far)."""
     import matplotlib.transforms as mtransforms
     from matplotlib.lines import Line2D
 
     ok = run.ok & np.isfinite(vals)
     ref_i = run.ref_index()
     clipped = ok & (vals > yhi)
-    unit = "" if run.multi else " " + obj_display(run.objectives[0])[1]
+    if unit is None:
+        unit = "" if run.multi else " " + obj_display(run.objectives[0])[1]
     from matplotlib.ticker import MaxNLocator
 
     ax.xaxis.set_major_locator(MaxNLocator(integer=True))
@@ -77,16 +81,30 @@ def _history_panel(ax, run: RunData, vals: np.ndarray, ylo: float, yhi: float, a
     order = np.argsort(run.ids)
     v = np.where(ok, vals, np.inf)[order]
     best = np.minimum.accumulate(v)
+    if asf_track:   # the objective of the design the ASF ranks best so far
+        lowest = best
+        a = np.where(run.ok & np.isfinite(run.value), run.value, np.inf)[order]
+        at = np.array([int(np.argmin(a[:k + 1])) for k in range(len(a))]) if len(a) else np.zeros(0, int)
+        best = np.where(np.isfinite(a[at]), vals[order][at], np.inf)
     has = np.isfinite(best)
     if has.any():
         xs = np.append(run.ids[order][has], run.ids.max() + 0.5)
         ax.step(xs, np.append(best[has], best[has][-1]), where="post", color=FRONT_COLOR, lw=2.2, zorder=4)
-        handles.append(Line2D([], [], color=FRONT_COLOR, lw=2.2, label="best so far"))
+        handles.append(Line2D([], [], color=FRONT_COLOR, lw=2.2,
+                              label="best so far (by the ASF)" if asf_track else "best so far"))
+        if asf_track and np.isfinite(lowest).any():
+            hl = np.isfinite(lowest)
+            xl = np.append(run.ids[order][hl], run.ids.max() + 0.5)
+            ax.step(xl, np.append(lowest[hl], lowest[hl][-1]), where="post", color=FRONT_COLOR, lw=0.9,
+                    ls=":", zorder=4)
+            handles.append(Line2D([], [], color=FRONT_COLOR, lw=0.9, ls=":",
+                                  label="lowest so far of this objective alone"))
     bi = run.best_index()
     if bi is not None:
         ax.scatter([run.ids[bi]], [vals[bi]], marker="*", s=180, color=BEST_COLOR, edgecolor="k", zorder=7)
         handles.append(Line2D([], [], ls="", marker="*", markersize=12, color=BEST_COLOR, markeredgecolor="k",
-                              label=f"best: #{run.ids[bi]}, {fnum(vals[bi], 4)}{unit}"))
+                              label=f"best by the ASF: #{run.ids[bi]}" if asf_track
+                              else f"best: #{run.ids[bi]}, {fnum(vals[bi], 4)}{unit}"))
     starts = [int(run.ids[run.restart == r].min()) for r in np.unique(run.restart) if r > 0]
     for k, i0 in enumerate(starts):
         ax.axvline(i0 - 0.5, color="k", ls="--", lw=1.0, zorder=2)
@@ -94,7 +112,7 @@ def _history_panel(ax, run: RunData, vals: np.ndarray, ylo: float, yhi: float, a
                 ha="left", fontsize=8, bbox=dict(facecolor="white", edgecolor="none", alpha=0.7, pad=1))
     if starts:
         handles.append(Line2D([], [], color="k", ls="--", lw=1.0, label="restart (fresh design)"))
-    if run.multi and run.ref_point is not None and ylo < 0 < yhi:
+    if run.multi and not asf_track and run.ref_point is not None and ylo < 0 < yhi:
         ax.axhline(0.0, color="0.3", lw=0.8, ls=":")
         handles.append(Line2D([], [], color="0.3", ls=":", lw=0.8, label="0: the reference point f^r"))
     ax.set_ylim(ylo, yhi)
@@ -116,8 +134,11 @@ def _value_range(run: RunData, scale: float, below: float, above: float):
 
 
 def fig_search_history(run: RunData, out: Path) -> Path:
-    """All evaluations (top) and, when it adds detail, a zoom on the best-so-far line (bottom)."""
+    """All evaluations (top) and, when it adds detail, a zoom on the best-so-far line (bottom);
+    a multi-objective run: one panel per objective, in its own units."""
     plt = _plt()
+    if run.multi:
+        return _objective_histories(run, out)
     s, ylabel = value_label(run)
     vals, ok, ylo, yhi = _value_range(run, s, below=2.0, above=2.5)  # room below for failure marks
     zoom = None
@@ -144,6 +165,40 @@ def fig_search_history(run: RunData, out: Path) -> Path:
         axes[1].set_title("zoom on the best so far (after the initial design)", fontsize=9)
     axes[-1].set_xlabel("evaluation number")
     axes[0].legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0, frameon=False)
+    fig.tight_layout()
+    return _save(fig, out / "search-history.png")
+
+
+def _objective_histories(run: RunData, out: Path) -> Path:
+    """The search history of a multi-objective run in engineering units: each objective's value
+    of every evaluation, and of the design the ASF ranks best so far."""
+    plt = _plt()
+    k = len(run.objectives)
+    fig, axes = plt.subplots(k, 1, figsize=(10, 2.2 + 2.6 * k), sharex=True)
+    handles = []
+    for ax, name in zip(np.atleast_1d(axes), run.objectives):
+        scale, unit = obj_display(name)
+        vals = run.obj[name] * scale
+        ok = run.ok & np.isfinite(vals)
+        if ok.any():
+            lo, hi = float(vals[ok].min()), float(np.percentile(vals[ok], 95) if ok.sum() > 10 else vals[ok].max())
+        else:
+            lo, hi = 0.0, 1.0
+        pad = 0.06 * (hi - lo if hi > lo else (abs(hi) or 1.0))
+        handles = _history_panel(ax, run, vals, lo - 2.0 * pad, hi + 2.5 * pad, unit=f" {unit}",
+                                 asf_track=True)
+        r = run.ref_objectives.get(name, math.nan) * scale
+        if np.isfinite(r):
+            ax.axhline(r, color=REF_COLOR, lw=0.8, ls="--", zorder=2)
+        ax.set_ylabel(f"{name} [{unit}]")
+    np.atleast_1d(axes)[0].set_title(f"Search history of '{run.name}': {run.n} of {run.budget} evaluations "
+                                     f"({run.state}); the run minimises the ASF of {', '.join(run.objectives)}")
+    np.atleast_1d(axes)[-1].set_xlabel("evaluation number")
+    from matplotlib.lines import Line2D
+
+    handles.append(Line2D([], [], color=REF_COLOR, lw=0.8, ls="--", label="the reference design's value"))
+    np.atleast_1d(axes)[0].legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0),
+                                  borderaxespad=0, frameon=False)
     fig.tight_layout()
     return _save(fig, out / "search-history.png")
 
@@ -294,8 +349,11 @@ def fig_best_vs_reference(run: RunData, bi: int, ri: int | None, out: Path) -> P
     hi = np.array([v.upper for v in run.variables])
     if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi))):
         lo, hi = np.nanmin(run.x, axis=0), np.nanmax(run.x, axis=0)
-    span = np.where(hi > lo, hi - lo, 1.0)
-    ub, ur = (xb - lo) / span, (xr - lo) / span
+    from .sensitivity import to_unit
+
+    # where each value sits in its range as the optimiser sees it: in ratios for log-searched pads
+    log = np.array([bool(getattr(v, "log", False)) for v in run.variables], bool)
+    ub, ur = to_unit(np.vstack([xb, xr]), lo, hi, log)
     yy = np.arange(len(run.names))
     a2.hlines(yy, 0, 1, color="0.85", lw=6)
     a2.scatter(ur, yy, marker="D", s=40, color=REF_COLOR, edgecolor="k", zorder=3, label="reference design")
@@ -308,7 +366,7 @@ def fig_best_vs_reference(run: RunData, bi: int, ri: int | None, out: Path) -> P
     a2.invert_yaxis()
     a2.set_xlim(-0.05, 1.05)
     a2.set_xticks([0, 0.5, 1], ["lower bound", "middle", "upper bound"])
-    a2.set(title="design variables within their bounds")
+    a2.set(title="design variables within their bounds" + (" (pads: in ratios)" if log.any() else ""))
     a2.grid(axis="y", visible=False)
     a2.legend(loc="upper center", bbox_to_anchor=(0.5, -0.1), ncol=2, frameon=False)
     fig.tight_layout()
@@ -636,67 +694,61 @@ def fig_track_layout(run: RunData, best: tuple, ref: tuple, bi: int, out: Path,
     return _save(fig, out / "track-layout.png")
 
 
-def fig_sensitivity(run: RunData, out: Path) -> Path:
+def sensitivity_of(run: RunData) -> dict:
+    """{objective: Indices} for each objective the run minimised (lccopt.report.sensitivity)."""
+    from .sensitivity import sobol_indices
+
+    lower = np.array([v.lower for v in run.variables], float)
+    upper = np.array([v.upper for v in run.variables], float)
+    if not (np.isfinite(lower).all() and np.isfinite(upper).all()):
+        return {}
+    integer = np.array([v.integer for v in run.variables], bool)
+    log = np.array([bool(getattr(v, "log", False)) for v in run.variables], bool)
+    out = {}
+    for k in run.objectives:
+        f = np.where(run.ok, run.obj[k], np.nan)
+        ind = sobol_indices(run.x, f, lower, upper, integer, log)
+        if ind is not None:
+            out[k] = ind
+    return out
+
+
+def fig_sensitivity(run: RunData, out: Path, indices: dict) -> Path | None:
+    """Variance-based sensitivity indices of each objective (total effect, first order inside)."""
+    if not indices:
+        return None
     plt = _plt()
-    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
 
-    d = len(run.names)
-    ncol = 4 if d > 4 else d
-    nrow = int(math.ceil(d / ncol))
-    fig, axes = plt.subplots(nrow, ncol, figsize=(2.6 * ncol + 0.6, 2.3 * nrow + 0.9), sharey=True, squeeze=False)
-    s, ylabel = value_label(run)
-    vals, ok, ylo, yhi = _value_range(run, s, below=1.0, above=2.0)
-    bi, ri = run.best_index(), run.ref_index()
-    failed = run.status == "failed"
-    for j, ax in enumerate(axes.ravel()):
-        if j >= d:
-            ax.set_visible(False)
-            continue
-        v = run.variables[j]
-        xs = run.x[:, j] * v.scale
-        ax.scatter(xs[ok], np.minimum(vals[ok], yhi), s=9, color="0.45", alpha=0.6, lw=0)
-        if ri is not None and ok[ri]:
-            ax.scatter([xs[ri]], [min(vals[ri], yhi)], marker="D", s=40, color=REF_COLOR, edgecolor="k", zorder=4)
-        if bi is not None:
-            ax.scatter([xs[bi]], [vals[bi]], marker="*", s=110, color=BEST_COLOR, edgecolor="k", zorder=5)
-        if failed.any():
-            import matplotlib.transforms as mtransforms
-
-            tr = mtransforms.blended_transform_factory(ax.transData, ax.transAxes)
-            ax.scatter(xs[failed], np.full(failed.sum(), 0.97), marker="x", s=18, color=FAIL_COLOR, transform=tr,
-                       clip_on=False, zorder=5)
-        if v.log and v.lower > 0 and v.upper > v.lower:  # as the optimiser saw it: in ratios
-            from matplotlib.ticker import FixedLocator, NullLocator, ScalarFormatter
-
-            lo, hi = v.lower * v.scale, v.upper * v.scale
-            m = (hi / lo) ** 0.04
-            ax.set_xscale("log")
-            ax.set_xlim(lo / m, hi * m)
-            ax.xaxis.set_major_locator(FixedLocator(log_ticks(lo, hi, at_least=4)))
-            ax.xaxis.set_major_formatter(ScalarFormatter())
-            ax.xaxis.set_minor_locator(NullLocator())
-        elif np.isfinite(v.lower) and v.upper > v.lower:
-            m = 0.04 * (v.upper - v.lower) * v.scale
-            ax.set_xlim(v.lower * v.scale - m, v.upper * v.scale + m)
-        ax.set_ylim(ylo, yhi)
-        ax.set_xlabel(var_axis_label(v), fontsize=8)
-        ax.set_title(v.label, fontsize=7.5)
-        ax.tick_params(labelsize=7)
-        if v.integer:
-            from matplotlib.ticker import MaxNLocator
-
-            ax.xaxis.set_major_locator(MaxNLocator(integer=True, nbins=6))
-    for r in range(nrow):
-        axes[r, 0].set_ylabel(ylabel if len(ylabel) < 28 else "value [-]", fontsize=8)
-    handles = [Line2D([], [], ls="", marker="o", color="0.45", label="evaluation"),
-               Line2D([], [], ls="", marker="D", color=REF_COLOR, markeredgecolor="k", label="reference design"),
-               Line2D([], [], ls="", marker="*", markersize=10, color=BEST_COLOR, markeredgecolor="k", label="best")]
-    if failed.any():
-        handles.append(Line2D([], [], ls="", marker="x", color=FAIL_COLOR, label="failed (at the top)"))
-    fig.suptitle(f"Each design variable against the {ylabel.split(' [')[0]} (values above the 95th percentile "
-                 f"drawn at the top)", fontsize=9.5)
-    fig.legend(handles=handles, loc="lower center", ncol=len(handles), frameon=False)
-    fig.tight_layout(rect=(0, 0.06, 1, 0.96))
+    d = len(run.variables)
+    fig, axes = plt.subplots(1, len(indices), figsize=(4.6 * len(indices) + 1.4, 0.42 * d + 1.8),
+                             sharey=True, squeeze=False)
+    y = np.arange(d)[::-1]
+    for ax, (k, ind) in zip(axes[0], indices.items()):
+        ax.barh(y, ind.total, height=0.7, color=FRONT_COLOR, alpha=0.35, label="total effect ST_i")
+        ax.barh(y, ind.first, height=0.4, color=FRONT_COLOR, label="first order S_i")
+        ax.set_xlim(0, max(1.0, float(np.max(ind.total)) * 1.05))
+        quality = (f"{ind.n_points} evaluations; surrogate's leave-one-out\nerror {ind.loo_error:.0%} of "
+                   f"the values' spread" if np.isfinite(ind.loo_error) else "")
+        ax.set_title(f"{k}\n{quality}", fontsize=8.5)
+        ax.set_xlabel("share of the objective's variance")
+        ax.grid(axis="x", alpha=0.3)
+    short = (("railpad stiffness, sleeper", "pad, sleeper"), (" from the interface", ""),
+             (" next to the interface", ""), (" from the entry slab edge", ""))
+    labels = []
+    for v in run.variables:
+        label = v.label
+        for a, b in short:
+            label = label.replace(a, b)
+        labels.append(f"{v.name}: {label}")
+    axes[0, 0].set_yticks(y)
+    axes[0, 0].set_yticklabels(labels, fontsize=8)
+    fig.suptitle("Which design variables move the objectives over the whole design space "
+                 "(variance-based indices of a surrogate)", fontsize=9.5)
+    fig.legend(handles=[Patch(color=FRONT_COLOR, alpha=0.35, label="total effect ST_i (with interactions)"),
+                        Patch(color=FRONT_COLOR, label="first order S_i (alone)")],
+               loc="lower center", ncol=2, frameon=False)
+    fig.tight_layout(rect=(0, 0.07, 1, 0.94))
     return _save(fig, out / "sensitivity.png")
 
 

@@ -125,7 +125,8 @@ def history_facts(best: tuple, ref: tuple, condition: str | None = None) -> list
     return out
 
 
-def build_summary(run: RunData, figs: dict, notes: dict, facts: list[str] | None = None) -> tuple[Doc, dict]:
+def build_summary(run: RunData, figs: dict, notes: dict, facts: list[str] | None = None,
+                  indices: dict | None = None) -> tuple[Doc, dict]:
     doc = Doc()
     bi, ri = run.best_index(), run.ref_index()
     n_failed = int((run.status == "failed").sum())
@@ -261,10 +262,22 @@ def build_summary(run: RunData, figs: dict, notes: dict, facts: list[str] | None
                 "design, the reference point and the chosen compromise (paper Fig. 9).")
     if notes.get("objective-space"):
         doc.p(notes["objective-space"])
-    doc.h(2, "Sensitivity at a glance")
+    doc.h(2, "Sensitivity")
+    for k, ind in (indices or {}).items():
+        order = np.argsort(-ind.total)[:3]
+        top = ", ".join(f"{run.variables[j].name} ({ind.total[j]:.2f})" for j in order)
+        doc.p(f"{k} is moved most by {top} (total-effect indices of a surrogate of {ind.n_points} "
+              f"evaluations; its leave-one-out error is {ind.loo_error:.0%} of the values' spread"
+              + (": a rough guide only)." if not ind.loo_error < 0.3 else ")."))
+        summary.setdefault("sensitivity", {})[k] = {
+            "total": dict(zip(run.names, map(float, ind.total))),
+            "first": dict(zip(run.names, map(float, ind.first))), "loo_error": ind.loo_error}
     if "sensitivity" in figs:
-        doc.fig(figs["sensitivity"], "Each design variable against the value minimised, over all evaluations "
-                "(one panel per variable; the star is the best design, the diamond the reference).")
+        doc.fig(figs["sensitivity"], "Variance-based (Sobol') indices of each objective over the whole design "
+                "space: the share of its variance a variable explains alone (first order) and with its "
+                "interactions (total effect), from a cubic RBF fitted to the run's evaluations.")
+    elif notes.get("sensitivity"):
+        doc.p(f"No sensitivity figure: {notes['sensitivity']}.")
     doc.h(2, "Files")
     doc.ul([f"results table: `{run.path / 'results.h5'}`; commit log: `{run.path / 'journal.jsonl'}`",
             f"histories of the best design: `{run.path / run.file[bi]}`" if run.file[bi] else
