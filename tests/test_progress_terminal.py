@@ -53,3 +53,23 @@ def test_progress_fits_80_columns_and_names_objectives_in_engineering_units(tmp_
     assert re.search(r"F_max [0-9.]+ kN [+-]\d+%", progress[-1]), progress[-1]
     # the full best-design line is in the summary printed at the end
     assert re.search(r"F_max [0-9.]+ kN", text) and re.search(r"E_max [0-9.]+ J", text), text
+
+
+def test_a_traffic_run_moves_per_condition_from_the_first_simulation(tmp_path):
+    """Three conditions per design: the line counts simulations (of 3 x budget) and moves as each
+    condition finishes, from the session's start (the reference design's time counts)."""
+    conditions = ("conditions:\n  - {name: a, speed: 30.0}\n  - {name: b, speed: 35.0}\n"
+                  "  - {name: c, speed: 38.88888888888889}\n")
+    case = write_case(tmp_path, name="ttr", budget=6, initial=4, worst=(90000.0, 9.0), extra=conditions)
+    env_before = dict(os.environ)
+    os.environ.update(LCCOPT_EVALUATOR="tests.engine.fakesim:evaluate", LCCOPT_FAKE_DELAY="0.3")
+    try:
+        out = run_in_terminal(["optimise", case, "--workers", "1", "--runs", tmp_path / "runs"], tmp_path)
+    finally:
+        os.environ.clear()
+        os.environ.update(env_before)
+    text = ANSI.sub("", out)
+    counts = [int(m.group(1)) for m in re.finditer(r"\b(\d+)/18\b", text)]
+    assert counts and counts[0] == 0, text                # drawn before the first result
+    assert {1, 2} <= set(counts), counts                   # the reference design's conditions one by one
+    assert counts[-1] == 18 and counts == sorted(counts), counts

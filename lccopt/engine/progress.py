@@ -77,12 +77,22 @@ class Progress:
     def __init__(self, budget: int, stream=None, enabled: bool = True):
         self.stream = stream or sys.stderr
         self.budget = budget
+        self.per_design = 1     # simulations per design (traffic conditions): the bar counts them
         self.enabled = enabled
         self.tty = enabled and hasattr(self.stream, "isatty") and self.stream.isatty()
         self.t0 = time.monotonic()
         self.done0: int | None = None   # evaluations already done when this session started
         self._live = None
         self._task = None
+
+    def start(self, table, per_design: int = 1) -> None:
+        """Show the line from the session's start (the reference design's time counts too)."""
+        self.per_design = max(1, int(per_design))
+        self.t0 = time.monotonic()
+        self.done0 = table.n_done
+        if self.tty:
+            self._start(table.n_done)
+            self._draw(table, 0)
 
     def _start(self, done: int) -> None:
         from rich.console import Console
@@ -99,9 +109,22 @@ class Progress:
             TextColumn("{task.description}", table_column=Column(no_wrap=True, overflow="ellipsis")),
             console=console, transient=False, auto_refresh=False)
         # what the columns before the description take: bar, n/budget, two times, "ETA", gaps
-        self._text_width = console.width - (BAR + 2 * len(str(self.budget)) + 1 + 7 + 3 + 7 + 5) - 1
-        self._task = self._live.add_task("", total=self.budget, completed=done)
+        total = self.budget * self.per_design
+        self._text_width = console.width - (BAR + 2 * len(str(total)) + 1 + 7 + 3 + 7 + 5) - 1
+        self._task = self._live.add_task("", total=total, completed=done * self.per_design)
         self._live.start()
+
+    def _draw(self, table, parts: int) -> None:
+        failed = table.n_failed
+        tail = f"  failed {failed}" if failed else ""
+        self._live.update(self._task, completed=table.n_done * self.per_design + parts,
+                          description=fit(best_text(table, short=True) + tail, self._text_width))
+        self._live.refresh()
+
+    def parts(self, table, parts: int) -> None:
+        """Simulations finished of the designs still in flight (traffic conditions)."""
+        if self._live is not None:
+            self._draw(table, parts)
 
     def log(self, message: str) -> None:
         """A message on its own line (above the live progress line on a terminal)."""
@@ -121,9 +144,7 @@ class Progress:
         if self.tty:
             if self._live is None:
                 self._start(done)
-            self._live.update(self._task, completed=done,
-                              description=fit(best_text(table, short=True) + tail, self._text_width))
-            self._live.refresh()
+            self._draw(table, 0)
             return
         elapsed = time.monotonic() - self.t0
         new = done - self.done0

@@ -561,6 +561,7 @@ class Engine:
             p.log(f"run {self.rd.path} (case '{self.case.name}'): {pb.dim} variables, "
                   f"budget {pb.budget}, {self.table.n_done} done")
             p.log(f"minimising {what}; {self.executor.description}")
+            p.start(self.table, len(self.case.conditions) or 1)
             if self.table.lag != self.lag:
                 self.table.apply(self.journal.append("schedule", lag=self.lag, time=now_iso()))
             self._release()
@@ -585,6 +586,8 @@ class Engine:
                 t_wait = time.monotonic()
                 for o in self.executor.wait(0.2):
                     self._record(o)
+                if self.case.conditions:
+                    p.parts(self.table, self.executor.parts_done)
                 if idle:
                     self.t_held += idle * (time.monotonic() - t_wait)
                 if self.stop and not self._stop_logged:
