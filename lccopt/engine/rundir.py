@@ -319,6 +319,8 @@ class Table:
             r["wall_time"] = ev.get("wall_time", math.nan)
             r["worker"] = ev.get("worker", "")
             r["file"] = ev.get("file", "")
+            if r["file"] not in ("", eval_name(ev["id"])):  # never a path out of the run
+                raise ValueError(f"evaluation #{ev['id']} names the file {r['file'][:80]!r}")
             if "parts" in ev:  # the sleepers' energies (composite surrogate of E_max)
                 r["parts"] = ev["parts"]
         elif kind == "reference":

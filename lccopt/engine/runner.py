@@ -212,7 +212,11 @@ def resume(run, workers: int | None = None, scheduler=None, case=None, allow_cha
             meta.update(case_sha256=sha256_text(case_obj.resolved), case_file=str(Path(case_obj.path).resolve()))
             rd.write_meta(meta)
         strategy, table = restore(problem, events, rd.load_state())
-        spec = evaluator_spec(evaluator if evaluator is not None else _saved_evaluator(meta))
+        # never the evaluator run.json names: a run directory from elsewhere must not choose
+        # code to run; the testing hook ($LCCOPT_EVALUATOR) or the simulator
+        spec = evaluator_spec(evaluator)
+        if isinstance(spec, str) and isinstance(meta.get("evaluator"), str) and meta["evaluator"] != spec:
+            out.log(f"the run was started with evaluator {meta['evaluator'][:60]!r}; carrying on with {spec!r}")
         removed = rd.clean(pending={eval_name(i) for i in table.pending_ids()})
         if removed:
             out.log(f"removed {len(removed)} temporary or unfinished file(s): {', '.join(removed[:5])}"
@@ -253,16 +257,6 @@ def _lost_files(rd: RunDir, table: Table) -> list[int]:
 
     return [i for i, r in sorted(table.rows.items()) if r["status"] == "ok" and r["file"]
             and evaluation_problem(rd.path / r["file"], i, r["x"]) is not None]
-
-
-def _saved_evaluator(meta: dict):
-    """The evaluator the run was started with, unless it was the default."""
-    from .worker import DEFAULT_EVALUATOR, ENV_EVALUATOR
-
-    if os.environ.get(ENV_EVALUATOR):
-        return None
-    saved = meta.get("evaluator")
-    return saved if isinstance(saved, str) and saved != DEFAULT_EVALUATOR and ":" in saved else None
 
 
 def _check_options(workers, scheduler) -> None:

@@ -427,6 +427,8 @@ def read_history(run: RunData, index: int | None, condition: str | None = None
     f = run.file[index]
     if not f:
         return None, {}, f"evaluation #{run.ids[index]} has no histories file"
+    if f != f"evals/{int(run.ids[index]):06d}.h5":   # a crafted table: never a path out of the run
+        return None, {}, f"evaluation #{run.ids[index]} names the file {f[:60]!r}, not its own"
     p = run.path / f
     problem = evaluation_problem(p, int(run.ids[index]), run.x[index])
     if problem is not None:

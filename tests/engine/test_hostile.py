@@ -331,3 +331,34 @@ def test_sigterm_to_the_group_stops_well_within_a_schedulers_grace(tmp_path):
     p.communicate(timeout=60)
     assert time.monotonic() - t0 < 2.0       # 3.4 s when a worker was started again
     assert p.returncode == 130
+
+
+def test_a_run_directory_never_chooses_the_code_that_evaluates(tmp_path, finished):
+    """run.json names the evaluator a run was started with; a run directory from elsewhere must
+    not make `resume` import and call a function of its choosing."""
+    case, run, _ = finished
+    (tmp_path / "evil.py").write_text(f"open({str(tmp_path / 'imported')!r}, 'w').close()\n"
+                                      "def go(case, x):\n    raise SystemExit\n")
+    meta = json.loads((run / "run.json").read_text())
+    meta["evaluator"] = "evil:go"
+    (run / "run.json").write_text(json.dumps(meta))
+    case.write_text(case.read_text().replace("budget: 10", "budget: 11"))
+    env = {k: v for k, v in os.environ.items() if k != "LCCOPT_EVALUATOR"}
+    env["PYTHONPATH"] = f"{tmp_path}{os.pathsep}{REPO}"
+    main = "import sys; from lccopt.cli import main; sys.exit(main())"
+    r = subprocess.run([sys.executable, "-c", main, "resume", str(run), "--allow-changed-case",
+                        "--workers", "1"], env=env, capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    assert not (tmp_path / "imported").exists()
+    assert "started with evaluator 'evil:go'" in r.stderr
+
+
+def test_a_journal_that_names_a_file_out_of_the_run_is_refused(tmp_path, finished):
+    _, run, _ = finished
+    lines = [json.loads(line) for line in (run / "journal.jsonl").read_text().splitlines()]
+    for ev in lines:
+        if ev["event"] == "evaluated" and ev["id"] == 3:
+            ev["file"] = "../../../../etc/hostname"
+    (run / "journal.jsonl").write_text("".join(json.dumps(ev, separators=(",", ":")) + "\n" for ev in lines))
+    line = _error_line(cli_run("resume", run, env=ENV))
+    assert "names the file" in line and "/etc/hostname" in line, line
