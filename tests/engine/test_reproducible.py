@@ -6,6 +6,8 @@ Ctrl-C tests in test_cli.py, SIGTERM/SIGHUP and disk full in test_faults.py.)"""
 from __future__ import annotations
 
 import json
+import shutil
+from pathlib import Path
 
 import pytest
 
@@ -213,3 +215,72 @@ def test_a_journal_of_an_unknown_optimiser_generation_is_refused(tmp_path, value
         restore(Problem.from_case(load_case(case)), _events(run), None)
     r = cli_run("resume", run, env={"LCCOPT_EVALUATOR": FAKE})
     assert r.returncode == 2 and "optimiser generation" in r.stderr and "Traceback" not in r.stderr
+
+
+# -- golden journals (tests/data/golden: runs written by lccopt, see the README there) ----------
+GOLDEN = Path(__file__).resolve().parents[1] / "data" / "golden"
+GOLDEN_RUNS = sorted(p.name for p in GOLDEN.iterdir() if (p / "continuation.jsonl").is_file())
+
+
+def _lines(path: Path) -> list[dict]:
+    return [json.loads(line) for line in path.read_text(encoding="utf-8").splitlines()]
+
+
+def _proposals(events) -> list:
+    return [(e["id"], e["x"], e["phase"], e["restart"]) for e in events if e["event"] == "asked"]
+
+
+def test_the_golden_journals_cover_restarts_and_a_subspace_phase():
+    """What the golden runs pin: each surrogate, a restart in each continuation, and the
+    scalar run's bound probes, subspace phase (an integer held on a bound) and its trial."""
+    assert set(GOLDEN_RUNS) == {"composite-asf", "scalar-F_max", "sleeper-energies"}
+    for name in GOLDEN_RUNS:
+        first = _lines(GOLDEN / name / "journal.jsonl")[0]
+        rest = _proposals(_lines(GOLDEN / name / "continuation.jsonl"))
+        assert {r for *_, r in rest} - {0}, f"{name}: no restart in the continuation"
+        assert first["surrogate"] == {"composite-asf": "composite", "scalar-F_max": "scalar",
+                                      "sleeper-energies": "sleeper-energies"}[name]
+    rest = _proposals(_lines(GOLDEN / "scalar-F_max" / "continuation.jsonl"))
+    by_restart = {}
+    for i, x, phase, r in rest:
+        by_restart.setdefault(r, []).append((x, phase))
+    probes = [x for x, phase in by_restart[1] if phase == "initial"]
+    assert len(probes) >= 2  # the run's best point with one integer on a bound, each
+    held = [j for j in range(8) if len({x[j] for x, _ in by_restart[2]}) == 1]
+    assert held and all(by_restart[2][0][0][j] in (0.0, 3.0, 7.0, 20.0, 120.0) for j in held)
+
+
+@pytest.mark.parametrize("name", GOLDEN_RUNS)
+def test_a_golden_journal_resumes_to_its_stored_continuation_bit_for_bit(name):
+    """The stopped run's journal, replayed, then carried on through the stored rest of the
+    run (each ``asked`` line checked against what the optimiser proposes), from the journal
+    alone and from a snapshot of the optimiser's state at the cut (what state.json holds)."""
+    prefix = _lines(GOLDEN / name / "journal.jsonl")
+    events = prefix + _lines(GOLDEN / name / "continuation.jsonl")
+    pb = Problem.from_case(load_case(GOLDEN / name / "case.yaml"))
+    stopped, _ = restore(pb, prefix, None)
+    snapshot = {"seq": len(prefix) - 1, "strategy": json.loads(json.dumps(stopped.state_dict()))}
+    resumed, table = restore(pb, events, snapshot)
+    replayed, _ = restore(pb, events, None)
+    assert resumed.done and table.n_done == pb.budget
+    assert _state(resumed) == _state(replayed)
+
+
+@pytest.mark.parametrize("name", GOLDEN_RUNS)
+def test_lccopt_resume_of_a_golden_run_writes_its_stored_continuation(tmp_path, name):
+    """`lccopt resume` of the stopped run (no state.json, no evaluation files: they are
+    simulated again) with the stand-in evaluator proposes the stored continuation and gets
+    the same values."""
+    run = tmp_path / name
+    (run / "evals").mkdir(parents=True)
+    for f in ("case.yaml", "run.json", "journal.jsonl"):
+        shutil.copy(GOLDEN / name / f, run / f)
+    prefix = _lines(GOLDEN / name / "journal.jsonl")
+    workers = [e["lag"] for e in prefix if e["event"] == "schedule"][-1]
+    r = cli_run("resume", run, "--workers", str(workers), env={"LCCOPT_EVALUATOR": FAKE})
+    assert r.returncode == 0, r.stderr
+    want = prefix + _lines(GOLDEN / name / "continuation.jsonl")
+    got = _events(run)
+    assert _proposals(got) == _proposals(want)
+    values = lambda evs: sorted((e["id"], e["value"]) for e in evs if e["event"] == "evaluated")  # noqa: E731
+    assert values(got) == values(want)
