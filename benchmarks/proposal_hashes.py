@@ -45,10 +45,7 @@ import numpy as np  # noqa: E402
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-try:  # noqa: E402
-    from benchmarks import problems
-except ImportError:
-    from lccopt.optim import problems
+from benchmarks import problems  # noqa: E402
 from lccopt.optim.space import DesignSpace  # noqa: E402
 from lccopt.optim.strategy import Strategy  # noqa: E402
 

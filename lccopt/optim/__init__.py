@@ -5,5 +5,4 @@ sampling   integer-aware Latin hypercube without duplicates
 rbf        cubic RBF with linear tail (Eqs. 8-10)
 strategy   MSRS/DYCORS mixed-integer ask/tell Strategy with a JSON state
 scalarise  augmented Chebyshev ASF (Eq. 7) and Pareto mask
-problems   test problems with known optima (tests and benchmark)
 """

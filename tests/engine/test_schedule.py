@@ -14,7 +14,7 @@ import pytest
 
 from lccopt.engine.runner import Replay
 from lccopt.engine.schedule import may_ask, release
-from lccopt.optim import problems
+from benchmarks import problems
 from lccopt.optim.space import DesignSpace
 from lccopt.optim.strategy import Strategy
 

@@ -3,7 +3,7 @@ import json
 import numpy as np
 import pytest
 
-from lccopt.optim import problems
+from benchmarks import problems
 from lccopt.optim.rbf import CubicRBF
 from lccopt.optim.sampling import latin_hypercube
 from lccopt.optim.space import DesignSpace

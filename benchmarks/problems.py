@@ -1,4 +1,7 @@
-"""Test problems with known optima, for the optimiser's tests and benchmark.
+"""Test functions with known optima, for the optimiser's tests and benchmarks/optimiser.py.
+
+Scripts in benchmarks/ import this module with the repository root on ``sys.path`` (as
+``problems`` or ``benchmarks.problems``); the tests as ``benchmarks.problems``.
 
 ``paper_size(name)``: a classic function on the box of the paper's case (Table 4: three
 continuous railpad stiffnesses in [50, 1200], x_n in 0..20, three spans in 3..7,
@@ -11,7 +14,7 @@ point (an optimum in the middle of the box would flatter any method that samples
 ``BENCHMARK``: the broader set of benchmarks/optimiser.py (issue 9): mixed-integer and
 pure-integer, 4-12 variables, integer ranges of 3 to 100 values (121 on the paper's box),
 in the categories of ``CATEGORIES``. Each problem documents its formula, source, optimum
-value and optimal point; tests/optim/test_problems.py checks that the stated optimum is
+value and optimal point; tests/test_benchmark_problems.py checks that the stated optimum is
 attained at the stated point, that the point is a valid point of the space, and (where
 that can be done exhaustively or per coordinate) that nothing in the space is better.
 
@@ -28,11 +31,14 @@ from typing import Callable
 
 import numpy as np
 
-from .space import DesignSpace
+from lccopt.optim.space import DesignSpace
 
 
 @dataclass
-class Problem:
+class TestFunction:
+    """A function of a design space with its known minimum ``f_opt`` at ``x_opt``."""
+
+    __test__ = False  # not a pytest test class
     name: str
     space: DesignSpace
     fun: Callable[[np.ndarray], np.ndarray]  # (n, d) -> (n,)
@@ -100,7 +106,7 @@ _PAPER_INT = [False, False, False, True, True, True, True, True]
 _PAPER_XOPT = np.array([407.5, 878.0, 717.0, 13.0, 4.0, 6.0, 5.0, 37.0])
 
 
-def paper_size(name: str, given: list | None = None) -> Problem:
+def paper_size(name: str, given: list | None = None) -> TestFunction:
     """``name`` (one of PAPER_SIZE) on the paper's 8-variable, 5-integer box."""
     g, width, zstar = _CLASSIC[name]
     space = DesignSpace(names=_PAPER_NAMES, lower=_PAPER_LB, upper=_PAPER_UB,
@@ -113,11 +119,11 @@ def paper_size(name: str, given: list | None = None) -> Problem:
 
     f_opt = float(g(np.full((1, 8), zstar))[0])
     cat = {"rosenbrock": "unimodal-illcond", "zakharov": "unimodal-illcond"}.get(name, "multimodal")
-    return Problem(f"{name}8", space, fun, f_opt, _PAPER_XOPT.copy(), cat,
+    return TestFunction(f"{name}8", space, fun, f_opt, _PAPER_XOPT.copy(), cat,
                    f"{name} on the paper's box (3 continuous, 5 integer of 21/5/5/5/121 values)")
 
 
-def gear() -> Problem:
+def gear() -> TestFunction:
     """Gear train design: 4 integers in 12..60; f = (1/6.931 - x1 x2 / (x3 x4))^2."""
     space = DesignSpace(names=["x1", "x2", "x3", "x4"], lower=[12] * 4, upper=[60] * 4,
                         integer=[True] * 4)
@@ -127,11 +133,11 @@ def gear() -> Problem:
         return (1.0 / 6.931 - X[:, 0] * X[:, 1] / (X[:, 2] * X[:, 3])) ** 2
 
     x_opt = np.array([19.0, 16.0, 43.0, 49.0])
-    return Problem("gear", space, fun, float(fun(x_opt)[0]), x_opt, "classic-minlp",
+    return TestFunction("gear", space, fun, float(fun(x_opt)[0]), x_opt, "classic-minlp",
                    "gear train (Sandgren 1990; RBFOpt test set): 4 integers of 49 values")
 
 
-def nvs09() -> Problem:
+def nvs09() -> TestFunction:
     """MINLPLib nvs09: 10 integers in 3..9; optimum -43.1343 at all 9."""
     space = DesignSpace(names=[f"x{i}" for i in range(10)], lower=[3] * 10, upper=[9] * 10,
                         integer=[True] * 10)
@@ -141,7 +147,7 @@ def nvs09() -> Problem:
         return (np.log(X - 2) ** 2 + np.log(10 - X) ** 2).sum(1) - np.prod(X, axis=1) ** 0.2
 
     x_opt = np.full(10, 9.0)
-    return Problem("nvs09", space, fun, float(fun(x_opt)[0]), x_opt, "classic-minlp",
+    return TestFunction("nvs09", space, fun, float(fun(x_opt)[0]), x_opt, "classic-minlp",
                    "MINLPLib nvs09 (RBFOpt test set): 10 integers of 7 values")
 
 
@@ -193,7 +199,7 @@ def _names(d):
     return [f"x{i}" for i in range(d)]
 
 
-def _mapped(name, g, lower, upper, integer, x_opt, z_opt, step, category, source) -> Problem:
+def _mapped(name, g, lower, upper, integer, x_opt, z_opt, step, category, source) -> TestFunction:
     """f(x) = g(z* + (x - x*) * step); see the module docstring."""
     lower, upper = np.asarray(lower, float), np.asarray(upper, float)
     x_opt = np.asarray(x_opt, float)
@@ -204,7 +210,7 @@ def _mapped(name, g, lower, upper, integer, x_opt, z_opt, step, category, source
     def fun(X):
         return g(z_opt + (np.atleast_2d(X) - x_opt) * step)
 
-    return Problem(name, space, fun, float(g(z_opt[None, :])[0]), x_opt, category, source)
+    return TestFunction(name, space, fun, float(g(z_opt[None, :])[0]), x_opt, category, source)
 
 
 def _alternate(d, cont_lb, cont_ub, int_lb, int_ub):
@@ -215,7 +221,7 @@ def _alternate(d, cont_lb, cont_ub, int_lb, int_ub):
     return lb, ub, integer
 
 
-def ellipsoid_mi10() -> Problem:
+def ellipsoid_mi10() -> TestFunction:
     """Ellipsoid, condition 1e6, 10 variables: 5 continuous in [-5, 5] (step 1) and 5 integers
     in -10..10 (21 values, step 0.5), alternating so that both kinds get stiff directions."""
     lb, ub, integer = _alternate(10, -5.0, 5.0, -10, 10)
@@ -225,7 +231,7 @@ def ellipsoid_mi10() -> Problem:
                    "unimodal-illcond", "ellipsoid sum 1e6^(i/9) z_i^2 (Hansen et al., BBOB f2); f* = 0")
 
 
-def rotellipsoid_int6() -> Problem:
+def rotellipsoid_int6() -> TestFunction:
     """Rotated ellipsoid (condition 1e4) on 6 integers in 0..99 (100 values, step 0.1)."""
     R = _rotation(6, 906)
 
@@ -237,7 +243,7 @@ def rotellipsoid_int6() -> Problem:
                    "rotated ellipsoid sum 1e4^(i/5) (Rz)_i^2, R fixed orthogonal (BBOB f10); f* = 0")
 
 
-def cigar_mi8() -> Problem:
+def cigar_mi8() -> TestFunction:
     """Rotated bent cigar, 8 variables: 4 continuous in [0, 1] (step 10) and 4 integers in
     0..30 (31 values, step 1/3)."""
     R = _rotation(8, 908)
@@ -252,7 +258,7 @@ def cigar_mi8() -> Problem:
                    "rotated bent cigar (Rz)_1^2 + 1e6 sum_{i>1} (Rz)_i^2 (BBOB f12); f* = 0")
 
 
-def quad_int12() -> Problem:
+def quad_int12() -> TestFunction:
     """Rotated ellipsoid (condition 1e3) on 12 integers in -1..1 (3 values, step 1)."""
     R = _rotation(12, 912)
 
@@ -264,14 +270,14 @@ def quad_int12() -> Problem:
                    "convex integer quadratic: rotated ellipsoid, condition 1e3, 3^12 points; f* = 0")
 
 
-def rastrigin_int8() -> Problem:
+def rastrigin_int8() -> TestFunction:
     """Rastrigin on 8 integers in 0..40 (41 values, step 0.25: a local minimum every 4 steps)."""
     return _mapped("rastrigin_int8", rastrigin, [0] * 8, [40] * 8, [True] * 8,
                    [29, 11, 33, 7, 24, 16, 37, 3], 0.0, 0.25, "multimodal",
                    "Rastrigin 10 d + sum z^2 - 10 cos(2 pi z); f* = 0")
 
 
-def griewank_mi10() -> Problem:
+def griewank_mi10() -> TestFunction:
     """Griewank, 10 variables: 5 continuous in [-1, 1] (step 300), 5 integers in 0..50
     (51 values, step 12)."""
     lb, ub, integer = _alternate(10, -1.0, 1.0, 0, 50)
@@ -281,21 +287,21 @@ def griewank_mi10() -> Problem:
                    "Griewank 1 + sum z^2/4000 - prod cos(z_i/sqrt(i)); f* = 0")
 
 
-def levy_int6() -> Problem:
+def levy_int6() -> TestFunction:
     """Levy on 6 integers in 0..30 (31 values, step 0.5)."""
     return _mapped("levy_int6", levy, [0] * 6, [30] * 6, [True] * 6,
                    [22, 7, 19, 27, 4, 13], 1.0, 0.5, "multimodal",
                    "Levy (Surjanovic & Bingham, Virtual Library); f* = 0 at z = 1")
 
 
-def ackley_int12() -> Problem:
+def ackley_int12() -> TestFunction:
     """Ackley on 12 integers in 0..20 (21 values, step 1.5)."""
     return _mapped("ackley_int12", ackley, [0] * 12, [20] * 12, [True] * 12,
                    [14, 5, 17, 9, 2, 12, 19, 7, 15, 3, 10, 16], 0.0, 1.5, "multimodal",
                    "Ackley (a=20, b=0.2, c=2 pi); f* = 0 (4.4e-16 in floating point)")
 
 
-def schwefel_mi6() -> Problem:
+def schwefel_mi6() -> TestFunction:
     """Schwefel 2.26, 6 variables: 3 continuous in [-500, 500] (z = x) and 3 integers in 0..50
     (51 values, step 20, z in [-499.03, 500.97]). Deceptive: the second-best minimum is far
     from the best."""
@@ -307,7 +313,7 @@ def schwefel_mi6() -> Problem:
                    "at z = 420.968746")
 
 
-def lunacek_mi8() -> Problem:
+def lunacek_mi8() -> TestFunction:
     """Lunacek bi-Rastrigin, 8 variables: 4 continuous in [-5, 5] (z = x), 4 integers in
     0..20 (21 values, step 0.5, z in [-5, 5])."""
     lb, ub, integer = _alternate(8, -5.0, 5.0, 0, 20)
@@ -318,7 +324,7 @@ def lunacek_mi8() -> Problem:
                    "at z = mu0 = 2.5")
 
 
-def trap_int6() -> Problem:
+def trap_int6() -> TestFunction:
     """Deceptive trap on 6 integers in 0..9 (10 values): per variable t(9) = 0, otherwise
     t(x) = 0.2 + 0.8 x / 9, so every slope leads to the local optimum at 0 (f = 1.2)."""
     space = DesignSpace(names=_names(6), lower=[0] * 6, upper=[9] * 6, integer=[True] * 6)
@@ -327,14 +333,14 @@ def trap_int6() -> Problem:
         X = np.atleast_2d(X)
         return np.where(X >= 9, 0.0, 0.2 + 0.8 * X / 9.0).sum(1)
 
-    return Problem("trap_int6", space, fun, 0.0, np.full(6, 9.0), "deceptive",
+    return TestFunction("trap_int6", space, fun, 0.0, np.full(6, 9.0), "deceptive",
                    "integer deceptive trap (after Deb & Goldberg 1993); f* = 0 at x = 9")
 
 
 _GEAR_TARGET = 144279.32477276
 
 
-def gear4() -> Problem:
+def gear4() -> TestFunction:
     """MINLPLib gear4 as in RBFOpt's test set: 4 integers in 12..60, x5 in [0, 100]:
     f = -1e6 x1 x2 / (x3 x4) + 2 x5 + 144279.32477276, plus 10 * violation of the
     constraint -1e6 x1 x2 / (x3 x4) + x5 + 144279.32477276 >= 0. f* = 1.6434284739."""
@@ -347,11 +353,11 @@ def gear4() -> Problem:
         return -r + 2 * X[:, 4] + _GEAR_TARGET + 10.0 * np.maximum(0.0, r - X[:, 4] - _GEAR_TARGET)
 
     x_opt = np.array([19.0, 16.0, 43.0, 49.0, 1e6 * 19 * 16 / (43 * 49) - _GEAR_TARGET])
-    return Problem("gear4", space, fun, float(fun(x_opt)[0]), x_opt, "classic-minlp",
+    return TestFunction("gear4", space, fun, float(fun(x_opt)[0]), x_opt, "classic-minlp",
                    "MINLPLib gear4 (RBFOpt test set), constraint as a penalty")
 
 
-def _schoen(name: str, n_int: int, n_cont: int, seed: int) -> Problem:
+def _schoen(name: str, n_int: int, n_cont: int, seed: int) -> TestFunction:
     """Schoen's function (Schoen 1993; mixed-integer versions in RBFOpt's test set): 50 points
     z_j in the unit box with values f_j; f(u) = sum_j f_j w_j / sum_j w_j with
     w_j = prod_{k != j} |u - z_k|^2 (i.e. weights 1/|u - z_j|^2), u = x / 10, so f(z_j) = f_j
@@ -380,15 +386,15 @@ def _schoen(name: str, n_int: int, n_cont: int, seed: int) -> Problem:
         out[rows] = f[np.argmax(hit[rows], axis=1)]
         return out
 
-    return Problem(name, space, fun, -1000.0, x_opt, "classic-minlp",
+    return TestFunction(name, space, fun, -1000.0, x_opt, "classic-minlp",
                    f"Schoen function, {n_int} integer + {n_cont} continuous, 50 points (seed {seed})")
 
 
-def schoen6_int() -> Problem:
+def schoen6_int() -> TestFunction:
     return _schoen("schoen6_int", 4, 2, 61)
 
 
-def schoen10_int() -> Problem:
+def schoen10_int() -> TestFunction:
     return _schoen("schoen10_int", 6, 4, 101)
 
 
@@ -405,11 +411,81 @@ _BUILDERS = {
 BENCHMARK = tuple(f"{n}8" for n in PAPER_SIZE) + tuple(_BUILDERS)
 
 
-def get(name: str) -> Problem:
+def get(name: str, seed: int = 0) -> TestFunction:
+    """The problem ``name`` of BENCHMARK or FRESH (a fresh instance: the one of ``seed``)."""
+    if name in FRESH:
+        return fresh(name, seed)
     if name in _CLASSIC:
         return paper_size(name)
     if name.endswith("8") and name[:-1] in _CLASSIC:
         return paper_size(name[:-1])
     if name in _BUILDERS:
         return _BUILDERS[name]()
-    raise KeyError(f"unknown problem {name!r}; known: {', '.join(BENCHMARK)}")
+    raise KeyError(f"unknown problem {name!r}; known: {', '.join(BENCHMARK + FRESH)}")
+
+
+# -- fresh instances: judged on what nobody tuned on ------------------------------------------
+# Eight-variable families whose instance is drawn from a seed: which variables are integer,
+# their ranges, the continuous bounds, where the optimum lies and (where the family is
+# separable, so that a rotation changes its character) a rotation about the optimum. The
+# optimum value stays the family's own, g(z*). Every instance is new: nothing in lccopt was
+# tuned on them (benchmarks/optimiser.py --problems fresh-... --seeds 100-111).
+_FRESH_MIXED = ("ackley", "rastrigin", "levy", "rosenbrock", "styblinski_tang", "zakharov")
+_FRESH_INTEGER = ("ellipsoid_int", "rastrigin_int")
+FRESH = tuple(f"fresh-{n}" for n in _FRESH_MIXED + _FRESH_INTEGER)
+_FRESH_ROTATED = {"ackley", "rastrigin", "levy", "styblinski_tang", "ellipsoid_int"}
+_FRESH_VALUES = (5, 11, 21, 51, 121)  # integer ranges to draw from (the paper's box: 5 to 121)
+_FRESH_DIM, _FRESH_N_INT = 8, 5
+
+
+def _ellipsoid_1e4(z):
+    return ellipsoid(z, 1e4)
+
+
+def fresh(family: str, seed: int) -> TestFunction:
+    """The instance of ``family`` (a name of FRESH, with or without "fresh-") for ``seed``.
+
+    Mixed families: 8 variables, 5 of them integer (chosen at random) with 5 to 121 values
+    each, continuous bounds [0, 10^U(-1, 3)]; the box maps onto the classic function's usual
+    domain (as ``paper_size``), its optimum moved to a random integer-feasible point x* away
+    from the bounds. Integer families: 8 integers of 11 to 51 values; "ellipsoid_int" a
+    rotated ellipsoid (condition 1e4), "rastrigin_int" Rastrigin with a local minimum every
+    4 steps. ``f(x) = g(z* + R ((x - x*) * step))``, R a random rotation for the families
+    of _FRESH_ROTATED (identity otherwise): g >= g(z*) everywhere, so f* = g(z*) at x*.
+    """
+    name = family.removeprefix("fresh-")
+    if name not in _FRESH_MIXED + _FRESH_INTEGER:
+        raise KeyError(f"unknown family {family!r}; known: {', '.join(FRESH)}")
+    rng = np.random.default_rng([int(seed), FRESH.index(f"fresh-{name}"), 43])
+    d = _FRESH_DIM
+    if name in _FRESH_MIXED:
+        g, width, zstar = _CLASSIC[name]
+        integer = np.zeros(d, dtype=bool)
+        integer[rng.choice(d, _FRESH_N_INT, replace=False)] = True
+        values = rng.choice(_FRESH_VALUES, d)
+    else:
+        g, width, zstar = ({"ellipsoid_int": (_ellipsoid_1e4, 10.0, 0.0),
+                            "rastrigin_int": (rastrigin, 10.24, 0.0)})[name]
+        integer = np.ones(d, dtype=bool)
+        values = rng.choice((11, 21, 41, 51), d)
+    upper = np.where(integer, values - 1.0, 10.0 ** rng.uniform(-1.0, 3.0, d))
+    lower = np.zeros(d)
+    # the optimum: integers on the grid, everything within the middle 80 % of its range
+    u = rng.uniform(0.1, 0.9, d)
+    x_opt = np.where(integer, np.rint(u * upper), u * upper)
+    step = width / upper
+    if name == "rastrigin_int":
+        step = np.full(d, 0.25)  # a local minimum every 4 integers
+    R = _rotation(d, int(rng.integers(2 ** 31))) if name in _FRESH_ROTATED else np.eye(d)
+    z_opt = np.full(d, zstar)
+    space = DesignSpace(names=_names(d), lower=lower, upper=upper, integer=list(integer))
+
+    def fun(X):
+        return g(z_opt + ((np.atleast_2d(X) - x_opt) * step) @ R.T)
+
+    category = "unimodal-illcond" if name in ("rosenbrock", "zakharov", "ellipsoid_int") \
+        else "multimodal"
+    kind = f"{int(integer.sum())} integer of {'/'.join(str(int(v)) for v in values[integer])} values"
+    return TestFunction(f"fresh-{name}", space, fun, float(g(z_opt[None, :])[0]), x_opt, category,
+                        f"{name}, instance of seed {seed}: 8 variables, {kind}"
+                        + (", rotated" if name in _FRESH_ROTATED else ""))

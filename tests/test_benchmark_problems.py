@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from lccopt.optim import problems as P
+from benchmarks import problems as P
 
 
 def _tol(f_opt):
@@ -87,3 +87,37 @@ def test_existing_names_still_work():
         assert P.get(n).space.dim in (4, 8, 10)
     with pytest.raises(KeyError):
         P.get("nope")
+
+
+@pytest.mark.parametrize("name", P.FRESH)
+def test_fresh_instances_have_their_stated_optimum(name):
+    """Each seed's instance: f* at x*, a valid point; nothing better along every coordinate
+    line through x* or at random points (rotated families included)."""
+    for seed in (0, 7, 101):
+        p = P.get(name, seed)
+        sp = p.space
+        assert p.name == name and sp.dim == 8 and p.category in P.CATEGORIES
+        x = sp.check(p.x_opt, what=f"{name} x_opt")
+        assert p(x) == pytest.approx(p.f_opt, rel=1e-12, abs=1e-12)
+        assert int(sp.int_mask.sum()) == (8 if name.endswith("_int") else 5)
+        rng = np.random.default_rng(seed)
+        for i in range(sp.dim):
+            vals = (np.arange(sp.lb[i], sp.ub[i] + 1) if sp.int_mask[i]
+                    else np.linspace(sp.lb[i], sp.ub[i], 2001))
+            X = np.repeat(p.x_opt[None, :], len(vals), axis=0)
+            X[:, i] = vals
+            assert p(X).min() >= p.f_opt - _tol(p.f_opt), f"{name} seed {seed}: coordinate {i}"
+        X = sp.snap(sp.lb + rng.random((5000, sp.dim)) * (sp.ub - sp.lb))
+        assert p(X).min() >= p.f_opt - _tol(p.f_opt)
+
+
+def test_fresh_instances_differ_by_seed_and_repeat_for_one():
+    for name in P.FRESH:
+        a, b, c = P.get(name, 3), P.get(name, 3), P.get(name, 4)
+        np.testing.assert_array_equal(a.x_opt, b.x_opt)
+        assert a.f_opt == c.f_opt  # the family's own optimum value
+        assert not (np.array_equal(a.x_opt, c.x_opt) and np.array_equal(a.space.ub, c.space.ub))
+        x = a.space.snap(a.space.lb + 0.37 * (a.space.ub - a.space.lb))
+        assert a(x) == b(x)
+    masks = {tuple(P.get("fresh-ackley", s).space.int_mask) for s in range(10)}
+    assert len(masks) > 3  # which variables are integer is drawn too
