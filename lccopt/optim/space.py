@@ -184,7 +184,7 @@ class DesignSpace:
     def to_dict(self) -> dict:
         out = {"names": list(self.names), "lower": list(self.lower), "upper": list(self.upper),
                "integer": list(self.integer), "given": [list(g) for g in self.given]}
-        if any(self.log):  # absent otherwise, as before log scales existed
+        if any(self.log):  # absent otherwise: a space without log scales reads the same
             out["log"] = list(self.log)
         return out
 
