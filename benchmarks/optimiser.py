@@ -67,18 +67,17 @@ import numpy as np  # noqa: E402
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 
 from benchmarks import problems  # noqa: E402
-from benchmarks import runs_table  # noqa: E402
+from benchmarks import runs_table, variants  # noqa: E402
 from benchmarks.runs_table import best_at  # noqa: E402
 from lccopt.optim.strategy import Strategy  # noqa: E402
 
-VARIANTS: dict = {}
 METHODS = ("lccopt", "pysot", "optuna-tpe", "optuna-gp", "random")
 ALPHA = 0.05
 
 
 # -- methods: each returns the values of its n evaluations, in order ----------------------------
 def run_lccopt(p: problems.TestFunction, n: int, seed: int, variant: str) -> list[float]:
-    s = Strategy(p.space, budget=n, n_initial=20, seed=seed, **VARIANTS.get(variant, {}))
+    s = Strategy(p.space, budget=n, n_initial=20, seed=seed, **variants.strategy_kwargs(variant))
     vals = []
     while not s.done:
         props = s.ask(1)
@@ -336,8 +335,8 @@ def report(data: dict, probs: list[str], methods: list[str], budgets: list[int])
 def time_ask(n_points: int = 400, repeats: int = 30, seed: int = 0) -> dict:
     """Median wall time of ask(1) (fit + candidates + local search) at about n_points."""
     p = problems.paper_size("ackley")
-    # No restarts, so that the surrogate really holds all n_points (the worst case).
-    s = Strategy(p.space, budget=n_points + repeats + 1, seed=seed, sigma_min=0.0)
+    # The scalar surrogate fits every point of the run, restarts or not (the worst case).
+    s = Strategy(p.space, budget=n_points + repeats + 1, seed=seed)
     while s.n_told < n_points:
         for pr in s.ask(1):
             s.tell(pr.id, p(pr.x))
@@ -349,7 +348,7 @@ def time_ask(n_points: int = 400, repeats: int = 30, seed: int = 0) -> dict:
         for pr in props:
             s.tell(pr.id, p(pr.x))
     return {"n": n_points, "median_ms": 1e3 * statistics.median(times),
-            "max_ms": 1e3 * max(times), "fitted": len(s._rbf.X)}
+            "max_ms": 1e3 * max(times), "fitted": len(s._scalar.rbf.X)}
 
 
 # -- main -----------------------------------------------------------------------------------------
@@ -389,7 +388,7 @@ def main(argv=None) -> int:
     ap.add_argument("--timing", "--timing-only", action="store_true",
                     help="only time lccopt's ask(1) at 400 points")
     ap.add_argument("--no-pysot", action="store_true", help="leave pySOT out of the methods")
-    ap.add_argument("--variant", default="default", choices=("default",) + tuple(VARIANTS),
+    ap.add_argument("--variant", default="default", choices=("default",) + tuple(variants.VARIANTS),
                     help="lccopt with an experiment of benchmarks/variants.py plugged in")
     args = ap.parse_args(argv)
     if args.timing:
