@@ -49,7 +49,6 @@ whole); --merge then gathers them into --out.
 from __future__ import annotations
 
 import argparse
-import json
 import logging
 import os
 import statistics
@@ -66,8 +65,11 @@ import numpy as np  # noqa: E402
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 
-from benchmarks import problems  # noqa: E402
-from benchmarks import runs_table, variants  # noqa: E402
+from benchmarks import (  # noqa: E402
+    problems,  # noqa: E402
+    runs_table,
+    variants,
+)
 from benchmarks.runs_table import best_at  # noqa: E402
 from lccopt.optim.strategy import Strategy  # noqa: E402
 

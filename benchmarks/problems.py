@@ -485,7 +485,8 @@ def fresh(family: str, seed: int) -> TestFunction:
 
     category = "unimodal-illcond" if name in ("rosenbrock", "zakharov", "ellipsoid_int") \
         else "multimodal"
-    kind = f"{int(integer.sum())} integer of {'/'.join(str(int(v)) for v in values[integer])} values"
+    ranges = "/".join(str(int(v)) for v in values[integer])
+    kind = f"{int(integer.sum())} integer of {ranges} values"
     return TestFunction(f"fresh-{name}", space, fun, float(g(z_opt[None, :])[0]), x_opt, category,
                         f"{name}, instance of seed {seed}: 8 variables, {kind}"
                         + (", rotated" if name in _FRESH_ROTATED else ""))

@@ -125,7 +125,8 @@ def delayed_run(s: Strategy, f, outputs=None, workers: int = 2) -> list:
 
 
 # -- the tests' off-switch functions (tests/optim/test_strategy.py) -----------------------------
-OFF_SWITCH_SPACE = DesignSpace(["x", "y", "n"], [0.0, 0.0, 0], [1.0, 1.0, 100], [False, False, True])
+OFF_SWITCH_SPACE = DesignSpace(["x", "y", "n"], [0.0, 0.0, 0], [1.0, 1.0, 100],
+                               [False, False, True])
 
 
 def off_switch(x):
@@ -212,7 +213,8 @@ def main(argv=None) -> int:
             same = ""
             if args.check:
                 old = stored.get(name, {}).get("sha256")
-                same = " same" if old == hashes[name]["sha256"] else (" NEW" if old is None else " DIFFERS")
+                same = (" same" if old == hashes[name]["sha256"]
+                        else " NEW" if old is None else " DIFFERS")
                 if old is not None and old != hashes[name]["sha256"]:
                     differ.append(name)
             print(f"{name}: {hashes[name]['sha256'][:16]} ({len(props)} proposals, "

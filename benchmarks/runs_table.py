@@ -57,7 +57,8 @@ def load(path) -> dict:
         with open(path) as fh:
             data = json.load(fh)
         if data.get("format") != LEGACY_FORMAT:
-            raise SystemExit(f"{path}: not a results file of this benchmark ({data.get('format')!r})")
+            raise SystemExit(f"{path}: not a results file of this benchmark "
+                             f"({data.get('format')!r})")
         return {"runs": data["runs"]}
     runs = {}
     with open(path, newline="") as fh:
@@ -80,9 +81,9 @@ def save(path, data: dict) -> None:
     with open(tmp, "w", newline="") as fh:
         w = csv.writer(fh, lineterminator="\n")
         w.writerow(FIXED + tuple(f"best_{b}" for b in marks))
-        for k in sorted(runs, key=lambda k: (k.split("|")[0], k.split("|")[1], int(k.split("|")[2]))):
-            r = runs[k]
-            problem, method, seed = k.split("|")
+        order = sorted((k.split("|") for k in runs), key=lambda t: (t[0], t[1], int(t[2])))
+        for problem, method, seed in order:
+            r = runs[key(problem, method, int(seed))]
             w.writerow([problem, method, seed, r["n"], r["n_evaluated"], r["seconds"],
                         r.get("commit", ""), r.get("settings", "default")]
                        + [repr(r["best_at"][str(b)]) if str(b) in r["best_at"] else ""

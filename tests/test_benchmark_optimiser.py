@@ -60,7 +60,8 @@ def _runs(path):
 
 
 def _values(path):
-    return {k: {c: v for c, v in r.items() if c.startswith("best_")} for k, r in _runs(path).items()}
+    return {k: {c: v for c, v in r.items() if c.startswith("best_")}
+            for k, r in _runs(path).items()}
 
 
 def test_merge_gathers_parts_and_refuses_conflicts(tmp_path):

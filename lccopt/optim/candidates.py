@@ -79,6 +79,7 @@ class Dycors:
         self.local_weights = settings.local_weights
 
     def __call__(self, req: CandidateRequest) -> list[tuple[np.ndarray, str]]:
+        """[(steps (n_perturb(d), d), "adaptive"), (local points, "local")]: each if any."""
         out = []
         if req.best is not None:
             out.append((perturb(req.space, req.rng, req.best, n_perturb(req.space.dim),

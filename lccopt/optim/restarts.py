@@ -69,12 +69,14 @@ class Phase:
     trial: tuple[int, float] | None = None
 
     def to_dict(self) -> dict:
+        """Plain JSON types."""
         d = asdict(self)
         d["trial"] = None if self.trial is None else list(self.trial)
         return d
 
     @classmethod
     def from_dict(cls, d: dict) -> "Phase":
+        """The phase a ``to_dict`` wrote."""
         t = d.get("trial")
         return cls(int(d["index"]), int(d["start"]), int(d["n_design"]),
                    None if d["anchor"] is None else int(d["anchor"]),
@@ -158,11 +160,13 @@ class RestartPolicy:
 
     # -- state ------------------------------------------------------------------------------
     def state_dict(self) -> dict:
+        """The policy's state (part of the strategy's) as plain JSON types."""
         pr = self.subspace_probes
         return {"subspace_tried": self.subspace_tried,
                 "subspace_probes": None if pr is None else [pr.start, pr.stop]}
 
     def load_state_dict(self, d: dict) -> None:
+        """Back to the state a ``state_dict`` wrote."""
         self.subspace_tried = bool(d["subspace_tried"])
         pr = d["subspace_probes"]
         self.subspace_probes = None if pr is None else range(int(pr[0]), int(pr[1]))

@@ -78,5 +78,6 @@ def save(s, path) -> None:
 
 
 def load(cls, path):
+    """The strategy (of class ``cls``) saved at ``path``."""
     with open(path, encoding="utf-8") as fh:
         return from_state(cls, json.load(fh))

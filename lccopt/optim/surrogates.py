@@ -133,6 +133,7 @@ class CompositeSurrogate:
         return np.asarray(self.aggregate(F), dtype=float).reshape(len(F))
 
     def __call__(self, Xq: np.ndarray):
+        """The aggregate of the predicted outputs at Xq (d,) -> float or (m, d) -> (m,)."""
         Xq = np.asarray(Xq, dtype=float)
         single = Xq.ndim == 1
         Xq = np.atleast_2d(Xq)

@@ -240,5 +240,7 @@ def test_lccopt_resume_of_a_golden_run_writes_its_stored_continuation(tmp_path, 
     want = prefix + _lines(GOLDEN / name / "continuation.jsonl")
     got = _events(run)
     assert _proposals(got) == _proposals(want)
-    values = lambda evs: sorted((e["id"], e["value"]) for e in evs if e["event"] == "evaluated")  # noqa: E731
+    def values(evs):
+        return sorted((e["id"], e["value"]) for e in evs if e["event"] == "evaluated")
+
     assert values(got) == values(want)

@@ -4,8 +4,13 @@ import numpy as np
 import pytest
 
 from benchmarks import problems
-from lccopt.optim.candidates import (CandidateRequest, Dycors, bound_probes, perturb,
-                                     perturb_probability)
+from lccopt.optim.candidates import (
+    CandidateRequest,
+    Dycors,
+    bound_probes,
+    perturb,
+    perturb_probability,
+)
 from lccopt.optim.sampling import to_space
 from lccopt.optim.settings import Settings
 from lccopt.optim.space import DesignSpace

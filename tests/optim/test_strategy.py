@@ -17,7 +17,7 @@ from tests.optim.helpers import ShortPhases, fingerprint, run_serial
 REFERENCE = [600.0, 600.0, 600.0, 0.0, 6.0, 6.0, 4.0, 0.0]  # like the paper's reference design
 
 
-# -- basic behaviour -------------------------------------------------------------------------
+# -- basic behaviour -------------------------------------------------------------------------------
 def test_given_point_first_then_lhs_then_adaptive():
     p = problems.paper_size("levy", given=[REFERENCE])
     s = Strategy(p.space, budget=40, n_initial=20, seed=0)
@@ -72,12 +72,13 @@ def test_the_candidates_are_dycors_steps_and_the_local_search():
     assert {r["phase"] for r in s.history} == set(PHASES) - {"random"}
 
 
-# -- beats random search and Latin hypercube ---------------------------------------------------------
+# -- beats random search and Latin hypercube -------------------------------------------------------
 @pytest.mark.parametrize("name", ["ackley8", "levy8", "rastrigin8", "gear", "nvs09"])
 def test_beats_random_and_lhs(name):
     p = problems.get(name)
     budget, seeds = 70, range(3)
-    ours = [run_serial(Strategy(p.space, budget=budget, seed=s), p).best[1] - p.f_opt for s in seeds]
+    ours = [run_serial(Strategy(p.space, budget=budget, seed=s), p).best[1] - p.f_opt
+            for s in seeds]
     rand, lhs = [], []
     for s in seeds:
         rng = np.random.default_rng(100 + s)
@@ -90,7 +91,7 @@ def test_beats_random_and_lhs(name):
     assert np.mean(ours) < np.mean(lhs)
 
 
-# -- duplicates and exhaustion ------------------------------------------------------------------------
+# -- duplicates and exhaustion ---------------------------------------------------------------------
 def int_space():
     return DesignSpace(["a", "b", "c"], [0, 0, 0], [4, 4, 4], [True] * 3)  # 125 points
 
@@ -122,7 +123,7 @@ def test_integer_space_exhausted():
     assert "random" in {p.phase for p in props}  # the last unused points: uniform and grid
 
 
-# -- failures ----------------------------------------------------------------------------------------------
+# -- failures --------------------------------------------------------------------------------------
 def test_failed_points_not_reproposed_and_surrogate_survives():
     p = problems.paper_size("levy")
     s = Strategy(p.space, budget=90, seed=4)
@@ -159,7 +160,7 @@ def test_repeated_failures_force_restart():
     assert {r["phase"] for r in h if r["restart"] == 1} >= {"initial"}
 
 
-# -- state and resume --------------------------------------------------------------------------------------
+# -- state and resume ------------------------------------------------------------------------------
 def drive(s, fun, steps, workers, pending, save_every=None, tmp_path=None, restarts=None):
     """Deterministic asynchronous engine: keep `workers` busy, finish them out of order.
 
@@ -189,7 +190,9 @@ def drive(s, fun, steps, workers, pending, save_every=None, tmp_path=None, resta
 @pytest.mark.parametrize("workers", [1, 3])
 def test_resume_half_way_is_bit_identical(tmp_path, workers):
     p = problems.paper_size("rastrigin", given=[REFERENCE])
-    make = lambda: Strategy(p.space, budget=70, n_initial=15, seed=11)
+    def make():
+        return Strategy(p.space, budget=70, n_initial=15, seed=11)
+
     straight, pend_a = drive(make(), p, 200, workers, [])
     half, pend_b = drive(make(), p, 35, workers, [])
     half.save(tmp_path / "s.json")
@@ -313,7 +316,7 @@ def test_one_ask_fits_once_for_several_points():
     assert [q.x.tobytes() for q in batch] == [q.x.tobytes() for q in one]
 
 
-# -- log scales ------------------------------------------------------------------------------
+# -- log scales ------------------------------------------------------------------------------------
 def _ratio_problem(log: bool):
     """Optimum at 2e-3, 0.5 and 30 of [1e-3, 1e3]: a bowl in ln x, plus an integer."""
     a = np.array([2e-3, 0.5, 30.0])
