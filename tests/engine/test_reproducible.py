@@ -1,7 +1,10 @@
-"""Reproducible runs (issue 9): the same case, seed, lccopt version and worker count give the
+"""Reproducible runs: the same case, seed, lccopt version and worker count give the
 same evaluations in the same order, whatever order the workers finish in, resumed or not.
 (Interrupted-and-resumed runs against uninterrupted ones, with two workers: the kill -9 and
-Ctrl-C tests in test_cli.py, SIGTERM/SIGHUP and disk full in test_faults.py.)"""
+Ctrl-C tests in test_cli.py, SIGTERM/SIGHUP and disk full in test_faults.py.) The journal
+records the optimiser's settings and a resume uses them; runs of an optimiser this lccopt does
+not have are refused; golden journals of an earlier lccopt resume to their stored continuation
+bit for bit (tests/data/golden)."""
 
 from __future__ import annotations
 
