@@ -1,9 +1,10 @@
-"""Benchmark of lccopt's optimiser against pySOT, Optuna and random search (issue 9).
+"""Benchmark of lccopt's optimiser against pySOT, Optuna and random search.
 
 Methods (all sequential: one evaluation at a time, each sees every earlier result):
 
 * lccopt      -- lccopt.optim.strategy.Strategy (MSRS/DYCORS + local surrogate search),
-                 20-point initial design, default settings
+                 20-point initial design, its defaults (or, with --variant, an experiment
+                 of benchmarks/variants.py plugged into it)
 * pysot       -- pySOT 0.3.3 DYCORSStrategy with a cubic RBF + linear tail, 20-point
                  symmetric LHS, 100*d candidates (its documented set-up)
 * optuna-tpe  -- Optuna 5's default sampler (TPESampler, default arguments), integers as
@@ -11,7 +12,10 @@ Methods (all sequential: one evaluation at a time, each sees every earlier resul
 * optuna-gp   -- Optuna 5's GPSampler (default arguments; needs torch)
 * random      -- uniform random search (integer-aware)
 
-Problems: lccopt.optim.problems.BENCHMARK (22 problems with known optima; see there).
+Problems (benchmarks/problems.py): BENCHMARK, 22 fixed problems with known optima (tuned on
+for a dozen rounds), and FRESH (--fresh), eight families of 8-variable problems whose
+instance is drawn from the seed (which variables are integer, their ranges, the optimum's
+place, a rotation): each seed is a problem nobody tuned on.
 
 Budgets: ONE run of max(budgets) evaluations per (problem, method, seed); the value at a
 smaller budget b is the best of its first b evaluations (best so far). This is valid for
@@ -20,28 +24,31 @@ lccopt's and pySOT's DYCORS perturbation probability shrinks with the planned bu
 given a budget of 100 from the start would not propose exactly the same points.
 
 Per cell (problem, budget): median and interquartile range [q25, q75] over seeds per method;
-lccopt against the best other method (lowest median in that cell): two-sided Mann-Whitney U
-(scipy.stats.mannwhitneyu) at alpha 0.05 on the per-seed values -- win or loss when
-significant (direction by the U statistic), tie otherwise; and the issue's criterion,
-lccopt median <= best other median.
+lccopt against the best other method (lowest median in that cell) and against each method:
+two-sided Mann-Whitney U (scipy.stats.mannwhitneyu) at alpha 0.05 on the per-seed values --
+win or loss when significant (direction by the U statistic), tie otherwise; and lccopt
+median <= the other median.
 
-    python benchmarks/optimiser.py --out results.json                 # everything (hours)
-    python benchmarks/optimiser.py --quick --problems gear ackley8 --out q.json
-    python benchmarks/optimiser.py --methods optuna-gp --seeds 5 --budgets 100 200 --resume --out r.json
-    python benchmarks/optimiser.py --report-only --out r.json          # tables from the JSON
-    python benchmarks/optimiser.py --merge a.json b.json --out r.json  # parts run side by side
-    python benchmarks/optimiser.py --timing                           # lccopt ask(1) time only
+    python benchmarks/optimiser.py --out r.csv                         # everything (hours)
+    python benchmarks/optimiser.py --quick --problems gear ackley8 --out q.csv
+    python benchmarks/optimiser.py --fresh --methods lccopt pysot optuna-tpe --seeds 100-111 \
+        --out benchmarks/results/optimiser-fresh.csv                    # held-out instances
+    python benchmarks/optimiser.py --methods optuna-gp --seeds 5 --resume --out r.csv
+    python benchmarks/optimiser.py --report-only --out r.csv           # tables from the file
+    python benchmarks/optimiser.py --merge a.csv b.csv --out r.csv     # parts run side by side
+    python benchmarks/optimiser.py --timing                            # lccopt ask(1) time only
 
-With --resume, runs already in the --out JSON (same problem, method, seed, at least as many
-evaluations) are reused, so a long benchmark can be run in parts; the tables always cover
-every stored run of the selected problems and methods. Parts run at the same time must write
-to files of their own (each rewrites its --out whole); --merge then gathers them into --out.
+--out is a CSV file with one row per run (benchmarks/runs_table.py: problem, method, seed,
+the commit, the variant, the best value at each budget). With --resume, runs already in it
+(same problem, method, seed, at least as many evaluations) are reused, so a long benchmark can
+be run in parts; the tables always cover every stored run of the selected problems and
+methods. Parts run at the same time must write to files of their own (each rewrites its --out
+whole); --merge then gathers them into --out.
 """
 
 from __future__ import annotations
 
 import argparse
-import json
 import logging
 import os
 import statistics
@@ -58,17 +65,21 @@ import numpy as np  # noqa: E402
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 
-from lccopt.optim import problems  # noqa: E402
+from benchmarks import (  # noqa: E402
+    problems,  # noqa: E402
+    runs_table,
+    variants,
+)
+from benchmarks.runs_table import best_at  # noqa: E402
 from lccopt.optim.strategy import Strategy  # noqa: E402
 
 METHODS = ("lccopt", "pysot", "optuna-tpe", "optuna-gp", "random")
 ALPHA = 0.05
-FORMAT = "lccopt-benchmark-optimiser/1"
 
 
 # -- methods: each returns the values of its n evaluations, in order ----------------------------
-def run_lccopt(p: problems.Problem, n: int, seed: int, settings: dict) -> list[float]:
-    s = Strategy(p.space, budget=n, n_initial=20, seed=seed, **settings)
+def run_lccopt(p: problems.TestFunction, n: int, seed: int, variant: str) -> list[float]:
+    s = Strategy(p.space, budget=n, n_initial=20, seed=seed, **variants.strategy_kwargs(variant))
     vals = []
     while not s.done:
         props = s.ask(1)
@@ -81,7 +92,7 @@ def run_lccopt(p: problems.Problem, n: int, seed: int, settings: dict) -> list[f
     return vals  # shorter than n only if a finite space was exhausted
 
 
-def run_random(p: problems.Problem, n: int, seed: int, settings: dict) -> list[float]:
+def run_random(p: problems.TestFunction, n: int, seed: int, variant: str) -> list[float]:
     sp = p.space
     rng = np.random.default_rng(seed)
     lo = np.where(sp.int_mask, sp.lb - 0.5, sp.lb)
@@ -117,7 +128,7 @@ def _pysot_runner():
             self.values.append(v)
             return v
 
-    def run(p: problems.Problem, n: int, seed: int, settings: dict) -> list[float]:
+    def run(p: problems.TestFunction, n: int, seed: int, variant: str) -> list[float]:
         np.random.seed(seed)  # pySOT draws from numpy's global generator
         op = Wrapped(p)
         d = op.dim
@@ -125,7 +136,7 @@ def _pysot_runner():
         ctl = SerialController(objective=op.eval)
         # pySOT rejects a design whose rounded points do not fit the linear tail ("No valid
         # design found, increase num_pts?"), e.g. 20 points on {-1, 0, 1}^12: then, and only
-        # then, a larger symmetric LHS (noted in the results as pysot_design).
+        # then, a larger symmetric LHS.
         for num_pts in (20, 2 * (d + 1), 4 * (d + 1)):
             try:
                 slhd = SymmetricLatinHypercube(dim=d, num_pts=num_pts)
@@ -161,7 +172,7 @@ def _optuna_runner(kind: str):
     except Exception as exc:
         return None, f"{type(exc).__name__}: {exc}"
 
-    def run(p: problems.Problem, n: int, seed: int, settings: dict) -> list[float]:
+    def run(p: problems.TestFunction, n: int, seed: int, variant: str) -> list[float]:
         sp = p.space
         names, lb, ub, im = sp.names, sp.lb, sp.ub, sp.int_mask
         sampler = (optuna.samplers.TPESampler(seed=seed) if kind == "tpe"
@@ -208,68 +219,6 @@ def load_methods(wanted: list[str]) -> tuple[dict, dict]:
     return runners, notes
 
 
-# -- results file ---------------------------------------------------------------------------------
-def _key(problem: str, method: str, seed: int) -> str:
-    return f"{problem}|{method}|{seed}"
-
-
-def load_results(path: str | None) -> dict:
-    if path and os.path.exists(path):
-        with open(path) as fh:
-            data = json.load(fh)
-        if data.get("format") != FORMAT:
-            raise SystemExit(f"{path}: not a results file of this benchmark ({data.get('format')!r})")
-        return data
-    return {"format": FORMAT, "runs": {}, "sessions": []}
-
-
-def save_results(path: str | None, data: dict) -> None:
-    if not path:
-        return
-    tmp = path + ".tmp"
-    with open(tmp, "w") as fh:
-        json.dump(data, fh, indent=0, sort_keys=True)
-    os.replace(tmp, path)
-
-
-def record(vals: list[float], n: int, seconds: float) -> dict:
-    """Best so far after every evaluation is too bulky for JSON; keep it every 10
-    evaluations (and at n), which covers the budgets 100/200/400 and any multiple of 10."""
-    best = np.minimum.accumulate(np.asarray(vals, dtype=float)) if vals else np.array([np.inf])
-    marks = sorted(set(range(10, n + 1, 10)) | {n})
-    return {"n": n, "n_evaluated": len(vals), "seconds": round(seconds, 3),
-            "best_at": {str(b): float(best[min(b, len(best)) - 1]) for b in marks}}
-
-
-def merge_results(data: dict, paths: list[str]) -> dict:
-    """The runs of the files at ``paths`` added to ``data``: of two runs of the same problem,
-    method and seed the longer one is kept; two of the same length must agree (else the files
-    were made with different settings, and mixing them would be wrong). Sessions are joined."""
-    for path in paths:
-        if not os.path.exists(path):
-            raise SystemExit(f"{path}: no such results file")
-        other = load_results(path)
-        for key, run in other["runs"].items():
-            old = data["runs"].get(key)
-            if old is not None and old["n"] == run["n"] and old["best_at"] != run["best_at"]:
-                raise SystemExit(f"{path}: run {key} differs from the one already merged "
-                                 "(different settings or versions?)")
-            if old is None or run["n"] > old["n"]:
-                data["runs"][key] = run
-        data["sessions"] += [s for s in other["sessions"] if s not in data["sessions"]]
-    return data
-
-
-def best_at(run: dict, b: int) -> float | None:
-    if run["n"] < b:
-        return None
-    if str(b) in run["best_at"]:
-        return run["best_at"][str(b)]
-    if run["n_evaluated"] < b:  # exhausted finite space: nothing more to find
-        return run["best_at"][str(run["n"])]
-    return None
-
-
 # -- statistics -------------------------------------------------------------------------------------
 def quartiles(v) -> tuple[float, float, float]:
     q25, q50, q75 = np.percentile(np.asarray(v, dtype=float), [25, 50, 75])
@@ -309,6 +258,9 @@ def cells(data: dict, probs: list[str], methods: list[str], budgets: list[int]) 
                 res, p = compare(samples["lccopt"], samples[best])
                 cell.update(best_other=best, result=res, p=p,
                             criterion=cell["stats"]["lccopt"][0] <= cell["stats"][best][0])
+                cell["each"] = {m: (compare(samples["lccopt"], samples[m])[0],
+                                    cell["stats"]["lccopt"][0] <= cell["stats"][m][0])
+                                for m in others}
             out.append(cell)
     return out
 
@@ -363,6 +315,15 @@ def report(data: dict, probs: list[str], methods: list[str], budgets: list[int])
         if bc:
             w, t, l_ = (sum(c["result"] == r for c in bc) for r in ("win", "tie", "loss"))
             lines.append(f"| {cat} | {len(bc)} | {sum(c['criterion'] for c in bc)} | {w}/{t}/{l_} |")
+    lines += ["", "lccopt against each method (all budgets): cells with lccopt median <= its "
+              "median; W/T/L by Mann-Whitney", "", "| method | budget | cells | <= | W/T/L |",
+              "|---|---|---|---|---|"]
+    for m in (m for m in present if m != "lccopt"):
+        for b in budgets:
+            bc = [c["each"][m] for c in cs if c["budget"] == b and m in c.get("each", {})]
+            if bc:
+                w, t, l_ = (sum(r == x for r, _ in bc) for x in ("win", "tie", "loss"))
+                lines.append(f"| {m} | {b} | {len(bc)} | {sum(le for _, le in bc)} | {w}/{t}/{l_} |")
     lines += ["", "Best other method per cell: " + ", ".join(
         f"{m} {sum(c.get('best_other') == m for c in cs)}" for m in present if m != "lccopt"), ""]
     secs = {m: [r["seconds"] for k, r in data["runs"].items()
@@ -376,8 +337,8 @@ def report(data: dict, probs: list[str], methods: list[str], budgets: list[int])
 def time_ask(n_points: int = 400, repeats: int = 30, seed: int = 0) -> dict:
     """Median wall time of ask(1) (fit + candidates + local search) at about n_points."""
     p = problems.paper_size("ackley")
-    # No restarts, so that the surrogate really holds all n_points (the worst case).
-    s = Strategy(p.space, budget=n_points + repeats + 1, seed=seed, sigma_min=0.0)
+    # The scalar surrogate fits every point of the run, restarts or not (the worst case).
+    s = Strategy(p.space, budget=n_points + repeats + 1, seed=seed)
     while s.n_told < n_points:
         for pr in s.ask(1):
             s.tell(pr.id, p(pr.x))
@@ -389,7 +350,7 @@ def time_ask(n_points: int = 400, repeats: int = 30, seed: int = 0) -> dict:
         for pr in props:
             s.tell(pr.id, p(pr.x))
     return {"n": n_points, "median_ms": 1e3 * statistics.median(times),
-            "max_ms": 1e3 * max(times), "fitted": len(s._rbf.X)}
+            "max_ms": 1e3 * max(times), "fitted": len(s._scalar.rbf.X)}
 
 
 # -- main -----------------------------------------------------------------------------------------
@@ -409,17 +370,19 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--problems", nargs="+", default=list(problems.BENCHMARK),
-                    help="default: all of problems.BENCHMARK")
+                    help="default: all of problems.BENCHMARK; fresh instances: problems.FRESH "
+                         "(or --fresh)")
+    ap.add_argument("--fresh", action="store_true", help="the problems of problems.FRESH")
     ap.add_argument("--methods", nargs="+", default=None, choices=METHODS,
                     help=f"default: {' '.join(METHODS)} (--quick: lccopt random)")
     ap.add_argument("--seeds", nargs="+", default=["20"],
                     help="N (seeds 0..N-1) or A-B (seeds A..B); default 20")
     ap.add_argument("--budgets", type=int, nargs="+", default=[100, 200, 400])
-    ap.add_argument("--out", default=None, help="JSON file of the raw results (per run)")
+    ap.add_argument("--out", default=None, help="CSV file of the runs (one row per run)")
     ap.add_argument("--resume", action="store_true",
                     help="reuse the runs already in --out instead of running them again")
     ap.add_argument("--report-only", action="store_true", help="only print the tables of --out")
-    ap.add_argument("--merge", nargs="+", default=None, metavar="JSON",
+    ap.add_argument("--merge", nargs="+", default=None, metavar="FILE",
                     help="add the runs of these results files to --out (kept: the longer run of "
                          "each problem, method and seed), then print the tables")
     ap.add_argument("--quick", action="store_true",
@@ -427,14 +390,16 @@ def main(argv=None) -> int:
     ap.add_argument("--timing", "--timing-only", action="store_true",
                     help="only time lccopt's ask(1) at 400 points")
     ap.add_argument("--no-pysot", action="store_true", help="leave pySOT out of the methods")
-    ap.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE",
-                    help="override a Strategy setting, e.g. --set n_branches=0")
+    ap.add_argument("--variant", default="default", choices=("default",) + tuple(variants.VARIANTS),
+                    help="lccopt with an experiment of benchmarks/variants.py plugged in")
     args = ap.parse_args(argv)
     if args.timing:
         t = time_ask()
         print(f"ask(1) at {t['n']} evaluated points ({t['fitted']} in the surrogate), 8-D: median "
               f"{t['median_ms']:.1f} ms, max {t['max_ms']:.1f} ms (goal < 50 ms)")
         return 0
+    if args.fresh:
+        args.problems = list(problems.FRESH)
     if args.quick:
         args.budgets = [20, 40]
         if args.seeds == ["20"]:
@@ -446,50 +411,49 @@ def main(argv=None) -> int:
     n = max(budgets)
     for name in args.problems:
         problems.get(name)  # unknown names fail now
-    settings = {k: eval(v, {}) for k, v in (kv.split("=", 1) for kv in args.set)}
-    if settings and args.resume:
-        raise SystemExit("--set and --resume together would mix settings in one file")
+    if args.variant != "default" and args.resume:
+        raise SystemExit("--variant and --resume together would mix variants in one file")
 
     if args.merge is not None:
         if not args.out:
             raise SystemExit("--merge needs --out, the file to merge into")
-        data = merge_results(load_results(args.out), args.merge)
-        save_results(args.out, data)
+        data = runs_table.merge(runs_table.load(args.out), args.merge)
+        runs_table.save(args.out, data)
         args.report_only = True
     else:
-        data = load_results(args.out) if (args.resume or args.report_only) else load_results(None)
+        data = runs_table.load(args.out if (args.resume or args.report_only) else None)
     if not args.report_only:
-        runners, notes = load_methods(methods)
-        session = {"started": time.strftime("%Y-%m-%d %H:%M:%S"), "argv": sys.argv[1:],
-                   "numpy": np.__version__, "settings": settings, "skipped": notes}
-        data["sessions"].append(session)
-        print(f"# {len(args.problems)} problems x {len(runners)} methods x {len(seeds)} seeds, "
-              f"{n} evaluations per run; numpy {np.__version__}", flush=True)
-        t_start = time.perf_counter()
-        for name in args.problems:
-            p = problems.get(name)
-            for m, fn in runners.items():
-                done = 0
-                t0 = time.perf_counter()
-                for seed in seeds:
-                    k = _key(name, m, seed)
-                    old = data["runs"].get(k)
-                    if old is not None and old["n"] >= n:
-                        continue
-                    t1 = time.perf_counter()
-                    vals = fn(p, n, seed, settings)
-                    data["runs"][k] = record(vals, n, time.perf_counter() - t1)
-                    if hasattr(fn, "design"):  # pySOT: size of the initial design used
-                        data["runs"][k]["pysot_design"] = fn.design.get(name)
-                    done += 1
-                    save_results(args.out, data)
-                if done:
-                    print(f"# {name} {m}: {done} runs, {time.perf_counter() - t0:.1f} s", flush=True)
-        session["seconds"] = round(time.perf_counter() - t_start, 1)
-        save_results(args.out, data)
+        _run_grid(data, args, methods, seeds, budgets)
     print()
     print(report(data, args.problems, methods, budgets))
     return 0
+
+
+def _run_grid(data: dict, args, methods: list[str], seeds: list[int], budgets: list[int]) -> None:
+    """Run every (problem, method, seed) that --out does not hold yet, saving after each."""
+    n = max(budgets)
+    runners, _ = load_methods(methods)
+    print(f"# {len(args.problems)} problems x {len(runners)} methods x {len(seeds)} seeds, "
+          f"{n} evaluations per run; numpy {np.__version__}", flush=True)
+    for name in args.problems:
+        for m, fn in runners.items():
+            done = 0
+            t0 = time.perf_counter()
+            for seed in seeds:
+                k = runs_table.key(name, m, seed)
+                old = data["runs"].get(k)
+                if old is not None and old["n"] >= n:
+                    continue
+                p = problems.get(name, seed)
+                t1 = time.perf_counter()
+                vals = fn(p, n, seed, args.variant)
+                settings = args.variant if m == "lccopt" else "default"
+                data["runs"][k] = runs_table.record(vals, n, time.perf_counter() - t1, budgets,
+                                                    settings)
+                done += 1
+                runs_table.save(args.out, data)
+            if done:
+                print(f"# {name} {m}: {done} runs, {time.perf_counter() - t0:.1f} s", flush=True)
 
 
 if __name__ == "__main__":

@@ -1,29 +1,34 @@
 """lccopt's default against a variant on the stored benchmark, cell by cell.
 
-    python benchmarks/optimiser.py --methods lccopt --seeds 0-9 --set capping=False --out v.json
-    python benchmarks/optimiser_compare.py v.json [--base BASE.json]
+    python benchmarks/optimiser.py --methods lccopt --seeds 0-19 --variant uniform --out v.csv
+    python benchmarks/optimiser_compare.py v.csv [--base BASE.csv]
 
-Per budget: cells where the variant's median is better / worse than the default's (from
-benchmarks/results/optimiser.json, or the lccopt runs of --base, e.g.
-benchmarks/results/optimiser-generation-6.json; on the seeds the variant file has), and the
-cells where a two-sided Mann-Whitney U test (alpha 0.05) finds a difference (+ better, - worse).
+Per budget: cells where the variant's median is better / worse than the default's (the lccopt
+runs of benchmarks/results/optimiser.csv, or of --base: a results file of
+benchmarks/optimiser.py, CSV or the earlier JSON, e.g. ``git show
+48adb51:benchmarks/results/optimiser-generation-6.json``; on the seeds the variant file has),
+and the cells where a two-sided Mann-Whitney U test (alpha 0.05) finds a difference (+ better,
+- worse).
 Then, paired by seed (the same seed starts both from the same design, so a change that acts
 late in a run leaves most seeds equal): the runs better / worse / equal, and the cells where a
 two-sided Wilcoxon signed-rank test (alpha 0.05) finds a difference.
 """
 import argparse
-import json
+import sys
 from pathlib import Path
 
 import numpy as np
 from scipy.stats import mannwhitneyu, rankdata, wilcoxon
 
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from benchmarks.runs_table import load  # noqa: E402
+
 ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
 ap.add_argument("variant")
-ap.add_argument("--base", default=Path(__file__).resolve().parent / "results" / "optimiser.json")
+ap.add_argument("--base", default=Path(__file__).resolve().parent / "results" / "optimiser.csv")
 args = ap.parse_args()
-base = json.load(open(args.base))["runs"]
-var = json.load(open(args.variant))["runs"]
+base = load(str(args.base))["runs"]
+var = load(args.variant)["runs"]
 
 
 SEEDS = {int(k.split("|")[2]) for k in var}

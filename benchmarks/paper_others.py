@@ -1,7 +1,7 @@
 """The paper's single-objective cases with the optimisers a user would pick instead of lccopt.
 
     python benchmarks/paper_others.py [--cases single-F_max,single-E_max] [--seeds 1-16]
-        [--methods pysot,optuna-tpe,random] [--processes 2] [--out paper-others.json]
+        [--methods pysot,optuna-tpe,random] [--processes 2] [--out paper-others.csv]
         [--known single-F_max=4161.41 single-E_max=0.0069137]
 
 Each method minimises the case's objective (configs/<case>.yaml: F_max in N or E_max in J,
@@ -10,8 +10,9 @@ simulation at a time in-process, with the runners of benchmarks/optimiser.py and
 defaults (pySOT 0.3.3 DYCORS with a cubic RBF and a 20-point symmetric Latin hypercube; Optuna
 5's TPE sampler; uniform random search). Unlike
 ``lccopt optimise`` they do not get the reference design as a first point; it only sets the
-regret ratio's scale. The results file keeps every run's values in evaluation order, so the
-script can be stopped and started again (``--out``, runs already there are kept). It prints,
+regret ratio's scale. The results file keeps one row per run (case, method, seed,
+evaluations, best value, seconds, commit), so the script can be stopped and started again
+(``--out``, runs already there are kept). It prints,
 per case and method, the best value per seed and the median and worst regret ratio
 (f_seed - f_best) / (f_reference - f_best), with f_best from ``--known`` (the best-known values
 of benchmarks/paper_seeds.py, README "Many seeds") or the best of the runs if lower.
@@ -21,8 +22,8 @@ lccopt's own runs of the same cases come from benchmarks/paper_seeds.py.
 from __future__ import annotations
 
 import argparse
+import csv
 import functools
-import json
 import os
 import statistics
 import sys
@@ -41,8 +42,10 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 
 import optimiser as bench  # noqa: E402  (the method runners of the broad benchmark)
 from paper_seeds import seeds_arg  # noqa: E402
+
+from benchmarks.problems import TestFunction as BenchProblem  # noqa: E402
+from benchmarks.runs_table import commit  # noqa: E402
 from lccopt.case import load_case  # noqa: E402
-from lccopt.optim.problems import Problem as BenchProblem  # noqa: E402
 from lccopt.optim.space import DesignSpace  # noqa: E402
 from lccopt.problem import Problem  # noqa: E402
 from lccopt.vti.simulate import evaluate  # noqa: E402
@@ -84,9 +87,35 @@ def one_run(task: tuple[str, str, int]) -> tuple[str, dict]:
         return f"{case}/{method}/{seed}", {"skipped": notes[method]}
     p, _, budget = paper_problem(case)
     t0 = time.monotonic()
-    vals = found[method](p, budget, seed, {})
-    return f"{case}/{method}/{seed}", {"values": [float(v) for v in vals],
+    vals = found[method](p, budget, seed, "default")
+    return f"{case}/{method}/{seed}", {"best": float(min(vals)), "evaluations": len(vals),
                                        "seconds": time.monotonic() - t0}
+
+
+COLUMNS = ("case", "method", "seed", "evaluations", "best", "seconds", "commit")
+
+
+def load(path: Path) -> dict:
+    """The runs of a results file: {"case/method/seed": {"best", "evaluations", ...}}."""
+    if not path.exists():
+        return {}
+    with open(path, newline="") as fh:
+        return {f"{r['case']}/{r['method']}/{r['seed']}":
+                {"best": float(r["best"]), "evaluations": int(r["evaluations"]),
+                 "seconds": float(r["seconds"]), "commit": r["commit"]}
+                for r in csv.DictReader(fh)}
+
+
+def save(path: Path, data: dict) -> None:
+    tmp = path.with_suffix(".tmp")
+    with open(tmp, "w", newline="") as fh:
+        w = csv.writer(fh, lineterminator="\n")
+        w.writerow(COLUMNS)
+        for key in sorted(data, key=lambda k: (k.split("/")[0], k.split("/")[1], int(k.split("/")[2]))):
+            r = data[key]
+            w.writerow(key.split("/") + [r["evaluations"], repr(r["best"]), round(r["seconds"], 1),
+                                         r["commit"]])
+    tmp.replace(path)   # a kill never leaves a half-written file
 
 
 def main(argv=None) -> None:
@@ -95,7 +124,7 @@ def main(argv=None) -> None:
     ap.add_argument("--seeds", default="1-16")
     ap.add_argument("--methods", default="pysot,optuna-tpe,random")
     ap.add_argument("--processes", type=int, default=2)
-    ap.add_argument("--out", default="paper-others.json")
+    ap.add_argument("--out", default="paper-others.csv")
     ap.add_argument("--known", nargs="*", default=[], metavar="CASE=VALUE")
     args = ap.parse_args(argv)
     seeds = seeds_arg(args.seeds)
@@ -104,24 +133,26 @@ def main(argv=None) -> None:
         if case not in OBJECTIVE:
             sys.exit(f"--cases: unknown case {case!r} (known: {', '.join(OBJECTIVE)})")
     out = Path(args.out)
-    data = json.loads(out.read_text()) if out.exists() else {}
+    data = load(out)
     todo = [(c, m, s) for c in cases for m in methods for s in seeds if f"{c}/{m}/{s}" not in data]
+    made_by = commit()
     with ProcessPoolExecutor(args.processes) as pool:
         for key, rec in pool.map(one_run, todo):
-            data[key] = rec
-            tmp = out.with_suffix(".tmp")
-            tmp.write_text(json.dumps(data))
-            tmp.replace(out)   # a kill never leaves a half-written file
-            print(f"  {key}: " + (rec.get("skipped") or f"{min(rec['values']):.5g} "
-                                  f"({rec['seconds']:.0f} s)"), file=sys.stderr, flush=True)
+            if "skipped" in rec:
+                print(f"  {key}: {rec['skipped']}", file=sys.stderr, flush=True)
+                continue
+            data[key] = {**rec, "commit": made_by}
+            save(out, data)
+            print(f"  {key}: {rec['best']:.5g} ({rec['seconds']:.0f} s)", file=sys.stderr,
+                  flush=True)
     known = {k: float(v) for k, _, v in (item.partition("=") for item in args.known)}
     print("| case | method | seeds | median seed | worst seed | median regret | worst regret |")
     print("|---|---|---|---|---|---|---|")
     for case in cases:
         p, ref_x, _ = paper_problem(case)
         f_ref = float(p(ref_x))
-        best = {m: {s: min(data[f"{case}/{m}/{s}"]["values"]) for s in seeds
-                    if "values" in data.get(f"{case}/{m}/{s}", {})} for m in methods}
+        best = {m: {s: data[f"{case}/{m}/{s}"]["best"] for s in seeds
+                    if f"{case}/{m}/{s}" in data} for m in methods}
         f_best = min([known.get(case, np.inf)] + [v for b in best.values() for v in b.values()])
         for m in methods:
             if not best[m]:

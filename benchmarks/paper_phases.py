@@ -5,7 +5,7 @@
 For each run directory (its results.h5) one line: the final best value, then per phase (the
 first design and each restart, in order) its kind, its evaluations and the best value it
 reached: ``F`` a fresh design (its first proposal is an initial point), ``B`` a restart that
-went on from the run's best point (optimiser generation 8's late restarts). With --reference
+went on from the run's best point (a late restart; its probes count as a design). With --reference
 and --best, runs whose regret ratio (f - best) / (reference - best) is above 0.25 are marked,
 and the count of fresh phases that got below it is printed: a run of a few long phases is
 only as robust as one phase is likely to find the good basin.

@@ -2,7 +2,7 @@
 
     python benchmarks/paper_seeds.py [--seeds 1-8] [--cases single-F_max,single-E_max,moo]
                                      [--workers 2] [--runs bench-runs/paper-seeds] [--long 0]
-                                     [--set KEY=VALUE ...]
+                                     [--out RESULTS.csv]
 
 For each case (configs/<case>.yaml: single-F_max and single-E_max with 200 evaluations, moo
 with 400) and each seed, runs ``lccopt optimise`` on a copy of the case with that seed into
@@ -10,8 +10,10 @@ with 400) and each seed, runs ``lccopt optimise`` on a copy of the case with tha
 can be stopped and started again). ``--long N`` adds one run of each case with N evaluations
 (seed 1000) that only serves to find a better best-known value; ``--known CASE=VALUE`` gives a
 better value found elsewhere (benchmarks/paper_best_known.py re-evaluates the best designs of
-any runs, e.g. of an earlier model or version, on the current model). ``--set`` runs a variant
-of the optimiser (Strategy settings changed, benchmarks/variant_cli.py) into its own --runs.
+any runs, e.g. of an earlier model or version, on the current model). ``--out`` writes one CSV
+row per run (case, seed, budget, best value, regret ratio, the commit, the optimiser settings
+the run recorded). The runs are lccopt's own: an experiment with the optimiser plugs into
+``Strategy`` in an ask/tell loop of its own (benchmarks/variants.py, benchmarks/paper_composite.py).
 
 Per case it prints the reference design's value, the best-known value (the best over all runs,
 the long one included), the median and worst seed, and each seed's regret ratio
@@ -45,8 +47,7 @@ def seeds_arg(text: str) -> list[int]:
     return out
 
 
-def run_one(case: str, seed: int, runs: Path, workers: int, budget: int | None = None,
-            settings: list[str] = ()) -> Path:
+def run_one(case: str, seed: int, runs: Path, workers: int, budget: int | None = None) -> Path:
     """Optimise configs/CASE.yaml with SEED into RUNS/<name>; reuse or resume what is there."""
     name = f"{case}-s{seed}" + (f"-b{budget}" if budget else "")
     run = runs / name
@@ -59,9 +60,6 @@ def run_one(case: str, seed: int, runs: Path, workers: int, budget: int | None =
     path.write_text(text)
     env = {**os.environ, "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
     exe = [sys.executable, "-m", "lccopt.cli"]
-    if settings:  # a variant of the optimiser, through the same engine
-        exe = [sys.executable, str(ROOT / "benchmarks" / "variant_cli.py")]
-        exe += [a for kv in settings for a in ("--set", kv)] + ["--"]
     if (run / "journal.jsonl").exists():
         cmd = exe + ["resume", str(run), "--workers", str(workers), "--case", str(path)]
     else:
@@ -89,6 +87,29 @@ def run_values(run: Path) -> dict:
                 "n": int(f.attrs["n_evaluations"])}
 
 
+def write_rows(path: str, runs: Path, rows: list, seeds: list[int], made_by: str | None) -> None:
+    """One CSV row per run: case, seed, budget, best, regret ratio, commit, settings."""
+    import csv
+    import json
+
+    sys.path.insert(0, str(ROOT))
+    from benchmarks.runs_table import commit
+
+    with open(path, "w", newline="") as fh:
+        w = csv.writer(fh, lineterminator="\n")
+        w.writerow(["case", "seed", "budget", "best", "regret", "reference", "best_known",
+                    "commit", "settings"])
+        for case, f_ref, f_best, _, _, _, _, regret, _ in rows:
+            for s in seeds:
+                run = runs / f"{case}-s{s}"
+                first = json.loads((run / "journal.jsonl").open().readline())
+                best = run_values(run)["best"]
+                w.writerow([case, s, first["budget"], repr(best), f"{regret[s]:.6g}",
+                            repr(f_ref), repr(f_best), made_by or commit(),
+                            json.dumps(first.get("optimiser"), sort_keys=True,
+                                       separators=(",", ":"))])
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--seeds", default="1-8")
@@ -98,16 +119,17 @@ def main() -> None:
     ap.add_argument("--long", type=int, default=0, help="budget of one extra long run per case (0: none)")
     ap.add_argument("--known", nargs="*", default=[], metavar="CASE=VALUE",
                     help="best-known values found elsewhere (benchmarks/paper_best_known.py)")
-    ap.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE",
-                    help="override a Strategy setting (benchmarks/variant_cli.py); use its own --runs")
+    ap.add_argument("--out", default=None, help="CSV file: one row per run")
+    ap.add_argument("--commit", default=None,
+                    help="the commit that made the runs, for --out (default: this checkout's)")
     args = ap.parse_args()
     known = {k: float(v) for k, _, v in (item.partition("=") for item in args.known)}
     runs = Path(args.runs)
     seeds = seeds_arg(args.seeds)
     rows = []
     for case in args.cases.split(","):
-        results = {s: run_values(run_one(case, s, runs, args.workers, settings=args.set)) for s in seeds}
-        long = run_values(run_one(case, 1000, runs, args.workers, args.long, args.set)) if args.long else None
+        results = {s: run_values(run_one(case, s, runs, args.workers)) for s in seeds}
+        long = run_values(run_one(case, 1000, runs, args.workers, args.long)) if args.long else None
         f_ref = results[seeds[0]]["reference"]
         f_best = min([r["best"] for r in results.values()] + ([long["best"]] if long else [])
                      + ([known[case]] if case in known else []))
@@ -123,6 +145,8 @@ def main() -> None:
             print(f"  long run ({long['n']} evaluations, seed 1000): {long['best']:.5g}")
         if case in known:
             print(f"  known from elsewhere (--known): {known[case]:.5g}")
+    if args.out:
+        write_rows(args.out, runs, rows, seeds, args.commit)
     print(f"\n| case | reference | best known | median seed | worst seed | median regret | worst regret |")
     print("|---|---|---|---|---|---|---|")
     for case, f_ref, f_best, med, worst, mreg, wreg, _, _ in rows:

@@ -80,7 +80,8 @@ def describe() -> dict:
 
 
 # Versions and machine entries whose change makes a resumed run's later proposals differ from
-# an uninterrupted run's (lccopt's own version does not: the journal keeps the generation).
+# an uninterrupted run's (lccopt's own version does not: the journal records the optimiser's
+# settings, and resume uses them).
 NUMERIC_KEYS = ("numpy", "scipy", *ENTRIES)
 
 

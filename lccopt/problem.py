@@ -116,20 +116,22 @@ class Problem:
                            integer=list(self.integer), given=[list(self.reference)],
                            log=list(self.log) or None)
 
-    def strategy(self, budget: int | None = None, composite: bool | None = None,
-                 generation: int | None = None):
-        """The optimiser; a composite surrogate (see ``surrogate``) unless composite=False (or
-        True: a run started with one). ``generation``: the optimiser generation of the lccopt
-        that started the run (``optim.strategy.GENERATION`` by default), to carry it on."""
-        from .optim.strategy import GENERATION, Strategy, generation_settings
+    def optimiser_settings(self):
+        """The optimiser settings of a new run of this problem (``optim.settings.Settings``):
+        those of its surrogate, scalar or composite (``surrogate``)."""
+        from .optim.settings import Settings
 
-        space = self.space()
-        extra = generation_settings(space, GENERATION if generation is None else int(generation))
-        if composite is None:
-            composite = self.surrogate != "scalar"
-        strategy = Strategy(space, budget=self.budget if budget is None else int(budget),
+        return Settings.default(composite=self.surrogate != "scalar")
+
+    def strategy(self, budget: int | None = None, settings=None):
+        """The optimiser of a run of this problem: ``optimiser_settings()``, or the settings a
+        run recorded (``Settings`` or its dict), with the aggregate of a single objective set
+        (a multi-objective run's ASF waits for the reference design's result)."""
+        from .optim.strategy import Strategy
+
+        strategy = Strategy(self.space(), budget=self.budget if budget is None else int(budget),
                             n_initial=self.initial_points, seed=self.seed,
-                            composite=bool(composite), **extra)
+                            settings=self.optimiser_settings() if settings is None else settings)
         if not self.multi:
             strategy.set_aggregate(self.aggregate(None))
         return strategy

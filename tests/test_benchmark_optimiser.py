@@ -1,7 +1,7 @@
 """benchmarks/optimiser.py --quick runs end to end (lccopt and random only: no pySOT or
-Optuna needed) and writes a well-formed table and JSON; --resume reuses the stored runs."""
+Optuna needed) and writes a well-formed table and CSV; --resume reuses the stored runs."""
 
-import json
+import csv
 import os
 import subprocess
 import sys
@@ -18,19 +18,24 @@ def _run(*args):
     return r.stdout
 
 
-def test_quick_benchmark_table_and_json(tmp_path):
-    out = tmp_path / "r.json"
+def _rows(path):
+    with open(path, newline="") as fh:
+        return list(csv.DictReader(fh))
+
+
+def test_quick_benchmark_table_and_csv(tmp_path):
+    out = tmp_path / "r.csv"
     text = _run("--quick", "--problems", "gear", "trap_int6", "--methods", "lccopt", "random",
                 "--out", str(out))
-    data = json.loads(out.read_text())
-    assert data["format"] == "lccopt-benchmark-optimiser/1"
-    assert len(data["runs"]) == 2 * 2 * 3  # problems x methods x seeds
-    for key, run in data["runs"].items():
-        prob, method, seed = key.split("|")
-        assert prob in ("gear", "trap_int6") and method in ("lccopt", "random")
-        assert run["n"] == 40 and run["n_evaluated"] == 40
-        b20, b40 = run["best_at"]["20"], run["best_at"]["40"]
-        assert b40 <= b20  # best so far never gets worse
+    runs = _rows(out)
+    assert len(runs) == 2 * 2 * 3  # problems x methods x seeds: one row per run
+    assert list(runs[0])[:8] == ["problem", "method", "seed", "evaluations", "evaluated",
+                                 "seconds", "commit", "settings"]
+    for run in runs:
+        assert run["problem"] in ("gear", "trap_int6") and run["method"] in ("lccopt", "random")
+        assert run["evaluations"] == run["evaluated"] == "40" and run["settings"] == "default"
+        assert len(run["commit"]) >= 7
+        assert float(run["best_40"]) <= float(run["best_20"])  # best so far never gets worse
     # one table per budget, a row per problem, the summary with W/T/L
     for b in (20, 40):
         assert f"#### budget {b}" in text
@@ -47,36 +52,43 @@ def test_quick_benchmark_table_and_json(tmp_path):
     text2 = _run("--quick", "--problems", "gear", "trap_int6", "--methods", "lccopt", "random",
                  "--out", str(out), "--resume")
     assert "runs," not in text2  # no "# <problem> <method>: N runs" lines
-    assert json.loads(out.read_text())["runs"] == data["runs"]
+    assert _rows(out) == runs
+
+
+def _runs(path):
+    return {(r["problem"], r["method"], r["seed"]): r for r in _rows(path)}
+
+
+def _values(path):
+    return {k: {c: v for c, v in r.items() if c.startswith("best_")}
+            for k, r in _runs(path).items()}
 
 
 def test_merge_gathers_parts_and_refuses_conflicts(tmp_path):
-    a, b, out = tmp_path / "a.json", tmp_path / "b.json", tmp_path / "all.json"
-    whole = tmp_path / "whole.json"
+    a, b, out = tmp_path / "a.csv", tmp_path / "b.csv", tmp_path / "all.csv"
+    whole = tmp_path / "whole.csv"
     common = ("--quick", "--problems", "gear", "--methods", "lccopt", "random")
     _run(*common, "--seeds", "0-0", "--out", str(a))
     _run(*common, "--seeds", "1-1", "--out", str(b))
     _run(*common, "--seeds", "0-1", "--out", str(whole))
     text = _run(*common, "--merge", str(a), str(b), "--out", str(out))
-    merged = json.loads(out.read_text())
-    assert merged["runs"].keys() == json.loads(whole.read_text())["runs"].keys()
-    for key, run in merged["runs"].items():  # the same runs as one process makes (deterministic)
-        assert run["best_at"] == json.loads(whole.read_text())["runs"][key]["best_at"]
-    assert len(merged["sessions"]) == 2
+    merged = _values(out)
+    # the same runs as one process makes (deterministic)
+    assert merged == _values(whole) and len(merged) == 2 * 2
     assert "| gear |" in text  # the tables of the merged file
     # merging again changes nothing
     _run(*common, "--merge", str(a), str(b), "--out", str(out))
-    assert json.loads(out.read_text())["runs"] == merged["runs"]
+    assert _values(out) == merged
     # a run of the same length with other values (other settings) is refused, out unchanged
-    bad = json.loads(b.read_text())
-    key = next(iter(bad["runs"]))
-    bad["runs"][key]["best_at"]["40"] -= 1.0
-    b.write_text(json.dumps(bad))
+    lines = b.read_text().splitlines()
+    cells = lines[1].split(",")
+    cells[-1] = repr(float(cells[-1]) - 1.0)
+    b.write_text("\n".join([lines[0], ",".join(cells)] + lines[2:]) + "\n")
     env = {**os.environ, "OPENBLAS_NUM_THREADS": "1"}
     r = subprocess.run([sys.executable, SCRIPT, *common, "--merge", str(b), "--out", str(out)],
                        capture_output=True, text=True, timeout=120, env=env, cwd=ROOT)
-    assert r.returncode != 0 and key in r.stderr and "differs" in r.stderr
-    assert json.loads(out.read_text())["runs"] == merged["runs"]
+    assert r.returncode != 0 and "|".join(cells[:3]) in r.stderr and "differs" in r.stderr
+    assert _values(out) == merged
 
 
 def test_paper_others_hands_the_log_scaled_pads_over_as_logarithms():

@@ -33,7 +33,6 @@ import numpy as np
 from ..atomic import atomic_path, atomic_write_bytes, fsync_dir, normal_mode
 from ..safeio import (UnsafeFile, check_owned_dir, is_regular_file, kind_of, open_owned,
                       read_owned)
-from ..optim.strategy import GENERATION
 
 RESULTS_FORMAT = "lccopt-results"
 RESULTS_VERSION = 1
@@ -41,16 +40,6 @@ RUN_FORMAT = "lccopt-run"
 RUN_VERSION = 1
 MAX_META_BYTES = 1_000_000  # run.json is a few hundred bytes
 OBJECTIVE_NAMES = ("F_rms", "F_max", "E_rms", "E_max")
-
-
-def journal_generation(first_line: dict) -> int | None:
-    """The optimiser generation (lccopt.optim.strategy) that proposed a run, from its journal's
-    first line: written since generation 3; before, "candidates": "dycors" meant generation 2
-    and no such key generation 1. None if the line's value is not an integer."""
-    if "optimiser" in first_line:
-        g = first_line["optimiser"]
-        return g if isinstance(g, int) and not isinstance(g, bool) else None
-    return 2 if first_line.get("candidates") == "dycors" else 1
 
 
 class RunError(Exception):
@@ -118,15 +107,11 @@ class RunDir:
                 line = {"seq": 0, "event": "run", "time": now_iso(), "case_sha256": meta["case_sha256"],
                         "budget": problem.budget, "objectives": list(problem.objectives),
                         "seed": problem.seed, "versions": meta["versions"],
-                        # which surrogate proposes (Problem.surrogate): a resume must rebuild
-                        # the same one (runs of lccopt before the composite surrogate have no
-                        # such key: scalar; before issue 9's sleeper energies, E_max: scalar)
+                        # what the surrogate fits (Problem.surrogate: the objectives, the
+                        # sleeper energies or the value) and the optimiser's settings: a
+                        # resume rebuilds the optimiser from these (runner.restore)
                         "surrogate": problem.surrogate,
-                        # candidates: DYCORS only (runs before issue 9 had no such key and
-                        # also drew uniform candidates)
-                        "candidates": "dycors",
-                        # the optimiser generation that proposes (journal_generation)
-                        "optimiser": GENERATION}
+                        "optimiser": problem.optimiser_settings().to_dict()}
                 fh.write((json.dumps(line, separators=(",", ":")) + "\n").encode())
                 fh.flush()
                 os.fsync(fh.fileno())

@@ -31,6 +31,7 @@ objectives fix the ASF reference point (``reference`` line) before any value is 
 from __future__ import annotations
 
 import os
+import re
 import shutil
 import signal
 import sys
@@ -44,13 +45,12 @@ import typer
 from .. import machine
 from ..case import SAFE_NAME, Case, CaseError, design_items, load_case
 from ..errors import EnvironmentFault, UsageError, describe_os_error, environment_errno
-from ..optim.strategy import GENERATION
 from ..problem import Problem
 from ..terminal import PipeGuard, wrap_items
 from .executors import ExecutorError, make_executor
 from .journal import Journal, JournalError, line_mark, read_journal
 from .progress import Progress, fmt, hms, objective_text, objective_value, reference_objectives
-from .rundir import (RunDir, RunError, Table, eval_name, journal_generation, now_iso, sha256_text,
+from .rundir import (RunDir, RunError, Table, eval_name, now_iso, sha256_text,
                      versions, write_results)
 from .schedule import may_ask, release
 from .worker import Outcome, Task, evaluator_spec
@@ -328,8 +328,9 @@ def changed_keys(old, new, path: str = "") -> list[str]:
 def restore(problem: Problem, events: list[dict], snapshot: dict | None):
     """Optimiser and table after the journal's events (snapshot + replay of the rest).
 
-    The snapshot is a cache: one that does not replay (stale, foreign, from another version)
-    is dropped and the whole journal replayed."""
+    The optimiser is built with the settings the run recorded (``recorded_settings``). The
+    snapshot is a cache: one made with other settings, or that does not replay (stale,
+    foreign, from another version), is dropped and the whole journal replayed."""
     seq = snapshot.get("seq") if isinstance(snapshot, dict) else None
     if isinstance(seq, int) and 0 <= seq < len(events) and snapshot.get("mark") == line_mark(events[seq]):
         try:
@@ -369,6 +370,8 @@ def _restore(problem: Problem, events: list[dict], snapshot: dict | None):
             raise JournalError(f"journal line {ev.get('seq', '?') + 1 if isinstance(ev.get('seq'), int) else '?'}"
                                f" is not a valid event ({type(exc).__name__}: {exc}); the journal was "
                                f"changed by something other than lccopt") from None
+    first = events[0] if events else {}
+    settings = recorded_settings(problem, first) if events else problem.optimiser_settings()
     strategy, start = None, 0
     if snapshot is not None and 0 <= snapshot["seq"] < len(events):
         try:
@@ -376,17 +379,10 @@ def _restore(problem: Problem, events: list[dict], snapshot: dict | None):
             start = int(snapshot["seq"]) + 1
         except Exception:  # noqa: BLE001 - a stale or foreign snapshot: replay everything
             strategy = None
+        if strategy is not None and strategy.settings != settings:
+            strategy = None
     if strategy is None:
-        budget0 = events[0].get("budget", problem.budget) if events else problem.budget
-        composite = bool(events) and events[0].get("surrogate", "scalar") != "scalar"
-        generation = journal_generation(events[0] if events else {})
-        if generation is None or not 1 <= generation <= GENERATION:
-            newer = generation is not None and generation > GENERATION
-            raise JournalError(f"the journal's first line names optimiser generation "
-                               f"{events[0].get('optimiser')!r}; this lccopt knows 1 to {GENERATION}"
-                               + (" (the run was started by a newer lccopt: resume it with that one)"
-                                  if newer else ""))
-        strategy = problem.strategy(budget=budget0, composite=composite, generation=generation)
+        strategy = problem.strategy(budget=first.get("budget", problem.budget), settings=settings)
         start = 0
     elif not problem.multi:  # not part of the state (for E_max alone: sleeper_energy_spread)
         strategy.set_aggregate(problem.aggregate(None))
@@ -398,9 +394,51 @@ def _restore(problem: Problem, events: list[dict], snapshot: dict | None):
     return strategy, table
 
 
+# A first line with "optimiser": 12 (a number instead of the settings) was written by the last
+# lccopt that did not record its settings; today's defaults make the proposals of its runs.
+_UNRECORDED_DEFAULTS = 12
+
+
+def recorded_settings(problem: Problem, first: dict):
+    """The optimiser settings of the run whose journal's first line is ``first``.
+
+    The line records them (``"optimiser"``: the settings' dict); a line that says
+    ``"optimiser": 12`` instead means today's default settings for the recorded surrogate.
+    Any other run (another number, no settings, or settings this lccopt does not have)
+    raises JournalError naming the lccopt version that made it."""
+    from ..optim.settings import Settings
+
+    rec = first.get("optimiser")
+    if isinstance(rec, dict):
+        try:
+            return Settings.from_dict(rec)
+        except ValueError as exc:
+            raise JournalError(f"{_made_by(first)} with optimiser settings this lccopt does not "
+                               f"have ({exc}): resume it with that version") from None
+    if type(rec) is int and rec == _UNRECORDED_DEFAULTS:
+        return Settings.default(composite=first.get("surrogate", "scalar") != "scalar")
+    what = ("no optimiser settings" if rec is None
+            else f"\"optimiser\": {rec!r} instead of its settings")
+    raise JournalError(f"{_made_by(first)} (its journal names {what}), whose proposals this "
+                       f"lccopt does not make: resume it with that version")
+
+
+def _made_by(first: dict) -> str:
+    versions = first.get("versions")
+    version = versions.get("lccopt") if isinstance(versions, dict) else None
+    if not (isinstance(version, str) and re.fullmatch(r"[\w.+-]{1,30}", version)):
+        version = None   # a crafted journal shows nothing of its own on the terminal
+    when = str(first.get("time", ""))[:10]
+    if not re.fullmatch(r"\d{4}-\d{2}-\d{2}", when):
+        when = ""
+    return (f"this run was made by lccopt {version or '(version unknown)'}"
+            + (f" on {when}" if when else ""))
+
+
 class Replay:
     """Makes the optimiser calls that the engine made for each journal line (see schedule.py:
-    results are told in id order, each once the proposal ``lag`` ids later has been made).
+    results are told in id order, each once the proposal ``lag`` ids later has been made;
+    the lag is the one of the session's ``schedule`` line).
 
     With the problem given, results are told with their objective vectors, and the optimiser's
     aggregate (the ASF, for a composite surrogate) is set as the engine set it: from the
@@ -409,7 +447,7 @@ class Replay:
 
     def __init__(self, strategy, multi: bool, problem=None):
         self.strategy, self.multi, self.problem = strategy, multi, problem
-        self.lag: int | None = None  # None: a journal of lccopt before the schedule rule
+        self.lag: int | None = None  # until the first schedule line
         self.results: dict[int, tuple] = {}
         self.asf: dict | None = None  # point, worst, rho of the aggregate in force
 
@@ -439,16 +477,20 @@ class Replay:
 
     def __call__(self, ev: dict) -> None:
         kind = ev["event"]
-        if self.lag is None and kind in ("evaluated", "failed"):
-            replay(self.strategy, ev, self.outputs(ev))  # the old rule: told in the journal's order
-        elif kind in ("asked", "exhausted", "case_changed"):
+        if self.lag is None and kind in ("asked", "exhausted", "evaluated", "failed"):
+            raise JournalError(f"journal line {ev['seq'] + 1}: {kind} before the journal's "
+                               f"first schedule line; the journal was changed by something "
+                               f"other than lccopt")
+        if kind in ("asked", "exhausted", "case_changed"):
             replay(self.strategy, ev)
         self.note(ev)
         if self.lag is not None:
             release(self.strategy, self.lag, self.multi, self.results.get)
 
 
-def replay(strategy, ev: dict, outputs=None) -> None:
+def replay(strategy, ev: dict) -> None:
+    """The optimiser call of an ``asked``, ``exhausted`` or ``case_changed`` line; an asked
+    point the optimiser does not propose raises JournalError."""
     kind = ev["event"]
     if kind == "asked":
         props = strategy.ask(1)
@@ -462,10 +504,6 @@ def replay(strategy, ev: dict, outputs=None) -> None:
             raise JournalError(f"journal line {ev['seq'] + 1}: the optimiser proposes #{props[0].id if props else '?'}"
                                f", the journal says the design space was exhausted; was lccopt changed "
                                f"since the run started?")
-    elif kind == "evaluated":
-        strategy.tell(ev["id"], ev["value"], outputs)
-    elif kind == "failed":
-        strategy.tell_failed(ev["id"], ev.get("reason", ""))
     elif kind == "case_changed":
         strategy.budget = int(ev["budget"])
 

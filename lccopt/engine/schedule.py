@@ -20,8 +20,7 @@ Multi-objective cases: the reference design (evaluation 0) fixes the ASF referen
 its result is told as soon as it is there, and proposals 1, 2, ... wait for it.
 
 The lag is journalled (``schedule`` line, at the start of a session whose worker count differs
-from the journal's), so that a replay of the journal makes the same calls. A journal without
-any ``schedule`` line (lccopt before this rule) told results in the journal's order: lag None.
+from the journal's), so that a replay of the journal makes the same calls.
 """
 
 from __future__ import annotations

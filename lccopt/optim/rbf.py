@@ -163,6 +163,7 @@ class CubicRBF:
 
     # -- evaluation ------------------------------------------------------------
     def __call__(self, Xq: np.ndarray) -> np.ndarray:
+        """The interpolant at points Xq (d,) -> float or (m, d) -> (m,)."""
         if self.lam is None:
             raise RuntimeError("RBF not fitted")
         Xq = np.asarray(Xq, dtype=float)

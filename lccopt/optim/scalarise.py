@@ -27,7 +27,8 @@ def asf(F, ref_point, worst, rho: float = 0.05) -> np.ndarray:
     if ref.shape != worst.shape or ref.ndim != 1:
         raise ValueError(f"ref_point {ref.shape} and worst {worst.shape} must be 1-D and alike")
     if F.shape[-1] != ref.shape[0]:
-        raise ValueError(f"objective vectors have {F.shape[-1]} entries, ref_point has {ref.shape[0]}")
+        raise ValueError(f"objective vectors have {F.shape[-1]} entries, "
+                         f"ref_point has {ref.shape[0]}")
     if not np.all(worst > ref):
         raise ValueError("every worst value must exceed its reference value (kappa_i > 0)")
     if rho < 0:
@@ -59,6 +60,7 @@ class ASF:
         self._span = np.asarray(self.worst, dtype=float) - self._ref
 
     def __call__(self, F) -> np.ndarray:
+        """The ASF of the objective vectors F (k,) or (n, k): an array (1,) or (n,)."""
         F = np.asarray(F, dtype=float)
         if F.ndim == 0 or F.shape[-1] != self._ref.shape[0]:
             return np.atleast_1d(asf(F, self.ref_point, self.worst, rho=self.rho))  # its error

@@ -22,6 +22,28 @@ import numpy as np
 
 @dataclass
 class DesignSpace:
+    """Bounded continuous and integer variables, with the points always proposed first.
+
+    Parameters
+    ----------
+    names : list of str
+        Unique variable names.
+    lower, upper : list of float
+        Finite bounds (integers for an integer variable); lower == upper fixes a variable.
+    integer : list of bool
+        Which variables take integer values only.
+    given : list of list of float, optional
+        Valid, distinct points (the reference design) the optimiser proposes first.
+    log : list of bool, optional
+        Continuous variables with positive bounds searched on a log scale.
+
+    Raises
+    ------
+    ValueError
+        With the variable's name: bounds not finite or crossed, integer bounds not integral,
+        a log scale on an integer or non-positive variable, a given point outside the space.
+    """
+
     names: list[str]
     lower: list[float]
     upper: list[float]
@@ -51,7 +73,8 @@ class DesignSpace:
             if lo > hi:
                 raise ValueError(f"variable {name!r}: lower bound {lo} > upper bound {hi}")
             if self.integer[i] and (lo != round(lo) or hi != round(hi)):
-                raise ValueError(f"integer variable {name!r}: bounds must be integers, got [{lo}, {hi}]")
+                raise ValueError(f"integer variable {name!r}: bounds must be integers, "
+                                 f"got [{lo}, {hi}]")
             if self.log[i] and (self.integer[i] or not lo > 0):
                 raise ValueError(f"variable {name!r}: a log scale needs a continuous variable with "
                                  f"positive bounds, got [{lo}, {hi}]")
@@ -73,18 +96,22 @@ class DesignSpace:
     # -- arrays -----------------------------------------------------------
     @property
     def dim(self) -> int:
+        """The number of variables."""
         return len(self.names)
 
     @property
     def lb(self) -> np.ndarray:
+        """Lower bounds as an array."""
         return np.array(self.lower)
 
     @property
     def ub(self) -> np.ndarray:
+        """Upper bounds as an array."""
         return np.array(self.upper)
 
     @property
     def int_mask(self) -> np.ndarray:
+        """True for the integer variables."""
         return np.array(self.integer, dtype=bool)
 
     @property
@@ -95,18 +122,22 @@ class DesignSpace:
 
     @property
     def given_array(self) -> np.ndarray:
+        """The given points as an (n, d) array."""
         return np.array(self.given, dtype=float).reshape(-1, self.dim)
 
     @property
     def log_mask(self) -> np.ndarray:
+        """True for the variables searched on a log scale."""
         return np.array(self.log, dtype=bool)
 
     @property
     def search_lb(self) -> np.ndarray:
+        """Lower bounds in search coordinates."""
         return self.to_search(self.lb)
 
     @property
     def search_ub(self) -> np.ndarray:
+        """Upper bounds in search coordinates."""
         return self.to_search(self.ub)
 
     @property
@@ -134,9 +165,11 @@ class DesignSpace:
         return np.where(m, np.exp(np.where(m, s, 0.0)), s)
 
     def to_unit(self, x: np.ndarray) -> np.ndarray:
+        """Points (d,) or (n, d) to the unit box of search coordinates."""
         return (self.to_search(x) - self.search_lb) / self.search_span
 
     def from_unit(self, u: np.ndarray) -> np.ndarray:
+        """Points of the unit box back to the variables' units (not snapped)."""
         return self.from_search(self.search_lb + np.asarray(u, dtype=float) * self.search_span)
 
     def snap(self, x: np.ndarray) -> np.ndarray:
@@ -148,6 +181,8 @@ class DesignSpace:
         return x
 
     def check(self, x, what: str = "point") -> np.ndarray:
+        """x as a float array if it is a valid point (shape, finite, in bounds, integers
+        integral), else ValueError naming ``what`` and the variable."""
         x = np.asarray(x, dtype=float)
         if x.shape != (self.dim,):
             raise ValueError(f"{what}: expected {self.dim} values, got shape {x.shape}")
@@ -156,7 +191,8 @@ class DesignSpace:
         bad = (x < self.lb) | (x > self.ub)
         if bad.any():
             i = int(np.flatnonzero(bad)[0])
-            raise ValueError(f"{what}: {self.names[i]}={x[i]} outside [{self.lower[i]}, {self.upper[i]}]")
+            raise ValueError(f"{what}: {self.names[i]}={x[i]} outside "
+                             f"[{self.lower[i]}, {self.upper[i]}]")
         m = self.int_mask
         if np.any(x[m] != np.rint(x[m])):
             i = int(np.flatnonzero(m & (x != np.rint(x)))[0])
@@ -182,13 +218,15 @@ class DesignSpace:
 
     # -- serialisation ------------------------------------------------------
     def to_dict(self) -> dict:
+        """Plain JSON types (``from_dict`` reads them back)."""
         out = {"names": list(self.names), "lower": list(self.lower), "upper": list(self.upper),
                "integer": list(self.integer), "given": [list(g) for g in self.given]}
-        if any(self.log):  # absent otherwise, as before log scales existed
+        if any(self.log):  # absent otherwise: a space without log scales reads the same
             out["log"] = list(self.log)
         return out
 
     @classmethod
     def from_dict(cls, d: dict) -> "DesignSpace":
+        """The space a ``to_dict`` wrote."""
         return cls(names=d["names"], lower=d["lower"], upper=d["upper"],
                    integer=d["integer"], given=d.get("given", []), log=d.get("log"))

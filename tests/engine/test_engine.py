@@ -13,6 +13,7 @@ from lccopt.cli import UsageError
 from lccopt.engine.journal import Journal, JournalError, line_mark, read_journal
 from lccopt.engine.rundir import RunDir
 from lccopt.engine.runner import optimise, restore, resume
+from lccopt.optim.settings import Settings
 from lccopt.problem import Problem
 from lccopt.store import read_evaluation
 
@@ -221,7 +222,7 @@ def test_multi_objective_runs_use_the_composite_surrogate_and_replay_it(tmp_path
     pb = Problem.from_case(load_case(case))
     events, _, _ = read_journal(run / "journal.jsonl")
     strategy, table = restore(pb, events, None)
-    assert strategy.settings["composite"] is True
+    assert strategy.settings.composite is True
     ref = next(e for e in events if e["event"] == "reference")
     assert strategy.aggregate == ASF(ref["point"], pb.worst, pb.rho)
     for r in strategy.history:
@@ -233,11 +234,11 @@ def test_multi_objective_runs_use_the_composite_surrogate_and_replay_it(tmp_path
     with pytest.raises(JournalError, match="optimiser proposes"):
         for ev in events:
             rep(ev)
-    # the old behaviour stays available
-    assert pb.strategy(composite=False).settings["composite"] is False
+    # the scalar surrogate stays available
+    assert pb.strategy(settings=Settings.default()).settings.composite is False
     single = write_case(tmp_path, "single-c", objectives=("F_max",), budget=8, initial=4)
     assert Problem.from_case(load_case(single)).surrogate == "scalar"
-    assert Problem.from_case(load_case(single)).strategy().settings["composite"] is False
+    assert Problem.from_case(load_case(single)).strategy().settings.composite is False
 
 
 def test_e_max_alone_fits_the_sleepers_energies_and_replays_them(tmp_path):
@@ -258,7 +259,7 @@ def test_e_max_alone_fits_the_sleepers_energies_and_replays_them(tmp_path):
         assert len(e["parts"]) == 5
         assert max(e["parts"]) - min(e["parts"]) == pytest.approx(e["objectives"]["E_max"], rel=1e-12)
     strategy, table = restore(pb, events, None)
-    assert strategy.settings["composite"] is True
+    assert strategy.settings.composite is True
     assert strategy.aggregate is sleeper_energy_spread
     told = {e["id"]: e["parts"] for e in evaluated}
     for r in strategy.history:
@@ -266,8 +267,8 @@ def test_e_max_alone_fits_the_sleepers_energies_and_replays_them(tmp_path):
     stripped = [{k: v for k, v in e.items() if k != "parts"} for e in events]
     with pytest.raises(JournalError, match="optimiser proposes"):
         restore(pb, stripped, None)
-    old = [{**events[0], "surrogate": "scalar"}]
-    assert restore(pb, old, None)[0].settings["composite"] is False
+    old = [{**events[0], "surrogate": "scalar", "optimiser": 12}]
+    assert restore(pb, old, None)[0].settings.composite is False
     # a snapshot restores the aggregate too (it is not part of the state)
     snap = {"seq": events[-1]["seq"], "strategy": strategy.state_dict()}
     again, _ = restore(pb, events, snap)

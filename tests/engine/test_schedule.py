@@ -12,9 +12,9 @@ import random
 import numpy as np
 import pytest
 
+from benchmarks import problems
 from lccopt.engine.runner import Replay
 from lccopt.engine.schedule import may_ask, release
-from lccopt.optim import problems
 from lccopt.optim.space import DesignSpace
 from lccopt.optim.strategy import Strategy
 
@@ -27,7 +27,7 @@ class Recording(Strategy):
         self.calls = []
 
     def ask(self, k=1):
-        told = tuple(r["id"] for r in self._records if r["status"] != "pending")
+        told = tuple(r["id"] for r in self.records if r["status"] != "pending")
         out = super().ask(k)
         for p in out:
             self.calls.append(("ask", p.id, told))

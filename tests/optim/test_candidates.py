@@ -1,0 +1,151 @@
+"""Candidate points: DYCORS steps, their probability, bound probes, the generator extension."""
+
+import numpy as np
+import pytest
+
+from benchmarks import problems
+from lccopt.optim.candidates import (
+    CandidateRequest,
+    Dycors,
+    bound_probes,
+    perturb,
+    perturb_probability,
+)
+from lccopt.optim.sampling import to_space
+from lccopt.optim.settings import Settings
+from lccopt.optim.space import DesignSpace
+from lccopt.optim.strategy import Strategy
+from tests.optim.helpers import run_serial, xs
+
+SPACE3 = DesignSpace(["x", "y", "n"], [0.0, 0.0, 0], [1.0, 1.0, 4], [False, False, True])
+ALL = np.array([True, True, True])
+
+
+def test_truncated_normal_steps_stay_in_the_box_with_the_scale_of_sigma():
+    """"truncnorm" (pySOT): each perturbed coordinate is drawn from a normal of scale
+    sigma * range truncated to the bounds; integers get a scale of at least one unit and are
+    rounded."""
+    rng = np.random.default_rng(2)
+    best = np.array([0.0, 0.5, 2.0])
+    C = perturb(SPACE3, rng, best, 20000, 0.1, 1.0, ALL, "truncnorm")
+    assert np.all((C >= SPACE3.lb) & (C <= SPACE3.ub))
+    x, y, n = C[:, 0], C[:, 1], C[:, 2]
+    # at the lower bound: one-sided, a half normal of scale 0.1 (mean 0.1 sqrt(2/pi))
+    assert np.all(x >= 0.0) and abs(x[x > 0].mean() - 0.1 * np.sqrt(2 / np.pi)) < 0.004
+    # inside: the truncation is 5 sigma away, a plain normal of scale 0.1
+    assert abs((y[y != 0.5] - 0.5).std() - 0.1) < 0.004 and np.all(y != 0.5)
+    # integer of range 4: sigma * range = 0.4 < 1, so the scale is one unit, truncated to
+    # [-2, 2] units; rounded, it moves in P(1/2 < |z| < 2) / P(|z| < 2) = 0.599 of the draws
+    assert np.all(n == np.rint(n)) and n.min() == 0.0 and n.max() == 4.0
+    assert abs(np.mean(n != 2.0) - 0.599) < 0.015
+
+
+def test_reflected_steps_move_every_perturbed_integer_and_stay_in_the_box():
+    """"reflect": a normal step reflected at a bound; a perturbed integer moves by at least
+    one unit (then by the rounded step)."""
+    rng = np.random.default_rng(3)
+    best = np.array([0.05, 0.5, 2.0])
+    C = perturb(SPACE3, rng, best, 20000, 0.1, 1.0, ALL, "reflect")
+    assert np.all((C >= SPACE3.lb) & (C <= SPACE3.ub))
+    assert np.all(C[:, 2] != 2.0)  # probability 1: every integer perturbed, and it moved
+    assert np.mean(C[:, 0] < 0.05) < np.mean(C[:, 0] > 0.05)  # reflected off the bound at 0
+
+
+def test_at_least_one_coordinate_moves_and_a_held_one_never_does():
+    rng = np.random.default_rng(4)
+    best = np.array([0.5, 0.5, 2.0])
+    held = np.array([True, True, False])
+    for kind in ("truncnorm", "reflect"):
+        C = perturb(SPACE3, rng, best, 5000, 0.2, 0.0, held, kind)
+        assert np.all(C[:, 2] == 2.0)
+        assert np.all(np.sum(C[:, :2] != best[:2], axis=1) == 1)  # probability 0: one each
+
+
+def test_the_perturbation_probability_shrinks_over_the_whole_run():
+    """"run" (pySOT): min(20/d, 1) (1 - ln n / ln N) with n the proposals since the first
+    initial design and N the budget after it, floored at 1/d, not reset by a restart;
+    "restart" starts again at each phase (after its design), without the floor."""
+    sp = problems.paper_size("ackley").space  # d = 8: 20/d > 1
+    s = Strategy(sp, budget=220, n_initial=20, seed=0)
+    expected = []
+    while s.n_told < 200:
+        if s.n_asked >= 20 and not s._queue:
+            n = s.n_asked - 20 + 1
+            expected.append((s._probability(), max(1 - np.log(n) / np.log(200), 1 / 8)))
+        for pr in s.ask(1):
+            s.tell(pr.id, 0.0 if pr.id == 0 else 1.0)  # nothing improves: sigma collapses
+    assert s.restart >= 1, "the test needs a restart"
+    got, want = np.array(expected).T
+    np.testing.assert_allclose(got, want, rtol=1e-12)
+    assert got[-1] == 1 / 8 and np.all(np.diff(got) <= 0)
+    assert perturb_probability("restart", 8, 150, 20, 220, 100, 0) == 1.0
+    assert perturb_probability("restart", 8, 150, 20, 220, 100, 9) == pytest.approx(
+        1 - np.log(10) / np.log(100))
+    assert perturb_probability("restart", 8, 219, 20, 220, 1, 0) == 0.0
+
+
+def test_bound_probes_are_the_best_point_with_one_integer_on_a_bound():
+    """Each movable integer to each bound that no point of the phase has yet (the best point
+    is one of them); continuous coordinates and one-value integers get none."""
+    space = DesignSpace(["x", "n", "k", "c"], [0.0, 0, 3, 2], [1.0, 120, 7, 2],
+                        [False, True, True, True])
+    free = space.ub > space.lb
+    best = np.array([0.5, 113.0, 3.0, 2.0])
+    np.testing.assert_array_equal(bound_probes(space, best, best[None, :], free),
+                                  [[0.5, 0.0, 3.0, 2.0], [0.5, 120.0, 3.0, 2.0],
+                                   [0.5, 113.0, 7.0, 2.0]])
+    asked = np.array([best, [0.7, 120.0, 5.0, 2.0]])  # the phase has been at n = 120
+    np.testing.assert_array_equal(bound_probes(space, best, asked, free),
+                                  [[0.5, 0.0, 3.0, 2.0], [0.5, 113.0, 7.0, 2.0]])
+
+
+def test_the_local_search_competes_at_the_greedy_weight_only_by_default():
+    """A scalar run's "local" proposals come at w = 0.95 (one in four); "all": at any."""
+    p = problems.paper_size("levy")
+    weights = {}
+    for lw in ("greedy", "all"):
+        s = Strategy(p.space, budget=80, seed=1, local_weights=lw)
+        seen = []
+        real = s._select
+
+        def select(ctx, s=s, real=real, seen=seen):
+            w = s._w_index % 4
+            pick = real(ctx)
+            if pick is not None and pick[1] == "local":
+                seen.append(w)
+            return pick
+
+        s._select = select
+        run_serial(s, p)
+        weights[lw] = set(seen)
+    assert weights["greedy"] == {3} and len(weights["all"]) > 1
+
+
+class Uniform:
+    """A generator that adds uniform points to the default's (drawn from the request's rng)."""
+
+    def __init__(self, settings):
+        self.dycors = Dycors(settings)
+        self.requests = []
+
+    def __call__(self, req: CandidateRequest):
+        self.requests.append(req)
+        u = to_space(req.space, req.rng.random((50, req.space.dim)))
+        return self.dycors(req) + [(u, "random")]
+
+
+def test_a_candidate_generator_plugs_in_and_its_runs_resume_exactly():
+    p = problems.paper_size("rastrigin")
+    gen = Uniform(Settings.default())
+    s = Strategy(p.space, budget=60, seed=2, candidates=gen)
+    for pr in s.ask(40):
+        s.tell(pr.id, p(pr.x))
+    t = Strategy.from_state(s.state_dict(), candidates=Uniform(Settings.default()))
+    run_serial(s, p)
+    run_serial(t, p)
+    assert xs(s) == xs(t) and "random" in {r["phase"] for r in s.history}
+    req = gen.requests[-1]
+    assert req.rng is s.rng and req.attempt == 0 and req.weight in (0.3, 0.5, 0.8, 0.95)
+    assert req.best is not None and 0.0 < req.probability <= 1.0 and req.movable.all()
+    plain = run_serial(Strategy(p.space, budget=60, seed=2), p)
+    assert xs(plain) != xs(s)
