@@ -35,14 +35,19 @@ from scipy.sparse.linalg import splu
 
 from scipy.linalg import blas, lapack
 
-from lccopt.case import load_case
+from lccopt.config import load_case
 from lccopt.vti import newmark_reference
 from lccopt.vti.assembly import to_upper_banded
 from lccopt.vti.newmark import contact_vector, forward_columns, integrate
 from lccopt.vti.newmark_reference import REFERENCE_SETTINGS
-from lccopt.vti.simulate import evaluate
+from lccopt.problem import evaluate
+from lccopt.vti.simulate import evaluate as simulate
+
+
+def legacy_evaluate(case, x):
+    return simulate(case.scenario(), case.track_design(x), legacy=True)
 from lccopt.vti.track import build_track
-from lccopt.vti.vehicle import Vehicle
+from lccopt.vti.vehicle import build_vehicle
 
 
 def naive_steps(track, veh, dt, x_start, steps):
@@ -93,7 +98,7 @@ def timed(f, repeat: int = 200) -> float:
 
 def breakdown(case, x, n_steps: int) -> dict[str, float]:
     """Seconds per run of the parts of the current method's step, timed in isolation."""
-    track = build_track(case, x)
+    track = build_track(case.scenario(), case.track_design(x))
     dt = case.simulation["time_step"]
     a0, a1 = 4 / dt ** 2, 2 / dt
     M, C, K = track.M, track.C, track.K
@@ -104,7 +109,7 @@ def breakdown(case, x, n_steps: int) -> dict[str, float]:
     pq = np.random.default_rng(0).random(2 * n)
     b = pq[:n].copy()
     rows = np.zeros((2, n))
-    veh = Vehicle.from_case(case)
+    veh = build_vehicle(case.scenario().vehicle)
     x0, _, _, x1 = track.window
     elements = np.unique(np.searchsorted(track.node_x, x0 + veh.speed * dt * np.arange(n_steps + 1),
                                          side="right") - 1)
@@ -130,11 +135,11 @@ def main() -> None:
     old_case = case.with_simulation(**REFERENCE_SETTINGS)
     x = case.reference
     ev = evaluate(case, x)  # warm up imports and caches
-    ev_old = evaluate(old_case, x, legacy=True)
+    ev_old = legacy_evaluate(old_case, x)
     new_t, old_t = [], []
     for _ in range(args.repeat):   # alternate, so that the machine's load hits both alike
         t0 = time.perf_counter()
-        evaluate(old_case, x, legacy=True)
+        legacy_evaluate(old_case, x)
         old_t.append(time.perf_counter() - t0)
         t0 = time.perf_counter()
         evaluate(case, x)
@@ -170,7 +175,7 @@ def main() -> None:
             for store, setting in ((flushed, saved), (unflushed, (10 ** 12, 0.0))):
                 newmark_reference.FLUSH_EVERY, newmark_reference.FLUSH_BELOW = setting
                 t0 = time.perf_counter()
-                evaluate(old_case, x, legacy=True)
+                legacy_evaluate(old_case, x)
                 store.append(time.perf_counter() - t0)
         newmark_reference.FLUSH_EVERY, newmark_reference.FLUSH_BELOW = saved
         print(f"old method with its flush of tiny values: median {statistics.median(flushed):.3f} s, "
@@ -198,8 +203,8 @@ def main() -> None:
                   f"{t / ev_v.info['n_steps'] / ev_v.info['n_dofs'] * 1e9:.0f} ns/step/dof")
 
     if args.naive_steps:
-        track = build_track(case, x)
-        veh = Vehicle.from_case(case)
+        track = build_track(case.scenario(), case.track_design(x))
+        veh = build_vehicle(case.scenario().vehicle)
         x0 = ev.info["x_start"]
         t0 = time.perf_counter()
         ref = naive_steps(track, veh, dt, x0, args.naive_steps)

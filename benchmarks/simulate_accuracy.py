@@ -24,9 +24,14 @@ from pathlib import Path
 
 import numpy as np
 
-from lccopt.case import Case, load_case
+from lccopt.config import Case, load_case
 from lccopt.vti.newmark_reference import REFERENCE_SETTINGS
-from lccopt.vti.simulate import evaluate
+from lccopt.problem import evaluate
+from lccopt.vti.simulate import evaluate as simulate
+
+
+def legacy_evaluate(case, x):
+    return simulate(case.scenario(), case.track_design(x), legacy=True)
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from convergence import DESIGNS  # noqa: E402
@@ -50,7 +55,7 @@ def random_designs(case: Case, count: int, seed: int) -> list[np.ndarray]:
 def differences(case: Case, x) -> tuple[dict, dict]:
     """(new objectives, old objectives) of design x."""
     new = evaluate(case, x).objectives
-    old = evaluate(case.with_simulation(**REFERENCE_SETTINGS), x, legacy=True).objectives
+    old = legacy_evaluate(case.with_simulation(**REFERENCE_SETTINGS), x).objectives
     return new, old
 
 

@@ -21,8 +21,7 @@ from typing import Optional
 
 import typer
 
-from .case import CaseError
-from .errors import UsageError, describe_os_error
+from .errors import CaseError, UsageError, describe_os_error
 from .terminal import wrap_items
 
 EXIT_OK, EXIT_INTERNAL, EXIT_USAGE, EXIT_INTERRUPTED, EXIT_PIPE = 0, 1, 2, 130, 141
@@ -58,7 +57,7 @@ def _main_options(version: bool = typer.Option(False, "--version", callback=_ver
 @app.command()
 def check(case: Path = typer.Argument(..., help="case file (YAML)")) -> None:
     """Validate a case file without simulating."""
-    from .case import load_case
+    from .config import load_case
 
     c = load_case(case)
     names = [f"{v.name}{'∈Z' if v.integer else ''} [{v.lower:g}, {v.upper:g}]{' log' if v.log else ''}"

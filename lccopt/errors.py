@@ -1,7 +1,7 @@
 """The errors a user can act on (exit 2), shared by every layer below the CLI.
 
-Kept apart from ``cli.py`` so that the engine, the report and the simulate command can raise
-them without importing the command line (which imports them).
+Kept apart from ``cli.py`` so that the config layer, the engine, the report and the simulate
+command can raise them without importing the command line (which imports them).
 """
 
 from __future__ import annotations
@@ -9,6 +9,10 @@ from __future__ import annotations
 import errno
 import os
 import re
+
+
+class CaseError(ValueError):
+    """A case file problem, already formatted as ``file:line: key.path: message``; exit 2."""
 
 
 class UsageError(Exception):

@@ -9,7 +9,7 @@ import numpy as np
 import typer
 
 from . import machine
-from .case import design_items, load_case, parse_design
+from .config import design_items, load_case, parse_design
 from .store import write_evaluation
 from .terminal import wrap_items
 from .vti.response import OBJECTIVE_DOC, Evaluation, objective_display
@@ -36,7 +36,7 @@ def run_simulate(case_path: Path, design: str | None, out: Path | None, plots: b
                          f"to replace it")
     out.mkdir(parents=True, exist_ok=True)
 
-    from .vti.simulate import evaluate
+    from .problem import evaluate
 
     if case.conditions:
         return _simulate_conditions(case, case_path, x, out, plots, evaluate)

@@ -6,8 +6,9 @@ import h5py
 import numpy as np
 import pytest
 
-from lccopt.case import CaseError, load_case
-from lccopt.vti.simulate import evaluate
+from lccopt.config import load_case
+from lccopt.errors import CaseError
+from lccopt.problem import evaluate
 from tests.conftest import CHEAP_SIMULATION, CONFIGS
 
 REFERENCE = CONFIGS / "reference.yaml"

@@ -41,8 +41,8 @@ import numpy as np
 import typer
 
 from .. import machine
-from ..case import SAFE_NAME, Case, CaseError, design_items, load_case
-from ..errors import EnvironmentFault, UsageError, describe_os_error, environment_errno
+from ..config import SAFE_NAME, Case, design_items, load_case
+from ..errors import CaseError, EnvironmentFault, UsageError, describe_os_error, environment_errno
 from ..optim.strategy import GENERATION
 from ..problem import Problem
 from ..terminal import wrap_items
@@ -234,11 +234,12 @@ def _saved_evaluator(meta: dict):
     """The evaluator the run was started with, unless it was the default."""
     import os
 
-    from .worker import DEFAULT_EVALUATOR, ENV_EVALUATOR
+    from .worker import DEFAULT_EVALUATOR, ENV_EVALUATOR, RENAMED_EVALUATORS
 
     if os.environ.get(ENV_EVALUATOR):
         return None
     saved = meta.get("evaluator")
+    saved = RENAMED_EVALUATORS.get(saved, saved) if isinstance(saved, str) else saved
     return saved if isinstance(saved, str) and saved != DEFAULT_EVALUATOR and ":" in saved else None
 
 

@@ -1,10 +1,10 @@
-"""One vehicle-track simulation of one design: the entry point for workers.
+"""One vehicle-track simulation of one design.
 
-``evaluate(case, x)`` builds the track for design x, runs the case's vehicle (3-dof, bogie or
-half car: ``vehicle.type``) over it from static equilibrium and returns the objectives and
-time histories as an :class:`Evaluation`.
+``evaluate(scenario, design)`` builds the track for the design, runs the scenario's vehicle
+(3-dof, bogie or half car: ``VehicleSpec.type``) over it from static equilibrium and returns
+the objectives and time histories as an :class:`Evaluation`.
 
-The run (``simulation.direction``, lccopt.vti.track.wheel_window): ``enter``, the leading
+The run (``SimulationSettings.direction``, lccopt.vti.track.wheel_window): ``enter``, the leading
 wheel starts ``run_in`` before the evaluation zone, which begins at the farthest zone
 sleeper, and runs towards +x; ``leave``, it starts ``run_in`` beyond the far edge of the ERS
 (on the exit ballast) and runs towards -x over the whole crossing. The contact force of every wheel is measured while that wheel is
@@ -19,36 +19,33 @@ import time
 
 import numpy as np
 
-from ..case import Case
 from .newmark import integrate
 from .newmark_reference import integrate_reference
 from .response import Evaluation, objectives_from
-from .irregularity import irregularity_profile
+from .specs import Scenario, TrackDesign
 from .track import build_track
-from .vehicle import Vehicle
+from .vehicle import build_vehicle
 
 
-def evaluate(case: Case, x, *, legacy: bool = False) -> Evaluation:
-    """Simulate design ``x`` of ``case``; raise ValueError for an invalid design.
+def evaluate(scenario: Scenario, design: TrackDesign, *, legacy: bool = False) -> Evaluation:
+    """Simulate one design (assumed checked) in one scenario.
 
     legacy: the method before issue 11 (its integrator, and F_max from the steps inside the
     force zone only), kept as the comparison for benchmarks/simulate.py and
     benchmarks/simulate_accuracy.py; run it at ``newmark_reference.REFERENCE_SETTINGS``."""
     t0 = time.perf_counter()
-    x = case.check_design(x)
-    track = build_track(case, x)
-    vehicle = Vehicle.from_case(case)
-    sim = case.simulation
-    dt = sim["time_step"]
+    track = build_track(scenario, design)
+    vehicle = build_vehicle(scenario.vehicle)
+    dt = scenario.settings.time_step
     x_start, zone_start, zone_end, x_end = track.window
-    leave = x_end < x_start                       # simulation.direction: leave (towards -x)
+    leave = x_end < x_start                       # direction: leave (towards -x)
     speed = -vehicle.speed if leave else vehicle.speed
     n_steps = int(np.ceil(abs(x_end - x_start) / (vehicle.speed * dt)))
-    n_zone = case.evaluation["sleepers"]
+    n_zone = scenario.zones.sleepers
     zone_dofs = track.entry_sleeper_dof[:n_zone]
 
     irregularity = None
-    profile = irregularity_profile(case)
+    profile = scenario.irregularity
     if profile is not None:
         px, pr = profile[:, 0], profile[:, 1]
         irregularity = lambda pos: float(np.interp(pos, px, pr, left=0.0, right=0.0))

@@ -9,7 +9,7 @@ import json
 
 import pytest
 
-from lccopt.case import load_case
+from lccopt.config import load_case
 from lccopt.engine.journal import JournalError, read_journal
 from lccopt.engine.rundir import RunDir
 from lccopt.engine.runner import optimise, restore, resume

@@ -5,9 +5,14 @@ benchmarks/simulate_accuracy.py checks the same on 29 designs; this is a fast su
 import numpy as np
 import pytest
 
-from lccopt.case import load_case
+from lccopt.config import load_case
 from lccopt.vti.newmark_reference import REFERENCE_SETTINGS
-from lccopt.vti.simulate import evaluate
+from lccopt.problem import evaluate
+from lccopt.vti.simulate import evaluate as simulate
+
+
+def legacy_evaluate(case, x):
+    return simulate(case.scenario(), case.track_design(x), legacy=True)
 
 DESIGNS = {
     "reference": None,
@@ -21,7 +26,7 @@ def test_default_settings_match_the_method_before_issue_11(name):
     case = load_case("configs/reference.yaml")
     x = case.reference if DESIGNS[name] is None else case.check_design(np.array(DESIGNS[name], float))
     new = evaluate(case, x)
-    old = evaluate(case.with_simulation(**REFERENCE_SETTINGS), x, legacy=True)
+    old = legacy_evaluate(case.with_simulation(**REFERENCE_SETTINGS), x)
     assert new.info["n_steps"] < old.info["n_steps"] / 3      # fewer steps: most of the speed-up
     for key in ("F_max", "E_max"):
         assert new.objectives[key] == pytest.approx(old.objectives[key], rel=0.005), key
@@ -34,13 +39,13 @@ def test_integrators_agree_to_round_off_at_the_same_settings():
     from lccopt.vti.newmark import integrate
     from lccopt.vti.newmark_reference import integrate_reference
     from lccopt.vti.track import build_track
-    from lccopt.vti.vehicle import Vehicle
+    from lccopt.vti.vehicle import build_vehicle
 
     case = load_case("configs/reference.yaml").with_simulation(run_in=2.0, run_out=1.0)
     x = case.reference.copy()
     x[:3] = [300e6, 100e6, 60e6]
-    track = build_track(case, x)
-    veh = Vehicle.from_case(case)
+    track = build_track(case.scenario(), case.track_design(x))
+    veh = build_vehicle(case.scenario().vehicle)
     dt = case.simulation["time_step"]
     dofs = track.entry_sleeper_dof[:5]
     a = integrate(track, dt, veh.speed, 96.0, 400, vehicle=veh, record_dofs=dofs)

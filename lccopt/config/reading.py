@@ -1,0 +1,179 @@
+"""Reading case files: YAML with the line of every key, and ``extends``.
+
+Every problem is a :class:`~lccopt.errors.CaseError` of one line, ``FILE:LINE: KEY.PATH:
+what is wrong``. The reader is a safe YAML loader hardened against what a case file never
+needs: anchors and aliases (an alias bomb expands exponentially), merge keys, tags, deep
+nesting.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from ..errors import CaseError
+
+MAX_CASE_BYTES = 1_000_000  # a case file is a few kB; anything near this is not one
+MAX_DEPTH = 20              # sections nest 4 deep; deeper is an attack on the recursive reader
+
+
+class _Loader(yaml.SafeLoader):
+    """SafeLoader that reads ``1120e6`` as a float (PyYAML's YAML 1.1 rules make it a string),
+    refuses anchors/aliases (an alias bomb expands exponentially) and deep nesting."""
+
+    _depth = 0
+
+    def compose_node(self, parent, index):
+        if self.check_event(yaml.AliasEvent) or getattr(self.peek_event(), "anchor", None):
+            raise yaml.composer.ComposerError(
+                None, None, "anchors and aliases (&name, *name) are not allowed in case files; "
+                "use 'extends: other.yaml' to share values", self.peek_event().start_mark)
+        self._depth += 1
+        if self._depth > MAX_DEPTH:
+            raise yaml.composer.ComposerError(None, None, f"nested more than {MAX_DEPTH} levels deep",
+                                              self.peek_event().start_mark)
+        try:
+            return super().compose_node(parent, index)
+        finally:
+            self._depth -= 1
+
+
+_Loader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(r"^[-+]?(?:[0-9][0-9_]*)(?:\.[0-9_]*)?[eE][-+]?[0-9]+$"),
+    list("-+0123456789"),
+)
+
+
+_PLAIN_TAGS = ("tag:yaml.org,2002:map", "tag:yaml.org,2002:seq")
+
+
+def dotted(path: tuple) -> str:
+    """``("track", "ers", "slab_lengths", 0)`` -> ``track.ers.slab_lengths[0]``."""
+    out = ""
+    for p in path:
+        out += f"[{p}]" if isinstance(p, int) else (f".{p}" if out else p)
+    return out
+
+
+def locate(lines: dict, at: tuple, file: str) -> str:
+    """``file:line`` of key path ``at``, else of the nearest enclosing key, else ``file:1``."""
+    where, line = at, lines.get(at)
+    while line is None and where:
+        where = where[:-1]
+        line = lines.get(where)
+    return line or f"{file}:1"
+
+
+def _build(node: yaml.Node, loader: _Loader, path: tuple, lines: dict, file: str) -> Any:
+    """Turn a composed YAML node into plain Python objects, remembering each key's line."""
+    lines[path] = f"{file}:{node.start_mark.line + 1}"
+    top = dotted(path) or "<top>"
+    # scalars go through the constructor, which knows only the plain tags
+    if node.tag not in _PLAIN_TAGS and not isinstance(node, yaml.ScalarNode):
+        raise CaseError(f"{file}:{node.start_mark.line + 1}: {top}: "
+                        f"YAML tags ({node.tag}) are not allowed in case files")
+    if isinstance(node, yaml.MappingNode):
+        out: dict = {}
+        for key_node, value_node in node.value:
+            at = f"{file}:{key_node.start_mark.line + 1}"
+            if key_node.tag == "tag:yaml.org,2002:merge":
+                raise CaseError(f"{at}: {top}: merge keys (<<) are not allowed in case files; "
+                                f"use 'extends:'")
+            key = loader.construct_object(key_node)
+            if not isinstance(key, str):
+                raise CaseError(f"{at}: {top}: keys must be strings, got {key!r}")
+            if key in out:
+                raise CaseError(f"{at}: {dotted(path + (key,))}: duplicate key")
+            out[key] = _build(value_node, loader, path + (key,), lines, file)
+            lines[path + (key,)] = at
+        return out
+    if isinstance(node, yaml.SequenceNode):
+        return [_build(v, loader, path + (i,), lines, file) for i, v in enumerate(node.value)]
+    return loader.construct_object(node, deep=True)
+
+
+def read_yaml(text: str, file: str) -> tuple[dict, dict]:
+    """Parse the YAML text of a case file; return (data, {key path: "file:line"})."""
+    if len(text) > MAX_CASE_BYTES:
+        raise CaseError(f"{file}:1: <file>: {len(text)} characters; a case file is at most "
+                        f"{MAX_CASE_BYTES} (is this the right file?)")
+    if "\x00" in text:
+        line = text.count("\n", 0, text.index("\x00")) + 1
+        raise CaseError(f"{file}:{line}: <file>: binary data (NUL byte); a case file is YAML text")
+    lines: dict = {}
+    loader = _Loader(text)
+    try:
+        node = loader.get_single_node()
+        if node is None:
+            raise CaseError(f"{file}:1: <top>: the file is empty")
+        data = _build(node, _Loader(""), (), lines, file)
+    except yaml.MarkedYAMLError as exc:
+        mark = exc.problem_mark or exc.context_mark
+        line = mark.line + 1 if mark else 1
+        raise CaseError(f"{file}:{line}: <yaml>: {exc.problem or exc}") from None
+    except yaml.YAMLError as exc:  # e.g. the reader's "special characters are not allowed"
+        position = getattr(exc, "position", None)
+        at = text.count("\n", 0, position) + 1 if isinstance(position, int) else 1
+        raise CaseError(f"{file}:{at}: <yaml>: {str(exc).splitlines()[0]}") from None
+    except RecursionError:
+        raise CaseError(f"{file}:1: <yaml>: nested too deeply") from None
+    finally:
+        loader.dispose()
+    if not isinstance(data, dict):
+        raise CaseError(f"{file}:1: <top>: a case file is a mapping of sections")
+    return data, lines
+
+
+def _merge(base: dict, over: dict) -> dict:
+    """Deep-merge two raw case mappings: sections merge key by key, anything else is replaced."""
+    out = dict(base)
+    for k, v in over.items():
+        out[k] = _merge(base[k], v) if isinstance(v, dict) and isinstance(base.get(k), dict) else v
+    return out
+
+
+def read_with_base(path: Path, text: str, seen: frozenset = frozenset()) -> tuple[dict, dict]:
+    """Read a case file; ``extends: other.yaml`` (relative to it) starts from another case."""
+    raw, lines = read_yaml(text, str(path))
+    base_name = raw.pop("extends", None)
+    if base_name is None:
+        return raw, lines
+    where = lines[("extends",)]
+    if not isinstance(base_name, str):
+        raise CaseError(f"{where}: extends: expected a file name, got {base_name!r}")
+    base_path = (path.parent / base_name).resolve()
+    if base_path in seen:
+        raise CaseError(f"{where}: extends: {base_name} extends itself (a cycle)")
+    try:
+        base_text = base_path.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise CaseError(f"{where}: extends: cannot read {base_path}: {exc.strerror or exc}") from None
+    except UnicodeDecodeError as exc:
+        raise CaseError(f"{where}: extends: {base_path} is not UTF-8 text (byte {exc.start})") from None
+    base_raw, base_lines = read_with_base(base_path, base_text, seen | {base_path})
+    return _merge(base_raw, raw), {**base_lines, **lines}
+
+
+def text_line(path: Path, offset: int) -> int:
+    """1-based line number of a byte offset in a file (for messages about undecodable bytes)."""
+    try:
+        return path.read_bytes()[:offset].count(b"\n") + 1
+    except OSError:
+        return 1
+
+
+def read_case_text(path: Path) -> str:
+    """The text of a case file (raises CaseError)."""
+    file = str(path)
+    try:
+        return path.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise CaseError(f"{file}: cannot read: {exc.strerror or exc}") from None
+    except UnicodeDecodeError as exc:
+        line = text_line(path, exc.start)
+        raise CaseError(f"{file}:{line}: <file>: not UTF-8 text (byte {exc.start}); "
+                        f"save the case file as UTF-8") from None
