@@ -36,8 +36,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from lccopt.config import load_case  # noqa: E402
-from lccopt.problem import Problem  # noqa: E402
-from lccopt.problem import evaluate  # noqa: E402
+from lccopt.problem import Problem, evaluate  # noqa: E402
 
 MODEL = ROOT / "configs" / "reference.yaml"
 

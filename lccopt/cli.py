@@ -83,7 +83,7 @@ def simulate(
     force: bool = typer.Option(False, "--force", help="replace a simulation already in the output directory"),
 ) -> None:
     """Simulate one design: print F_rms, F_max (kN), E_rms, E_max (J); write HDF5 and plots."""
-    from .simulate_cmd import run_simulate
+    from .simulate_command import run_simulate
 
     run_simulate(case, design, out, not no_plots, force)
 

@@ -33,7 +33,8 @@ class _Loader(yaml.SafeLoader):
                 "use 'extends: other.yaml' to share values", self.peek_event().start_mark)
         self._depth += 1
         if self._depth > MAX_DEPTH:
-            raise yaml.composer.ComposerError(None, None, f"nested more than {MAX_DEPTH} levels deep",
+            raise yaml.composer.ComposerError(None, None,
+                                              f"nested more than {MAX_DEPTH} levels deep",
                                               self.peek_event().start_mark)
         try:
             return super().compose_node(parent, index)
@@ -151,9 +152,11 @@ def read_with_base(path: Path, text: str, seen: frozenset = frozenset()) -> tupl
     try:
         base_text = base_path.read_text(encoding="utf-8")
     except OSError as exc:
-        raise CaseError(f"{where}: extends: cannot read {base_path}: {exc.strerror or exc}") from None
+        raise CaseError(f"{where}: extends: cannot read {base_path}: "
+                        f"{exc.strerror or exc}") from None
     except UnicodeDecodeError as exc:
-        raise CaseError(f"{where}: extends: {base_path} is not UTF-8 text (byte {exc.start})") from None
+        raise CaseError(f"{where}: extends: {base_path} is not UTF-8 text "
+                        f"(byte {exc.start})") from None
     base_raw, base_lines = read_with_base(base_path, base_text, seen | {base_path})
     return _merge(base_raw, raw), {**base_lines, **lines}
 

@@ -21,7 +21,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-ELEMENT_UNIT = 0.1  # [m] sleeper spans and the Type II strip are counted in 0.1 m elements (paper, Table 4)
+# [m] sleeper spans and the Type II strip are counted in 0.1 m elements (paper, Table 4)
+ELEMENT_UNIT = 0.1
 VEHICLE_TYPES = ("three-dof", "bogie", "half-car")
 
 

@@ -1,9 +1,9 @@
 """Track model of one rail: layout from a scenario and a design, then M, C, K.
 
-Layout (x along the track; ``simulation.direction: enter`` runs the vehicle towards +x,
+Layout (x along the track; the direction ``enter`` runs the vehicle towards +x,
 ``leave`` towards -x):
 
-    0 ── ballast (entry_length) ──► x_a ══ ERS slabs ══ x_b ── ballast (exit_length) ── end
+    0 ── ballast (entry_length) ──► x_a ══ ERS slabs ══ x_b ── ballast (exit_length) ── L
 
 * Rail: Euler-Bernoulli beam elements, pinned at both ends (w = 0, rotation free).
 * Ballast track: railpad (spring + damper) -> sleeper (mass) -> support (spring + damper).
@@ -38,7 +38,7 @@ RAIL_W, RAIL_TH, SLEEPER, SLAB_W, SLAB_TH = range(5)
 class TrackModel:
     """Assembled track of one rail. Indices refer to the free (unconstrained) dofs."""
     element_length: float           # rail element length where the wheel runs [m]
-    window: tuple                   # (x_start, zone_start, zone_end, x_end) of the leading wheel [m]
+    window: tuple                   # (x_start, zone_start, zone_end, x_end), leading wheel [m]
     node_x: np.ndarray              # rail node positions [m]
     rail_w: np.ndarray              # dof of rail deflection at each node (-1 where pinned)
     rail_th: np.ndarray             # dof of rail rotation at each node
@@ -66,7 +66,8 @@ class TrackModel:
 
 
 def entry_sleeper_positions(x_a: float, spans_elements: np.ndarray, spacing: float) -> np.ndarray:
-    """Entry-side sleeper positions, nearest the interface first (spans x_s1..x_sM, x_sM nearest)."""
+    """Entry-side sleeper positions, nearest the interface first (spans x_s1..x_sM, x_sM
+    nearest)."""
     near = x_a - np.cumsum(spans_elements[::-1] * ELEMENT_UNIT)
     far = near[-1] - spacing * np.arange(1, int(near[-1] / spacing + 1e-9) + 1)
     pos = np.concatenate([near, far])
@@ -186,7 +187,8 @@ def build_track(scenario: Scenario, design: TrackDesign) -> TrackModel:
 
     # --- dof numbering along the track: sort (node, kind, slab) keys
     keys_node = [np.arange(n_el + 1), np.arange(n_el + 1), sleeper_node]
-    keys_kind = [np.full(n_el + 1, RAIL_W), np.full(n_el + 1, RAIL_TH), np.full(len(sleeper_node), SLEEPER)]
+    keys_kind = [np.full(n_el + 1, RAIL_W), np.full(n_el + 1, RAIL_TH),
+                 np.full(len(sleeper_node), SLEEPER)]
     keys_sub = [np.zeros(n_el + 1, int), np.zeros(n_el + 1, int), np.zeros(len(sleeper_node), int)]
     for s, (f, l) in enumerate(zip(slab_first, slab_last)):
         nodes = np.arange(f, l + 1)

@@ -189,21 +189,23 @@ class MultiAxleVehicle(_Common):
 
     @classmethod
     def build(cls, type: str, *, carbody_mass, bogie_mass, wheelset_mass, primary_stiffness,
-              primary_damping, secondary_stiffness, secondary_damping, wheelbase, bogie_pitch_inertia,
-              carbody_pitch_inertia=None, bogie_distance=None, speed=0.0, gravity=9.81,
+              primary_damping, secondary_stiffness, secondary_damping, wheelbase,
+              bogie_pitch_inertia, carbody_pitch_inertia=None, bogie_distance=None, speed=0.0, gravity=9.81,
               hertz_constant=5.13e-8, hertz_load=100e3) -> "MultiAxleVehicle":
         """Per-wheel values as in a VehicleSpec (module docstring)."""
         if type == "bogie":
             names = ["carbody", "bogie", "bogie pitch", "wheel 1", "wheel 2"]
-            mass = [2 * carbody_mass, 2 * bogie_mass, bogie_pitch_inertia, wheelset_mass, wheelset_mass]
+            mass = [2 * carbody_mass, 2 * bogie_mass, bogie_pitch_inertia, wheelset_mass,
+                    wheelset_mass]
             trans = [1, 1, 0, 1, 1]
-            bogies = [(1, 2, 0.0)]                   # (bounce dof, pitch dof, centre ahead of the carbody's)
+            # (bounce dof, pitch dof, centre ahead of the carbody's)
+            bogies = [(1, 2, 0.0)]
             carbody = (0, None)
             wheels_of = [(3, 4)]
             offsets = [0.0, wheelbase]
         elif type == "half-car":
-            names = ["carbody", "carbody pitch", "bogie 1", "bogie 1 pitch", "bogie 2", "bogie 2 pitch",
-                     "wheel 1", "wheel 2", "wheel 3", "wheel 4"]
+            names = ["carbody", "carbody pitch", "bogie 1", "bogie 1 pitch", "bogie 2",
+                     "bogie 2 pitch", "wheel 1", "wheel 2", "wheel 3", "wheel 4"]
             mass = [4 * carbody_mass, carbody_pitch_inertia, 2 * bogie_mass, bogie_pitch_inertia,
                     2 * bogie_mass, bogie_pitch_inertia] + [wheelset_mass] * 4
             trans = [1, 0, 1, 0, 1, 0, 1, 1, 1, 1]
@@ -212,7 +214,8 @@ class MultiAxleVehicle(_Common):
             wheels_of = [(6, 7), (8, 9)]
             offsets = [0.0, wheelbase, bogie_distance, bogie_distance + wheelbase]
         else:
-            raise ValueError(f"unknown vehicle type {type!r} (expected one of {', '.join(VEHICLE_TYPES)})")
+            raise ValueError(f"unknown vehicle type {type!r} (expected one of "
+                             f"{', '.join(VEHICLE_TYPES)})")
         n = len(names)
         K, C = np.zeros((n, n)), np.zeros((n, n))
 
@@ -239,7 +242,8 @@ class MultiAxleVehicle(_Common):
                 spring(primary_stiffness, primary_damping, g)
         return cls(type, np.diag(np.asarray(mass, float)), C, K, np.asarray(trans, float),
                    np.array([names.index(f"wheel {i + 1}") for i in range(len(offsets))]),
-                   np.asarray(offsets, float), tuple(names), speed, gravity, hertz_constant, hertz_load)
+                   np.asarray(offsets, float), tuple(names), speed, gravity, hertz_constant,
+                   hertz_load)
 
     @property
     def static_wheel_loads(self) -> np.ndarray:

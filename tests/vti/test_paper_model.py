@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from lccopt.config import load_case
-from lccopt.vti.newmark import integrate
 from lccopt.problem import evaluate
+from lccopt.vti.newmark import integrate
 from lccopt.vti.statics import static_rail_deflection
 from lccopt.vti.track import WinklerBeam, build_track
 from lccopt.vti.vehicle import build_vehicle

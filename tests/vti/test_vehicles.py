@@ -10,9 +10,9 @@ import scipy.sparse as sp
 from scipy.sparse.linalg import spsolve
 
 from lccopt.config import load_case
-from lccopt.vti import simulate as simulate_mod
-from lccopt.vti.newmark import contact_vector, integrate
 from lccopt.problem import evaluate
+from lccopt.vti import evaluate as vti_evaluate
+from lccopt.vti.newmark import contact_vector, integrate
 from lccopt.vti.track import WinklerBeam, build_track
 from lccopt.vti.vehicle import MultiAxleVehicle, build_vehicle
 from tests.conftest import CHEAP_SIMULATION, CONFIGS
@@ -172,7 +172,7 @@ def test_leave_on_a_mirrored_track_is_the_mirrored_enter(tmp_path, monkeypatch, 
     enter = evaluate(case, x)
     track = build_track(case.scenario(), case.track_design(x))
     L = float(track.node_x[-1])
-    monkeypatch.setattr(simulate_mod, "build_track", lambda s, d: mirrored(build_track(s, d)))
+    monkeypatch.setattr(vti_evaluate, "build_track", lambda s, d: mirrored(build_track(s, d)))
     leave = evaluate(case, x)
     assert leave.info["direction"] == "leave" and enter.info["direction"] == "enter"
     assert leave.info["n_wheels"] == enter.info["n_wheels"] == (4 if "half" in base else 1)

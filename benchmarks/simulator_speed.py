@@ -2,7 +2,7 @@
 before issue 11 in the same run.
 
 Prints the median wall time of ``evaluate(case, reference)`` (the current method at the case's
-settings) and of the pre-issue-11 method (lccopt.vti.newmark_reference: its integrator at its
+settings) and of the pre-issue-11 method (benchmarks/legacy_newmark.py: its integrator at its
 settings, dt = 0.2 ms, 10 m run-in, far elements <= 0.3 m), timed alternately in the same
 process, with the ratio; where the current method's time goes per step (sparse product for the
 right-hand side, the two banded triangular solves, the U^-T rows when the wheel enters an
@@ -11,7 +11,9 @@ element, and the rest: Python and small products); and the time of the straightf
 factorise it with SuperLU every step), measured over a slice of the run and scaled to the full
 number of steps. The straightforward and the current integrator are checked to agree.
 
-    python benchmarks/simulate.py [--repeat 7] [--naive-steps 300] [--flush] [--scaling]
+    python benchmarks/simulator_speed.py [--repeat 7] [--naive-steps 300] [--flush] [--scaling]
+
+The figures and their history: benchmarks/RESULTS-simulator.md.
 
 --flush also times the old method without its periodic flush of tiny values (denormals).
 --scaling times the current method for longer entry tracks and other time steps.
@@ -35,17 +37,12 @@ from scipy.sparse.linalg import splu
 
 from scipy.linalg import blas, lapack
 
+import legacy_newmark
+from legacy_newmark import REFERENCE_SETTINGS, evaluate_legacy
 from lccopt.config import load_case
-from lccopt.vti import newmark_reference
+from lccopt.problem import evaluate
 from lccopt.vti.assembly import to_upper_banded
 from lccopt.vti.newmark import contact_vector, forward_columns, integrate
-from lccopt.vti.newmark_reference import REFERENCE_SETTINGS
-from lccopt.problem import evaluate
-from lccopt.vti.simulate import evaluate as simulate
-
-
-def legacy_evaluate(case, x):
-    return simulate(case.scenario(), case.track_design(x), legacy=True)
 from lccopt.vti.track import build_track
 from lccopt.vti.vehicle import build_vehicle
 
@@ -135,11 +132,11 @@ def main() -> None:
     old_case = case.with_simulation(**REFERENCE_SETTINGS)
     x = case.reference
     ev = evaluate(case, x)  # warm up imports and caches
-    ev_old = legacy_evaluate(old_case, x)
+    ev_old = evaluate_legacy(old_case, x)
     new_t, old_t = [], []
     for _ in range(args.repeat):   # alternate, so that the machine's load hits both alike
         t0 = time.perf_counter()
-        legacy_evaluate(old_case, x)
+        evaluate_legacy(old_case, x)
         old_t.append(time.perf_counter() - t0)
         t0 = time.perf_counter()
         evaluate(case, x)
@@ -169,15 +166,15 @@ def main() -> None:
     print(f"  {'rest: Python loop, small products, setup':36s} {rest:.3f} s ({rest / fast:.0%})")
 
     if args.flush:
-        saved = newmark_reference.FLUSH_EVERY, newmark_reference.FLUSH_BELOW
+        saved = legacy_newmark.FLUSH_EVERY, legacy_newmark.FLUSH_BELOW
         flushed, unflushed = [], []
         for _ in range(args.repeat):
             for store, setting in ((flushed, saved), (unflushed, (10 ** 12, 0.0))):
-                newmark_reference.FLUSH_EVERY, newmark_reference.FLUSH_BELOW = setting
+                legacy_newmark.FLUSH_EVERY, legacy_newmark.FLUSH_BELOW = setting
                 t0 = time.perf_counter()
-                legacy_evaluate(old_case, x)
+                evaluate_legacy(old_case, x)
                 store.append(time.perf_counter() - t0)
-        newmark_reference.FLUSH_EVERY, newmark_reference.FLUSH_BELOW = saved
+        legacy_newmark.FLUSH_EVERY, legacy_newmark.FLUSH_BELOW = saved
         print(f"old method with its flush of tiny values: median {statistics.median(flushed):.3f} s, "
               f"without: {statistics.median(unflushed):.3f} s")
 

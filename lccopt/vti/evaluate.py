@@ -4,13 +4,14 @@
 (3-dof, bogie or half car: ``VehicleSpec.type``) over it from static equilibrium and returns
 the objectives and time histories as an :class:`Evaluation`.
 
-The run (``SimulationSettings.direction``, lccopt.vti.track.wheel_window): ``enter``, the leading
-wheel starts ``run_in`` before the evaluation zone, which begins at the farthest zone
+The run (``SimulationSettings.direction``, lccopt.vti.track.wheel_window): ``enter``, the
+leading wheel starts ``run_in`` before the evaluation zone, which begins at the farthest zone
 sleeper, and runs towards +x; ``leave``, it starts ``run_in`` beyond the far edge of the ERS
-(on the exit ballast) and runs towards -x over the whole crossing. The contact force of every wheel is measured while that wheel is
-between the farthest zone sleeper and ``force_zone_after_interface`` into the ERS; the run
-ends when the last wheel is ``run_out`` past the zone so the zone's sleepers have settled. Sleeper energies use mid-step velocities, which makes them
-exactly the dissipation of Newmark's discrete energy balance.
+(on the exit ballast) and runs towards -x over the whole crossing. The contact force of every
+wheel is measured while that wheel is between the farthest zone sleeper and
+``force_zone_after_interface`` into the ERS; the run ends when the last wheel is ``run_out``
+past the zone so the zone's sleepers have settled. Sleeper energies use mid-step velocities,
+which makes them exactly the dissipation of Newmark's discrete energy balance.
 """
 
 from __future__ import annotations
@@ -20,19 +21,28 @@ import time
 import numpy as np
 
 from .newmark import integrate
-from .newmark_reference import integrate_reference
 from .response import Evaluation, objectives_from
 from .specs import Scenario, TrackDesign
 from .track import build_track
 from .vehicle import build_vehicle
 
 
-def evaluate(scenario: Scenario, design: TrackDesign, *, legacy: bool = False) -> Evaluation:
-    """Simulate one design (assumed checked) in one scenario.
+def evaluate(scenario: Scenario, design: TrackDesign) -> Evaluation:
+    """Simulate one design in one scenario.
 
-    legacy: the method before issue 11 (its integrator, and F_max from the steps inside the
-    force zone only), kept as the comparison for benchmarks/simulate.py and
-    benchmarks/simulate_accuracy.py; run it at ``newmark_reference.REFERENCE_SETTINGS``."""
+    Parameters
+    ----------
+    scenario
+        the vehicle, the track, the settings, the evaluation zones and the rail profile.
+    design
+        the design of the entry side (assumed checked: ``lccopt.config.Case.track_design``
+        checks a design vector against its case).
+
+    Returns
+    -------
+    Evaluation
+        the objectives, the time histories (``response.HISTORY_DOC``) and facts of the run.
+    """
     t0 = time.perf_counter()
     track = build_track(scenario, design)
     vehicle = build_vehicle(scenario.vehicle)
@@ -48,22 +58,17 @@ def evaluate(scenario: Scenario, design: TrackDesign, *, legacy: bool = False) -
     profile = scenario.irregularity
     if profile is not None:
         px, pr = profile[:, 0], profile[:, 1]
-        irregularity = lambda pos: float(np.interp(pos, px, pr, left=0.0, right=0.0))
+        def irregularity(pos: float) -> float:
+            return float(np.interp(pos, px, pr, left=0.0, right=0.0))
 
-    run = integrate_reference if legacy else integrate
-    if legacy and vehicle.n_wheels > 1:
-        raise ValueError("the legacy integrator runs the three-dof vehicle only")
-    h = run(track, dt, speed, x_start, n_steps, vehicle=vehicle,
-            irregularity=irregularity, record_dofs=zone_dofs)
+    h = integrate(track, dt, speed, x_start, n_steps, vehicle=vehicle,
+                  irregularity=irregularity, record_dofs=zone_dofs)
 
     v_mid = 0.5 * (h.dof_velocity[1:] + h.dof_velocity[:-1])
     energy = dt * track.entry_support_damping[:n_zone] * np.sum(v_mid ** 2, axis=0)
     # every wheel's force while that wheel is in the force zone (the same stretch of rail
     # whichever way the vehicle runs)
-    wheel_pos = getattr(h, "wheel_position", None)
-    wheel_force = getattr(h, "wheel_force", None)
-    if wheel_pos is None:                         # the legacy integrator: one wheel
-        wheel_pos, wheel_force = h.position[:, None], h.contact_force[:, None]
+    wheel_pos, wheel_force = h.wheel_position, h.wheel_force
     # a wheel within 1 nm of a zone end counts as in it: where a step falls exactly on an end
     # (e.g. on a mirrored track) round-off must not decide
     zone_lo, zone_hi = min(zone_start, zone_end) - 1e-9, max(zone_start, zone_end) + 1e-9
@@ -72,11 +77,10 @@ def evaluate(scenario: Scenario, design: TrackDesign, *, legacy: bool = False) -
     # F_max also takes the force at the zone's exact ends (linear between the steps): the
     # force can still be rising or falling there, and otherwise F_max would depend on where
     # the last step before zone_end happens to fall (up to 2 % at 0.4 ms steps).
-    ends = None
-    if not legacy:
-        order = slice(None, None, -1) if leave else slice(None)   # np.interp wants increasing positions
-        ends = np.concatenate([np.interp([zone_start, zone_end], wheel_pos[order, i], wheel_force[order, i])
-                               for i in range(wheel_pos.shape[1])])
+    order = slice(None, None, -1) if leave else slice(None)   # np.interp: increasing positions
+    ends = np.concatenate([np.interp([zone_start, zone_end], wheel_pos[order, i],
+                                     wheel_force[order, i])
+                           for i in range(wheel_pos.shape[1])])
     forces = wheel_force.T[in_zone_w.T]            # wheel by wheel, each in step order
     objectives = objectives_from(forces, energy, force_ends=ends)
     loss = wheel_force <= 0.0
