@@ -69,6 +69,11 @@ def check(case: Path = typer.Argument(..., help="case file (YAML)")) -> None:
         for t in c.conditions:
             typer.echo(f"    {t.name}: {t.vehicle}, {t.speed * 3.6:.0f} km/h, {t.direction}"
                        + (f", weight {t.weight:g}" if c.condition_mode == "mean" else ""))
+    from .config.checks import simulation_size
+
+    steps, dofs = max(simulation_size(one.data) for one in (c.conditions or [c]))
+    typer.echo(f"  {'the longest simulation' if c.conditions else 'one simulation'}: at most "
+               f"{steps:,} steps of about {dofs:,} track dofs")
 
 
 @app.command()

@@ -12,7 +12,22 @@ import re
 
 
 class CaseError(ValueError):
-    """A case file problem, already formatted as ``file:line: key.path: message``; exit 2."""
+    """A case file problem, already formatted as ``file:line: key.path: message``; exit 2.
+
+    Its text is one printable line whatever the case file holds: control and format
+    characters (a key or a value may carry terminal escape sequences, newlines or
+    bidirectional overrides) are shown as escapes."""
+
+    def __str__(self) -> str:
+        return printable(super().__str__())
+
+
+def printable(text: str) -> str:
+    """``text`` with every control or format character (category C*, line and paragraph
+    separators) replaced by its Python escape, so that it prints as the one line it is."""
+    if text.isprintable():
+        return text
+    return "".join(c if c.isprintable() or c == " " else repr(c)[1:-1] for c in text)
 
 
 class UsageError(Exception):

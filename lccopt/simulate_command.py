@@ -1,8 +1,14 @@
 """``lccopt simulate``: one design, its objectives on screen, histories in HDF5, PNG plots
-(drawn by ``lccopt.report.simulation``)."""
+(drawn by ``lccopt.report.simulation``).
+
+The simulation is the workers' (``lccopt.problem.evaluate``, or the stand-in that
+``LCCOPT_EVALUATOR`` names, as for ``optimise``). Objectives that are not finite numbers are
+never shown as a result: the command stops with one line and writes nothing.
+"""
 
 from __future__ import annotations
 
+import math
 import time
 from pathlib import Path
 
@@ -34,15 +40,13 @@ def run_simulate(case_path: Path, design: str | None, out: Path | None, plots: b
     if (out / "simulation.h5").exists() and not force:
         raise UsageError(f"{out} already holds a simulation: choose another --out, or add --force "
                          f"to replace it")
-    out.mkdir(parents=True, exist_ok=True)
-
-    from .problem import evaluate
-
+    evaluate = _simulator()
     if case.conditions:
         return _simulate_conditions(case, case_path, x, out, plots, evaluate)
     t0 = time.perf_counter()
     ev = evaluate(case, x)
     wall = time.perf_counter() - t0
+    _check_finite(ev.objectives, case, x)
     info = ev.info
     _echo_design(case, case_path, x)
     typer.echo(f"static wheel load {info['static_wheel_load'] / 1e3:.2f} kN (on a rigid rail)")
@@ -58,6 +62,7 @@ def run_simulate(case_path: Path, design: str | None, out: Path | None, plots: b
         typer.echo(f"WARNING: contact lost (force <= 0) in {info['contact_loss_steps']} steps, "
                    f"first at {info['contact_loss_first_position']:.2f} m; the linear contact "
                    f"spring pulled the wheel", err=True)
+    out.mkdir(parents=True, exist_ok=True)
     h5 = write_evaluation(out / "simulation.h5", ev, x, case.names,
                           {"case": case.resolved, **machine.describe()})
     typer.echo(f"histories: {h5}")
@@ -84,6 +89,7 @@ def _simulate_conditions(case, case_path: Path, x, out: Path, plots: bool, evalu
     for i, c in enumerate(case.conditions):
         t0 = time.perf_counter()
         ev = evaluate(case.condition_case(i), x)
+        _check_finite(ev.objectives, case, x, c.name)
         evs.append(ev)
         vals = "".join(f"{v * objective_display(k)[0]:12.5g}" for k, v in ev.objectives.items())
         typer.echo(f"{c.name[:21]:<22}{vals}{time.perf_counter() - t0:6.2f}s")
@@ -97,6 +103,7 @@ def _simulate_conditions(case, case_path: Path, x, out: Path, plots: bool, evalu
              "each": "worst case"}[case.condition_mode]
     vals = "".join(f"{combined[k] * objective_display(k)[0]:12.5g}" for k in keys)
     typer.echo(f"{label:<22}{vals}")
+    out.mkdir(parents=True, exist_ok=True)
     h5 = write_condition_evaluations(out / "simulation.h5", evs, x, case.names, names,
                                      weights, combined,
                                      {"case": case.resolved, **machine.describe()})
@@ -109,3 +116,24 @@ def _simulate_conditions(case, case_path: Path, x, out: Path, plots: bool, evalu
             for p in simulation_figures(ev, case.name, out / c.name):
                 typer.echo(f"plot: {p}")
     return Evaluation(combined, evs[0].histories, evs[0].info)
+
+
+def _simulator():
+    """The function that simulates ``(case, x)``: the workers' (lccopt.problem.evaluate) or
+    the stand-in named by LCCOPT_EVALUATOR."""
+    from .engine.worker import evaluator_spec, load_evaluator
+
+    return load_evaluator(evaluator_spec())
+
+
+def _check_finite(objectives: dict, case, x, condition: str | None = None) -> None:
+    """Stop (exit 2, one line, nothing written) when an objective is not a finite number."""
+    from .errors import UsageError
+
+    bad = [f"{k} = {v!r}" for k, v in objectives.items()
+           if not isinstance(v, (int, float)) or not math.isfinite(v)]
+    if bad:
+        under = f" under condition {condition}" if condition else ""
+        raise UsageError(f"the simulation of {case.name}{under} (design "
+                         f"{', '.join(design_items(case, x))}) gave non-finite objectives: "
+                         f"{', '.join(bad)}; nothing written")

@@ -2,6 +2,7 @@
 
 * ``reading``: YAML with the line of every key, ``extends``, reading input files safely;
 * ``schema``: the schema of a case file and its validator;
+* ``profiles``: measured rail profiles (CSV rows), held in the case as their rows;
 * ``checks``: what needs physics or the layout (time step, mesh, the vehicle on the rail);
 * ``build``: the simulator's typed inputs (``lccopt.vti.specs``) from a validated case;
 * ``case``: :class:`Case`, :func:`load_case` and the design vector's parsing and display.

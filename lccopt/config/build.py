@@ -13,6 +13,7 @@ from ..vti import irregularity as spectra
 from ..vti.specs import (ERS, Compound, EvaluationZones, Layout, Rail, Scenario,
                          SimulationSettings, Slab, SpringDamper, StrengthenedSleeper,
                          TrackDesign, TrackSpec, VehicleSpec)
+from .profiles import profile_array
 
 _VEHICLE_KEYS = ("speed", "carbody_mass", "bogie_mass", "wheelset_mass", "primary_stiffness",
                  "primary_damping", "secondary_stiffness", "secondary_damping", "hertz_constant",
@@ -72,25 +73,30 @@ def zones(evaluation: dict) -> EvaluationZones:
 
 def spectrum_profile(spec: dict, length: float) -> np.ndarray:
     """The random profile of a spectrum mapping over a track of ``length`` (from its seed)."""
+    scale = spec.get("amplitude_scale")
     return spectra.generate(spec["spectrum"], spec["seed"], spec["wavelengths"], length,
-                            spec.get("amplitude_scale") or 1.0)
+                            1.0 if scale is None else scale)
 
 
-def profile(data: dict, loaded: np.ndarray | None) -> np.ndarray | None:
-    """The rail profile of one simulation of a case: generated from the spectrum mapping of
-    ``simulation.irregularity`` (so a case whose settings were replaced gets its own), else
-    the CSV profile loaded with the case, else None (smooth rail)."""
+def profile(data: dict) -> np.ndarray | None:
+    """The rail profile (N, 2) of one simulation of a case: its rows (``points``), or
+    generated from its spectrum (the same for every design), or None (a smooth rail)."""
     spec = data["simulation"].get("irregularity")
+    if spec is None or spec == "none":
+        return None
+    if isinstance(spec, dict) and "points" in spec:
+        return profile_array(spec["points"])
     if isinstance(spec, dict):
         return spectrum_profile(spec, track_length(data))
-    return loaded
+    raise ValueError(f"irregularity {spec!r}: a file is read by lccopt.config.load_case, which "
+                     f"keeps its rows")
 
 
-def scenario(data: dict, loaded_profile: np.ndarray | None = None) -> Scenario:
+def scenario(data: dict) -> Scenario:
     """One simulation's inputs from the typed sections of a case (or of one condition)."""
     return Scenario(vehicle=vehicle_spec(data["vehicle"]), track=track_spec(data["track"]),
                     settings=settings(data["simulation"]), zones=zones(data["evaluation"]),
-                    irregularity=profile(data, loaded_profile))
+                    irregularity=profile(data))
 
 
 def track_design(variables, x) -> TrackDesign:

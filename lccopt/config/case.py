@@ -11,6 +11,7 @@ prints it and exits with status 2.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
 
 import numpy as np
@@ -19,10 +20,22 @@ import yaml
 from ..errors import CaseError
 from ..vti.specs import Scenario, TrackDesign
 from . import build
-from .checks import (check_accuracy, check_design_space, check_layout_fits, check_mesh_units,
-                     check_optimisation, spectrum_problem)
-from .reading import dotted, locate, read_case_text, read_with_base
+from .checks import (check_accuracy, check_design_size, check_design_space, check_layout_fits,
+                     check_mesh_units, check_optimisation, check_profile, simulation_size)
+from .profiles import (MAX_CASE_PROFILE_POINTS, MAX_PROFILE_BYTES, ProfileError, ProfileText,
+                       parse_rows, rows_text)
+from .reading import (check_file_name, dotted, locate, read_case_text, read_input_bytes,
+                      read_with_base, shown)
 from .schema import SAFE_NAME, SCHEMA, check
+
+
+class _Dumper(yaml.SafeDumper):
+    """YAML of a resolved case: a profile's rows as a literal block, one row per line (fast to
+    read back: one scalar, not two numbers per row); everything else as ``yaml.safe_dump``."""
+
+
+_Dumper.add_representer(ProfileText, lambda dumper, text: dumper.represent_scalar(
+    "tag:yaml.org,2002:str", str(text), style="|"))
 
 
 @dataclass(frozen=True)
@@ -59,12 +72,19 @@ class Case:
     text: str
     data: dict = field(repr=False)
     variables: tuple[Variable, ...] = ()
-    irregularity: np.ndarray | None = field(default=None, repr=False)
     conditions: tuple["Condition", ...] = ()
 
-    @property
+    @cached_property
     def resolved(self) -> str:
-        return yaml.safe_dump(self.data, sort_keys=False)
+        """The whole case as YAML: every rail profile as its rows, so that it stands on its
+        own (what a run directory keeps and fingerprints; written once per case object: a
+        profile of many rows takes a second)."""
+        return yaml.dump(self.data, Dumper=_Dumper, sort_keys=False)
+
+    @property
+    def irregularity(self) -> np.ndarray | None:
+        """The rail profile (N, 2) of the case's own simulation, or None (a smooth rail)."""
+        return build.profile(self.data)
 
     @property
     def name(self) -> str:
@@ -119,7 +139,7 @@ class Case:
         """A copy with some simulation settings replaced (convergence studies, tests)."""
         data = {**self.data, "simulation": {**self.data["simulation"], **settings}}
         conditions = tuple(c.with_simulation(settings) for c in self.conditions)
-        return Case(self.path, self.text, data, self.variables, self.irregularity, conditions)
+        return Case(self.path, self.text, data, self.variables, conditions)
 
     @property
     def condition_mode(self) -> str:
@@ -128,8 +148,7 @@ class Case:
 
     def condition_case(self, i: int) -> "Case":
         """The case of condition i: one simulation, as the simulator runs it."""
-        c = self.conditions[i]
-        return Case(self.path, self.text, c.data, self.variables, c.irregularity)
+        return Case(self.path, self.text, self.conditions[i].data, self.variables)
 
     def check_design(self, x) -> np.ndarray:
         """Return x as floats if it is a valid design vector, else raise ValueError."""
@@ -148,7 +167,7 @@ class Case:
     def scenario(self) -> Scenario:
         """The simulator's inputs of this case's one simulation (for a case with traffic
         conditions: of its own vehicle section; ``condition_case(i).scenario()`` for one)."""
-        return build.scenario(self.data, self.irregularity)
+        return build.scenario(self.data)
 
     def track_design(self, x) -> TrackDesign:
         """Design vector x, checked (ValueError), as the simulator takes it."""
@@ -165,12 +184,15 @@ class Condition:
     speed: float
     direction: str
     data: dict = field(repr=False)
-    irregularity: np.ndarray | None = field(default=None, repr=False)
+
+    @property
+    def irregularity(self) -> np.ndarray | None:
+        """The rail profile (N, 2) of this condition, or None (a smooth rail)."""
+        return build.profile(self.data)
 
     def with_simulation(self, settings: dict) -> "Condition":
         data = {**self.data, "simulation": {**self.data["simulation"], **settings}}
-        return Condition(self.name, self.weight, self.vehicle, self.speed, self.direction, data,
-                         self.irregularity)
+        return Condition(self.name, self.weight, self.vehicle, self.speed, self.direction, data)
 
 
 _GROUPS = (  # design key, variable name stem, unit
@@ -252,36 +274,62 @@ def load_case(path: str | Path) -> Case:
     variables = _variables(data["design"], lines, file)
     check_design_space(data, variables, err)
     check_optimisation(data, err)
-    irregularity = _load_irregularity(data["simulation"]["irregularity"], path, err,
-                                      ("simulation", "irregularity"), data)
-    conditions = _conditions(data, path, err, irregularity)
-    return Case(path=path, text=text, data=data, variables=variables, irregularity=irregularity,
-                conditions=conditions)
+    rows = _RowCount(err)
+    at = ("simulation", "irregularity")
+    data["simulation"]["irregularity"] = rows.add(
+        _profile_rows(data["simulation"]["irregularity"], path, lines, err, at), at)
+    check_profile(data, err, at)
+    conditions = _conditions(data, path, lines, err, rows)
+    sims = [c.data for c in conditions] or [data]
+    check_design_size([simulation_size(one) for one in sims], err)
+    return Case(path=path, text=text, data=data, variables=variables, conditions=conditions)
 
 
-def _load_irregularity(value, path: Path, err, at: tuple, data: dict) -> np.ndarray | None:
-    """The rail profile (position m, dip m) a case names (a CSV file, or a random profile from
-    a spectrum: the same for every design), or None for a smooth rail."""
-    if not value or value == "none":
-        return None
-    if isinstance(value, dict):
-        length = build.track_length(data)
-        problem = spectrum_problem(value, length)
-        if problem:
-            raise err(at + (problem[0],), problem[1])
-        return build.spectrum_profile(value, length)
-    irr_path = path.parent / value
+def _profile_rows(value, path: Path, lines: dict, err, at: tuple):
+    """The irregularity as the case keeps it: a CSV file named is read (relative to the case
+    file) into ``{source: name, points: rows}``; anything else as it is."""
+    if not isinstance(value, str) or value == "none":
+        return value
+    if not value.strip():
+        raise err(at, "an empty file name (none: a smooth rail)")
+    where = locate(lines, at, str(path))
+    check_file_name(value, where, dotted(at))
+    csv = path.parent / value
+
+    def fail(problem: str) -> CaseError:
+        return err(at, f"{shown(str(csv))}: {problem}")
+
+    data = read_input_bytes(csv, MAX_PROFILE_BYTES, fail)
     try:
-        irregularity = np.loadtxt(irr_path, delimiter=",", ndmin=2, dtype=float)
-    except (OSError, ValueError) as exc:
-        raise err(at, f"cannot read {irr_path}: {exc}") from None
-    if (irregularity.shape[1] != 2 or irregularity.shape[0] < 2
-            or np.any(np.diff(irregularity[:, 0]) <= 0)):
-        raise err(at, "expected two columns (position m, dip m) with increasing positions")
-    return irregularity
+        text = data.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        line = data[:exc.start].count(b"\n") + 1
+        raise fail(f"line {line}: not UTF-8 text (byte {exc.start})") from None
+    try:
+        rows = parse_rows(text)
+    except ProfileError as exc:
+        raise fail(f"line {exc.line}: {exc}") from None
+    return {"source": value, "points": rows_text(rows)}
 
 
-def _conditions(data: dict, path: Path, err, case_irregularity) -> tuple[Condition, ...]:
+class _RowCount:
+    """The rows of a case's profiles, counted as they are read: at most
+    MAX_CASE_PROFILE_POINTS in all (case and conditions), refused at the one that passes it."""
+
+    def __init__(self, err):
+        self.err, self.total = err, 0
+
+    def add(self, value, at: tuple):
+        if isinstance(value, dict) and "points" in value:
+            self.total += value["points"].count("\n")
+            if self.total > MAX_CASE_PROFILE_POINTS:
+                raise self.err(at, f"the case's rail profiles hold more than "
+                                   f"{MAX_CASE_PROFILE_POINTS:,} rows in all")
+        return value
+
+
+def _conditions(data: dict, path: Path, lines: dict, err,
+                rows: _RowCount) -> tuple[Condition, ...]:
     """The traffic conditions of a case (none without a ``conditions:`` list)."""
     vehicles = data.get("vehicles") or {}
     listed = data.get("conditions") or []
@@ -316,11 +364,11 @@ def _conditions(data: dict, path: Path, err, case_irregularity) -> tuple[Conditi
         vehicle["speed"] = speed
         sim = dict(data["simulation"])
         sim["direction"] = c["direction"]
-        irregularity = case_irregularity
         if c["irregularity"] is not None:
+            c["irregularity"] = rows.add(_profile_rows(c["irregularity"], path, lines, err,
+                                                       at + ("irregularity",)),
+                                         at + ("irregularity",))
             sim["irregularity"] = c["irregularity"]
-            irregularity = _load_irregularity(c["irregularity"], path, err,
-                                              at + ("irregularity",), data)
         one = {k: v for k, v in data.items() if k not in ("vehicles", "conditions")}
         one.update(vehicle=vehicle, simulation=sim)
 
@@ -330,8 +378,9 @@ def _conditions(data: dict, path: Path, err, case_irregularity) -> tuple[Conditi
             return err(at, f"{dotted(where)}: {msg}")
 
         check_accuracy(one, cond_err)
+        check_profile(one, cond_err, ("simulation", "irregularity"))
         out.append(Condition(c["name"], float(c["weight"]), c["vehicle"], float(speed),
-                             c["direction"], one, irregularity))
+                             c["direction"], one))
     return tuple(out)
 
 

@@ -9,14 +9,19 @@ nesting.
 from __future__ import annotations
 
 import re
+import unicodedata
 from pathlib import Path
 from typing import Any
 
 import yaml
 
 from ..errors import CaseError
+from ..safeio import UnsafeFile, read_input
+from .profiles import MAX_CASE_PROFILE_POINTS, MAX_ROW_BYTES
 
 MAX_CASE_BYTES = 1_000_000  # a case file is a few kB; anything near this is not one
+# what a case file may take with its rail profiles inline (a run's resolved copy holds them)
+MAX_CASE_FILE_BYTES = MAX_CASE_BYTES + MAX_CASE_PROFILE_POINTS * MAX_ROW_BYTES
 MAX_DEPTH = 20              # sections nest 4 deep; deeper is an attack on the recursive reader
 
 
@@ -99,9 +104,6 @@ def _build(node: yaml.Node, loader: _Loader, path: tuple, lines: dict, file: str
 
 def read_yaml(text: str, file: str) -> tuple[dict, dict]:
     """Parse the YAML text of a case file; return (data, {key path: "file:line"})."""
-    if len(text) > MAX_CASE_BYTES:
-        raise CaseError(f"{file}:1: <file>: {len(text)} characters; a case file is at most "
-                        f"{MAX_CASE_BYTES} (is this the right file?)")
     if "\x00" in text:
         line = text.count("\n", 0, text.index("\x00")) + 1
         raise CaseError(f"{file}:{line}: <file>: binary data (NUL byte); a case file is YAML text")
@@ -137,46 +139,106 @@ def _merge(base: dict, over: dict) -> dict:
     return out
 
 
-def read_with_base(path: Path, text: str, seen: frozenset = frozenset()) -> tuple[dict, dict]:
-    """Read a case file; ``extends: other.yaml`` (relative to it) starts from another case."""
+def read_with_base(path: Path, text: str, seen: frozenset = frozenset(),
+                   budget: int | None = None) -> tuple[dict, dict]:
+    """Read a case file; ``extends: other.yaml`` (relative to it) starts from another case.
+
+    ``budget``: the bytes the files of the ``extends`` chain may still take together (each is
+    limited as a case file, and the chain as one)."""
     raw, lines = read_yaml(text, str(path))
+    budget = (MAX_CASE_FILE_BYTES if budget is None else budget) - len(text.encode("utf-8"))
     base_name = raw.pop("extends", None)
     if base_name is None:
         return raw, lines
     where = lines[("extends",)]
     if not isinstance(base_name, str):
         raise CaseError(f"{where}: extends: expected a file name, got {base_name!r}")
-    base_path = (path.parent / base_name).resolve()
-    if base_path in seen:
-        raise CaseError(f"{where}: extends: {base_name} extends itself (a cycle)")
+    check_file_name(base_name, where, "extends")
     try:
-        base_text = base_path.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise CaseError(f"{where}: extends: cannot read {base_path}: "
-                        f"{exc.strerror or exc}") from None
-    except UnicodeDecodeError as exc:
-        raise CaseError(f"{where}: extends: {base_path} is not UTF-8 text "
-                        f"(byte {exc.start})") from None
-    base_raw, base_lines = read_with_base(base_path, base_text, seen | {base_path})
+        base_path = (path.parent / base_name).resolve()
+    except (OSError, RuntimeError) as exc:   # RuntimeError: a loop of symbolic links
+        raise CaseError(f"{where}: extends: cannot read {shown(base_name)}: "
+                        f"{getattr(exc, 'strerror', None) or exc}") from None
+    if base_path in seen:
+        raise CaseError(f"{where}: extends: {shown(base_name)} extends itself (a cycle)")
+
+    def fail(problem: str) -> CaseError:
+        return CaseError(f"{where}: extends: {shown(str(base_path))}: {problem}")
+
+    base_text = read_case_text(base_path, max(0, budget), fail)
+    base_raw, base_lines = read_with_base(base_path, base_text, seen | {base_path}, budget)
     return _merge(base_raw, raw), {**base_lines, **lines}
 
 
-def text_line(path: Path, offset: int) -> int:
-    """1-based line number of a byte offset in a file (for messages about undecodable bytes)."""
-    try:
-        return path.read_bytes()[:offset].count(b"\n") + 1
-    except OSError:
-        return 1
+def shown(name: str, most: int = 160) -> str:
+    """A file name as a message shows it: control characters escaped, long names cut."""
+    text = repr(name)[1:-1] if not name.isprintable() else name
+    return text if len(text) <= most else text[:most - 3] + "..."
 
 
-def read_case_text(path: Path) -> str:
-    """The text of a case file (raises CaseError)."""
-    file = str(path)
+def check_file_name(name: str, where: str, key: str) -> None:
+    """Refuse a file name with a control or format character (NUL, escape sequences that
+    repaint the terminal, bidirectional overrides that show a name other than the real one)."""
+    bad = next((c for c in name if unicodedata.category(c)[0] == "C" or c in "\u2028\u2029"),
+               None)
+    if bad is not None:
+        raise CaseError(f"{where}: {key}: the file name '{shown(name)}' holds the control "
+                        f"character U+{ord(bad):04X}; name the file with printable characters")
+
+
+def read_input_bytes(path: Path, limit: int, fail) -> bytes:
+    """The bytes of an input file, through :func:`lccopt.safeio.read_input` (regular files
+    only, at most ``limit`` bytes, checked while reading); ``fail(problem)`` makes the
+    CaseError that names the file and, where there is one, the key that named it."""
     try:
-        return path.read_text(encoding="utf-8")
+        return read_input(path, limit)
+    except UnsafeFile as exc:
+        raise fail(exc.strerror) from None
     except OSError as exc:
-        raise CaseError(f"{file}: cannot read: {exc.strerror or exc}") from None
+        raise fail(f"cannot read: {exc.strerror or exc}") from None
+    except ValueError as exc:   # e.g. a NUL in a name built by a program
+        raise fail(f"cannot read: {exc}") from None
+
+
+def read_case_text(path: Path, limit: int = MAX_CASE_FILE_BYTES, fail=None) -> str:
+    """The text of a case file (raises CaseError): UTF-8, at most ``MAX_CASE_BYTES`` besides
+    its rail profiles written inline (``points: |`` blocks, see :func:`structure_bytes`)."""
+    file = shown(str(path))
+    if fail is None:
+        def fail(problem: str) -> CaseError:
+            where = f"{file}:1: <file>" if problem.startswith("larger than") else file
+            return CaseError(f"{where}: {problem}")
+    data = read_input_bytes(path, limit, fail)
+    try:
+        text = data.decode("utf-8")
     except UnicodeDecodeError as exc:
-        line = text_line(path, exc.start)
+        line = data[:exc.start].count(b"\n") + 1
         raise CaseError(f"{file}:{line}: <file>: not UTF-8 text (byte {exc.start}); "
                         f"save the case file as UTF-8") from None
+    if len(data) > MAX_CASE_BYTES and structure_bytes(text) > MAX_CASE_BYTES:
+        raise CaseError(f"{file}:1: <file>: {len(data):,} bytes; a case file is at most "
+                        f"{MAX_CASE_BYTES:,} besides its inline rail profiles (is this the right "
+                        f"file?)")
+    return text
+
+
+_POINTS_BLOCK = re.compile(r"[ -]*(points): *\|[-+0-9]*[ \t]*(?:#.*)?")
+
+
+def structure_bytes(text: str) -> int:
+    """Bytes of a case file's text outside its ``points: |`` literal blocks (the rows of rail
+    profiles written inline, as the resolved copy of a run holds them): what the
+    ``MAX_CASE_BYTES`` limit applies to. The YAML reader itself parses the whole text; this
+    only decides whether it is worth parsing."""
+    lines = text.split("\n")
+    total, i = 0, 0
+    while i < len(lines):
+        m = _POINTS_BLOCK.fullmatch(lines[i])
+        total += len(lines[i].encode("utf-8")) + 1
+        i += 1
+        if m:   # the block: blank lines and lines indented deeper than its key
+            column = m.start(1)
+            while i < len(lines) and (not lines[i].strip()
+                                      or len(lines[i]) - len(lines[i].lstrip(" ")) > column):
+                i += 1
+    return total

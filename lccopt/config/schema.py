@@ -17,6 +17,7 @@ import numpy as np
 from ..errors import CaseError
 from ..vti.irregularity import SPECTRA
 from ..vti.specs import VEHICLE_TYPES
+from .profiles import ProfileError, ProfileText, pairs_rows, parse_rows, rows_text
 from .reading import dotted, locate
 
 MAX_MAGNITUDE = 1e13        # no quantity of a case comes near it (Young's modulus of steel: 2.1e11)
@@ -55,6 +56,8 @@ class NumList:
     unit: str = "-"
     length: int | None = None
     min_length: int = 1
+    max_length: int = 50
+    le: float | None = None
     gt: float | None = None
     ge: float | None = None
     default: Any = None
@@ -89,9 +92,19 @@ class Items(_Collection):
 
 @dataclass(frozen=True)
 class TextOrSection:
-    """Text (e.g. a file name) or a mapping checked against ``section``."""
+    """Text (e.g. a file name) or a mapping, checked against the one of ``sections``
+    (``{key: Section}``) whose key it holds."""
     doc: str
-    section: Section
+    sections: dict
+    default: Any = None
+    required: bool = True
+
+
+@dataclass(frozen=True)
+class Rows:
+    """The rows of a rail profile: text, one ``position, dip`` per line, or a list of
+    [position, dip] pairs (lccopt.config.profiles); checked and kept as canonical text."""
+    doc: str
     default: Any = None
     required: bool = True
 
@@ -190,7 +203,7 @@ _TRACK = Section({
     }),
     "ers": Section({
         "slab_lengths": NumList("lengths of the slabs, in running order (not joined)", "m",
-                                gt=0),
+                                gt=0, le=1000.0),
         "compound": Section({
             "stiffness": Num("elastic compound + standard strip stiffness per metre of rail",
                              "N/m^2", gt=0),
@@ -228,17 +241,25 @@ _DESIGN = Section({
                                    "elements", integer=True, counted=False),
 })
 
+# amplitude_scale <= 10: ten times a standard spectrum is beyond any class of track it
+# describes; the profile itself is held to |dip| <= 0.05 m (lccopt.config.profiles).
 _IRREGULARITY = TextOrSection(
-    "CSV file (position m, dip m) of the vertical rail profile, relative to the case file, or "
-    "a random profile from a standard spectrum (lccopt/vti/irregularity.py); none for a "
-    "smooth rail",
-    Section({
+    "CSV file (position m, dip m) of the vertical rail profile, relative to the case file; "
+    "or its rows in the case (points:); or a random profile from a standard spectrum "
+    "(spectrum:, lccopt/vti/irregularity.py); none for a smooth rail",
+    {"spectrum": Section({
         "spectrum": Str("erri-low, erri-high (ORE/ERRI B176), fra-4, fra-5, fra-6 (FRA classes)",
                         SPECTRA),
         "seed": Num("random seed: the same profile for every design", integer=True, ge=0),
         "wavelengths": NumList("[min, max] band of wavelengths generated", "m", length=2, gt=0),
-        "amplitude_scale": Num("factor on the profile", ge=0, default=1.0, required=False),
-    }), required=False, default=None)
+        "amplitude_scale": Num("factor on the profile", ge=0, le=10.0, default=1.0,
+                               required=False),
+     }), "points": Section({
+        "source": Str("where the rows came from (the CSV file a case named); not read",
+                      required=False),
+        "points": Rows("rows 'position, dip' in m, one per line (or [position, dip] pairs); "
+                       "increasing positions, |dip| <= 0.05 m"),
+     })}, required=False, default=None)
 
 _SIMULATION = Section({
     "time_step": Num("Newmark time step", "s", gt=0),
@@ -273,7 +294,7 @@ _OPTIMISATION = Section({
         "improvement": Num("reference point = reference design improved by this fraction",
                            ge=0, le=1, default=0.2, required=False),
         "worst": NumList("worst obtainable value of each objective (kappa_i = 1/(worst_i - "
-                         "ref_i))", gt=0, required=False),
+                         "ref_i))", gt=0, max_length=len(OBJECTIVES) * 50, required=False),
     }, required=False),
 }, required=False)
 
@@ -324,48 +345,26 @@ def check(value: Any, spec: Any, path: tuple, lines: dict, file: str) -> Any:
     def fail(msg: str, at: tuple = path) -> CaseError:
         return CaseError(f"{locate(lines, at, file)}: {dotted(at) or '<top>'}: {msg}")
 
+    def sub(v: Any, s: Any, key) -> Any:
+        return check(v, s, path + (key,), lines, file)
+
     if isinstance(spec, Section):
-        if not isinstance(value, dict):
-            raise fail(f"expected a section (mapping), got {type(value).__name__}")
-        unknown = [k for k in value if k not in spec.fields]
-        if unknown:
-            k = unknown[0]
-            raise CaseError(f"{lines.get(path + (k,), file + ':1')}: {dotted(path + (k,))}: "
-                            f"unknown key (expected one of: {', '.join(spec.fields)})")
-        out = {}
-        for key, sub in spec.fields.items():
-            if value.get(key) is None:  # absent, or written as null
-                if getattr(sub, "required", True):
-                    raise fail(f"missing key '{key}'")
-                optional_only = isinstance(sub, Section) and not any(
-                    getattr(f, "required", True) for f in sub.fields.values())
-                out[key] = (check({}, sub, path + (key,), lines, file) if optional_only
-                            else getattr(sub, "default", None))
-                continue
-            out[key] = check(value[key], sub, path + (key,), lines, file)
-        return out
-    if isinstance(spec, Named):
-        if not isinstance(value, dict) or not value:
-            raise fail("expected a mapping of names to sections")
-        if len(value) > spec.max_items:
-            raise fail(f"{len(value)} entries; at most {spec.max_items}")
-        for k in value:
-            if not isinstance(k, str) or not SAFE_NAME.fullmatch(k):
-                raise fail(f"{str(k)[:40]!r} is not a name (1-64 letters, digits, '.', '-' "
-                           f"and '_')", path + (k,))
-        return {k: check(v, spec.item, path + (k,), lines, file) for k, v in value.items()}
-    if isinstance(spec, Items):
-        if not isinstance(value, list) or not value:
-            raise fail("expected a list")
-        if len(value) > spec.max_items:
-            raise fail(f"{len(value)} entries; at most {spec.max_items}")
-        return [check(v, spec.item, path + (i,), lines, file) for i, v in enumerate(value)]
+        return _section(value, spec, sub, fail, lambda k: lines.get(path + (k,), file + ":1"),
+                        path)
+    if isinstance(spec, (Named, Items)):
+        return _collection(value, spec, sub, fail, path)
     if isinstance(spec, TextOrSection):
         if isinstance(value, dict):
-            return check(value, spec.section, path, lines, file)
+            keys = [k for k in spec.sections if k in value]
+            if len(keys) != 1:
+                raise fail(f"expected a mapping with one of the keys "
+                           f"{' or '.join(repr(k) for k in spec.sections)}")
+            return check(value, spec.sections[keys[0]], path, lines, file)
         if not isinstance(value, str):
-            raise fail(f"expected a file name or a mapping, got {value!r}")
+            raise fail(f"expected a file name or a mapping, got {value!r:.60}")
         return value
+    if isinstance(spec, Rows):
+        return _rows(value, fail)
     if isinstance(spec, Num):
         return _number(value, spec, fail)
     if isinstance(spec, Str):
@@ -377,26 +376,93 @@ def check(value: Any, spec: Any, path: tuple, lines: dict, file: str) -> Any:
             raise fail(f"must be one of {', '.join(spec.choices)}, got '{value}'")
         return value
     if isinstance(spec, NumList):
-        if not isinstance(value, list):
-            raise fail(f"expected a list of numbers, got {value!r}")
-        if spec.length is not None and len(value) != spec.length:
-            raise fail(f"expected {spec.length} values, got {len(value)}")
-        if len(value) < spec.min_length:
-            raise fail(f"expected at least {spec.min_length} value(s)")
-        item = Num(spec.doc, spec.unit, gt=spec.gt, ge=spec.ge)
-        return [_number(v, item, lambda m, i=i: fail(m, path + (i,))) for i, v in enumerate(value)]
+        return _numbers(value, spec, fail, path)
     if isinstance(spec, StrList):
-        if isinstance(value, str):
-            value = [value]
-        if not isinstance(value, list) or not value:
-            raise fail("expected a list of names")
-        for v in value:
-            if v not in spec.choices:
-                raise fail(f"unknown name {v!r} (expected some of {', '.join(spec.choices)})")
-        if len(set(value)) != len(value):
-            raise fail("a name is listed twice")
-        return list(value)
+        return _names(value, spec, fail)
     raise TypeError(spec)
+
+
+def _section(value: Any, spec: Section, sub, fail, line_of, path: tuple) -> dict:
+    """A section: no unknown key, every required key, defaults for the others."""
+    if not isinstance(value, dict):
+        raise fail(f"expected a section (mapping), got {type(value).__name__}")
+    unknown = [k for k in value if k not in spec.fields]
+    if unknown:
+        k = unknown[0]
+        raise CaseError(f"{line_of(k)}: {dotted(path + (k,))}: unknown key (expected one of: "
+                        f"{', '.join(spec.fields)})")
+    out = {}
+    for key, field_spec in spec.fields.items():
+        if value.get(key) is None:  # absent, or written as null
+            if getattr(field_spec, "required", True):
+                raise fail(f"missing key '{key}'")
+            optional_only = isinstance(field_spec, Section) and not any(
+                getattr(f, "required", True) for f in field_spec.fields.values())
+            out[key] = (sub({}, field_spec, key) if optional_only
+                        else getattr(field_spec, "default", None))
+            continue
+        out[key] = sub(value[key], field_spec, key)
+    return out
+
+
+def _collection(value: Any, spec: _Collection, sub, fail, path: tuple):
+    """Named (a mapping of names) or Items (a list), each value of ``spec.item``."""
+    if isinstance(spec, Named):
+        if not isinstance(value, dict) or not value:
+            raise fail("expected a mapping of names to sections")
+    elif not isinstance(value, list) or not value:
+        raise fail("expected a list")
+    if len(value) > spec.max_items:
+        raise fail(f"{len(value)} entries; at most {spec.max_items}")
+    if isinstance(spec, Items):
+        return [sub(v, spec.item, i) for i, v in enumerate(value)]
+    for k in value:
+        if not isinstance(k, str) or not SAFE_NAME.fullmatch(k):
+            raise fail(f"{str(k)[:40]!r} is not a name (1-64 letters, digits, '.', '-' "
+                       f"and '_')", path + (k,))
+    return {k: sub(v, spec.item, k) for k, v in value.items()}
+
+
+def _numbers(value: Any, spec: NumList, fail, path: tuple) -> list:
+    if not isinstance(value, list):
+        raise fail(f"expected a list of numbers, got {value!r:.60}")
+    if spec.length is not None and len(value) != spec.length:
+        raise fail(f"expected {spec.length} values, got {len(value)}")
+    if len(value) < spec.min_length:
+        raise fail(f"expected at least {spec.min_length} value(s)")
+    if len(value) > spec.max_length:
+        raise fail(f"{len(value)} values; at most {spec.max_length}")
+    item = Num(spec.doc, spec.unit, gt=spec.gt, ge=spec.ge, le=spec.le)
+    return [_number(v, item, lambda m, i=i: fail(m, path + (i,))) for i, v in enumerate(value)]
+
+
+def _names(value: Any, spec: StrList, fail) -> list:
+    if isinstance(value, str):
+        value = [value]
+    if not isinstance(value, list) or not value:
+        raise fail("expected a list of names")
+    for v in value:
+        if v not in spec.choices:
+            raise fail(f"unknown name {v!r} (expected some of {', '.join(spec.choices)})")
+    if len(set(value)) != len(value):
+        raise fail("a name is listed twice")
+    return list(value)
+
+
+def _rows(value: Any, fail) -> ProfileText:
+    """A profile's rows (text or pairs), checked, as canonical text."""
+    try:
+        if isinstance(value, str):
+            rows = parse_rows(value)
+        elif isinstance(value, list):
+            rows = pairs_rows(value)
+        else:
+            raise fail(f"expected rows 'position, dip' (text) or [position, dip] pairs, got "
+                       f"{value!r:.60}")
+    except ProfileError as exc:
+        where = "line" if isinstance(value, str) else "pair"
+        raise fail(f"{where} {exc.line}: {exc}") from None
+    return rows_text(rows)
 
 
 def _number(value: Any, spec: Num, fail) -> float | int:

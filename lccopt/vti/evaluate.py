@@ -73,7 +73,6 @@ def evaluate(scenario: Scenario, design: TrackDesign) -> Evaluation:
     # (e.g. on a mirrored track) round-off must not decide
     zone_lo, zone_hi = min(zone_start, zone_end) - 1e-9, max(zone_start, zone_end) + 1e-9
     in_zone_w = (wheel_pos >= zone_lo) & (wheel_pos <= zone_hi)
-    in_zone = in_zone_w[:, 0]
     # F_max also takes the force at the zone's exact ends (linear between the steps): the
     # force can still be rising or falling there, and otherwise F_max would depend on where
     # the last step before zone_end happens to fall (up to 2 % at 0.4 ms steps).
@@ -83,17 +82,26 @@ def evaluate(scenario: Scenario, design: TrackDesign) -> Evaluation:
                            for i in range(wheel_pos.shape[1])])
     forces = wheel_force.T[in_zone_w.T]            # wheel by wheel, each in step order
     objectives = objectives_from(forces, energy, force_ends=ends)
-    loss = wheel_force <= 0.0
-    loss_any = loss.any(axis=1)
-    info = {
+    info = _info(vehicle, track, h, n_steps, dt, leave)
+    info["wall_time"] = time.perf_counter() - t0
+    histories = _histories(vehicle, track, h, n_zone, energy, in_zone_w, profile)
+    return Evaluation(objectives, histories, info)
+
+
+def _info(vehicle, track, h, n_steps: int, dt: float, leave: bool) -> dict:
+    """Scalars describing the run (``Evaluation.info``)."""
+    x_start, zone_start, zone_end, x_end = track.window
+    loss = h.wheel_force <= 0.0
+    return {
         "speed": vehicle.speed,
         "static_wheel_load": vehicle.static_wheel_load,
         "hertz_load": vehicle.hertz_load,
         "contact_stiffness": vehicle.contact_stiffness,
-        "contact_loss_steps": int(loss_any.sum()),
-        "contact_loss_first_position": float(wheel_pos[loss][0]) if loss.any() else float("nan"),
+        "contact_loss_steps": int(loss.any(axis=1).sum()),
+        "contact_loss_first_position": (float(h.wheel_position[loss][0]) if loss.any()
+                                        else float("nan")),
         "vehicle_type": getattr(vehicle, "type", "three-dof"),
-        "n_wheels": int(wheel_pos.shape[1]),
+        "n_wheels": int(h.wheel_position.shape[1]),
         "direction": "leave" if leave else "enter",
         "n_dofs": track.n_dofs,
         "n_steps": n_steps,
@@ -106,16 +114,19 @@ def evaluate(scenario: Scenario, design: TrackDesign) -> Evaluation:
         "interface_entry": track.interface[0],
         "interface_exit": track.interface[1],
         "type_ii_end": track.type_ii_end,
-        "wall_time": time.perf_counter() - t0,
     }
-    histories = {
+
+
+def _histories(vehicle, track, h, n_zone: int, energy, in_zone_w, profile) -> dict:
+    """Named time histories and zone arrays (``response.HISTORY_DOC``)."""
+    out = {
         "time": h.time,
         "wheel_position": h.position,
         "contact_force": h.contact_force,
         "wheel_displacement": h.vehicle_displacement[:, vehicle.wheel_dofs[0]],
         "carbody_displacement": h.vehicle_displacement[:, 0],
         "rail_displacement": h.rail_displacement,
-        "in_force_zone": in_zone.astype(np.int8),
+        "in_force_zone": in_zone_w[:, 0].astype(np.int8),
         "sleeper_position": track.entry_sleeper_x[:n_zone],
         "sleeper_energy": energy,
         "sleeper_strengthened": track.entry_strengthened[:n_zone].astype(np.int8),
@@ -123,11 +134,11 @@ def evaluate(scenario: Scenario, design: TrackDesign) -> Evaluation:
         "entry_sleeper_position": track.entry_sleeper_x,
         "entry_pad_stiffness": track.entry_pad_stiffness,
         "entry_strengthened": track.entry_strengthened.astype(np.int8),
-        "wheel_positions": wheel_pos,
-        "contact_force_wheels": wheel_force,
+        "wheel_positions": h.wheel_position,
+        "contact_force_wheels": h.wheel_force,
         "in_force_zone_wheels": in_zone_w.astype(np.int8),
     }
     if profile is not None:
-        histories["irregularity_at_wheel"] = np.interp(h.position, profile[:, 0], profile[:, 1],
-                                                       left=0.0, right=0.0)
-    return Evaluation(objectives, histories, info)
+        out["irregularity_at_wheel"] = np.interp(h.position, profile[:, 0], profile[:, 1],
+                                                 left=0.0, right=0.0)
+    return out
