@@ -131,6 +131,16 @@ def _loop(tmp_path) -> str:
     return "loop1"
 
 
+def _chain(tmp_path, n: int, padding: int) -> str:
+    """A chain of n case files, each extending the one before, each with ``padding`` bytes of
+    comments."""
+    base = Q
+    for i in range(n):
+        (tmp_path / f"c{i}.yaml").write_text(f"extends: {base}\nname: c{i}\n" + "#" * padding + "\n")
+        base = f"c{i}.yaml"
+    return base
+
+
 def _conditions(n: int, time_step: float) -> str:
     rows = "".join(f"  - {{name: c{i}}}\n" for i in range(n))
     return f"simulation:\n  time_step: {time_step}\nconditions:\n{rows}"
@@ -152,6 +162,9 @@ NEXT_TO = {  # name -> (make(tmp_path) -> the file to check, message start after
     "extends a loop of links": (lambda t: _extends(t, _loop(t)), "case.yaml:1: extends: ", "loop"),
     "extends with NUL": (lambda t: _extends(t, f'"{Q}\\0x"'), "case.yaml:1: extends: ",
                          "control character U+0000"),
+    "an extends chain of big files": (lambda t: _chain(t, 4, 800_000), "/",   # names c1.yaml
+                                      "c1.yaml:1: <file>: the files of the extends chain hold "
+                                      "more than 2,000,000 bytes of YAML in all"),
     "irregularity /dev/zero": (lambda t: _irr(t, "/dev/zero"),
                                "case.yaml:4: simulation.irregularity: /dev/zero: ", "a character device"),
     "irregularity /dev/urandom": (lambda t: _irr(t, "/dev/urandom"),
@@ -283,3 +296,8 @@ def test_simulate_never_shows_a_non_finite_objective_as_a_result(tmp_path, run_c
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and "non-finite objectives: F_rms = nan" in lines[0], r.stderr
     assert "nan" not in r.stdout and not (tmp_path / "o").exists()
+
+
+def test_a_long_extends_chain_of_small_files_loads(tmp_path, run_cli):
+    r = run_cli("check", _chain(tmp_path, 200, 3000), timeout=60)
+    assert r.returncode == 0 and "ok: case 'c199'" in r.stdout, r.stderr

@@ -22,6 +22,9 @@ from .profiles import MAX_CASE_PROFILE_POINTS, MAX_ROW_BYTES
 MAX_CASE_BYTES = 1_000_000  # a case file is a few kB; anything near this is not one
 # what a case file may take with its rail profiles inline (a run's resolved copy holds them)
 MAX_CASE_FILE_BYTES = MAX_CASE_BYTES + MAX_CASE_PROFILE_POINTS * MAX_ROW_BYTES
+# YAML besides profile rows over a whole extends chain: 1 MB of dense YAML takes the reader
+# ~3 s and ~110 MB (measured), so a chain may not multiply it
+MAX_CHAIN_STRUCTURE_BYTES = 2 * MAX_CASE_BYTES
 MAX_DEPTH = 20              # sections nest 4 deep; deeper is an attack on the recursive reader
 
 
@@ -140,13 +143,19 @@ def _merge(base: dict, over: dict) -> dict:
 
 
 def read_with_base(path: Path, text: str, seen: frozenset = frozenset(),
-                   budget: int | None = None) -> tuple[dict, dict]:
+                   budget: tuple[int, int] | None = None) -> tuple[dict, dict]:
     """Read a case file; ``extends: other.yaml`` (relative to it) starts from another case.
 
-    ``budget``: the bytes the files of the ``extends`` chain may still take together (each is
-    limited as a case file, and the chain as one)."""
+    ``budget``: (bytes, bytes besides profile rows) the files of the ``extends`` chain may
+    still take together (each is limited as a case file, and the chain as one)."""
+    size = len(text.encode("utf-8"))
+    structure = size if size <= MAX_CASE_BYTES else structure_bytes(text)
+    total, left = budget or (MAX_CASE_FILE_BYTES, MAX_CHAIN_STRUCTURE_BYTES)
+    if structure > left:
+        raise CaseError(f"{shown(str(path))}:1: <file>: the files of the extends chain hold "
+                        f"more than {MAX_CHAIN_STRUCTURE_BYTES:,} bytes of YAML in all")
+    budget = (total - size, left - structure)
     raw, lines = read_yaml(text, str(path))
-    budget = (MAX_CASE_FILE_BYTES if budget is None else budget) - len(text.encode("utf-8"))
     base_name = raw.pop("extends", None)
     if base_name is None:
         return raw, lines
@@ -165,7 +174,7 @@ def read_with_base(path: Path, text: str, seen: frozenset = frozenset(),
     def fail(problem: str) -> CaseError:
         return CaseError(f"{where}: extends: {shown(str(base_path))}: {problem}")
 
-    base_text = read_case_text(base_path, max(0, budget), fail)
+    base_text = read_case_text(base_path, max(0, budget[0]), fail)
     base_raw, base_lines = read_with_base(base_path, base_text, seen | {base_path}, budget)
     return _merge(base_raw, raw), {**base_lines, **lines}
 
