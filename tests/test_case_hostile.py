@@ -136,7 +136,8 @@ def _chain(tmp_path, n: int, padding: int) -> str:
     comments."""
     base = Q
     for i in range(n):
-        (tmp_path / f"c{i}.yaml").write_text(f"extends: {base}\nname: c{i}\n" + "#" * padding + "\n")
+        text = f"extends: {base}\nname: c{i}\n" + "#" * padding + "\n"
+        (tmp_path / f"c{i}.yaml").write_text(text)
         base = f"c{i}.yaml"
     return base
 
@@ -146,113 +147,116 @@ def _conditions(n: int, time_step: float) -> str:
     return f"simulation:\n  time_step: {time_step}\nconditions:\n{rows}"
 
 
-NEXT_TO = {  # name -> (make(tmp_path) -> the file to check, message start after "lccopt: error: ", words)
+def _rows(n: int) -> str:
+    return "".join(f"{i * 1e-3:.3f},0\n" for i in range(n))
+
+
+EXT = "case.yaml:1: extends: "
+IRR = "case.yaml:4: simulation.irregularity: "
+CSV = IRR + "p.csv: "
+SIM = "simulation:\n"
+FINE_LONG_RUN = SIM + "  element_length: 0.01\n  time_step: 1.0e-4\n  run_in: 1000\n" \
+    "track:\n  layout:\n    entry_length: 1100\n"
+FINE_LONG_TRACK = SIM + "  element_length: 0.01\n  far_element_length: 0.01\n" \
+    "  time_step: 2.0e-5\n  run_in: 90\ntrack:\n  layout:\n    entry_length: 2000\n" \
+    "    exit_length: 2000\n"
+HALF_CAR_FINE = SIM + "  element_length: 0.01\n  far_element_length: 0.01\n" \
+    "  time_step: 2.5e-4\ntrack:\n  layout:\n    entry_length: 2000\n"
+HALF_CAR = (REFERENCE.parent / "vehicles" / "virm-half-car.yaml").as_posix()
+SPECTRUM = SIM + "  irregularity: {{spectrum: {0}, seed: 1, wavelengths: [{1}, {2}], " \
+                 "amplitude_scale: {3}}}\n"
+
+# name -> (make(tmp_path) -> the file to check, message start after "lccopt: error: ", words)
+NEXT_TO = {
     "case is a FIFO": (_fifo, "fifo: ", "a FIFO (named pipe), not a regular file"),
     "case is /dev/zero": (lambda t: "/dev/zero", "/dev/zero: ", "a character device"),
     "case is /dev/urandom": (lambda t: "/dev/urandom", "/dev/urandom: ", "a character device"),
     "case is a directory": (_dir, "adir: ", "a directory, not a regular file"),
-    "case is /proc/self/environ": (lambda t: "/proc/self/environ", "/proc/self/environ:1: <file>: ",
-                                   "binary data"),
-    "extends /dev/zero": (lambda t: _extends(t, "/dev/zero"), "case.yaml:1: extends: /dev/zero: ",
+    "case is /proc/self/environ": (lambda t: "/proc/self/environ",
+                                   "/proc/self/environ:1: <file>: ", "binary data"),
+    "extends /dev/zero": (lambda t: _extends(t, "/dev/zero"), EXT + "/dev/zero: ",
                           "a character device"),
-    "extends /dev/urandom": (lambda t: _extends(t, "/dev/urandom"),
-                             "case.yaml:1: extends: /dev/urandom: ", "a character device"),
-    "extends a FIFO": (lambda t: _extends(t, _fifo(t)), "case.yaml:1: extends: ", "a FIFO (named pipe)"),
-    "extends a directory": (lambda t: _extends(t, _dir(t)), "case.yaml:1: extends: ", "a directory"),
-    "extends a loop of links": (lambda t: _extends(t, _loop(t)), "case.yaml:1: extends: ", "loop"),
-    "extends with NUL": (lambda t: _extends(t, f'"{Q}\\0x"'), "case.yaml:1: extends: ",
-                         "control character U+0000"),
+    "extends /dev/urandom": (lambda t: _extends(t, "/dev/urandom"), EXT + "/dev/urandom: ",
+                             "a character device"),
+    "extends a FIFO": (lambda t: _extends(t, _fifo(t)), EXT, "a FIFO (named pipe)"),
+    "extends a directory": (lambda t: _extends(t, _dir(t)), EXT, "a directory"),
+    "extends a loop of links": (lambda t: _extends(t, _loop(t)), EXT, "loop"),
+    "extends with NUL": (lambda t: _extends(t, f'"{Q}\\0x"'), EXT, "control character U+0000"),
     "an extends chain of big files": (lambda t: _chain(t, 4, 800_000), "/",   # names c1.yaml
                                       "c1.yaml:1: <file>: the files of the extends chain hold "
                                       "more than 2,000,000 bytes of YAML in all"),
-    "irregularity /dev/zero": (lambda t: _irr(t, "/dev/zero"),
-                               "case.yaml:4: simulation.irregularity: /dev/zero: ", "a character device"),
-    "irregularity /dev/urandom": (lambda t: _irr(t, "/dev/urandom"),
-                                  "case.yaml:4: simulation.irregularity: /dev/urandom: ", "a character"),
-    "irregularity a FIFO": (lambda t: _irr(t, _fifo(t)), "case.yaml:4: simulation.irregularity: fifo: ",
-                            "a FIFO (named pipe)"),
-    "irregularity a directory": (lambda t: _irr(t, _dir(t)), "case.yaml:4: simulation.irregularity: ",
-                                 "a directory"),
-    "irregularity a link to /dev/zero": (lambda t: _irr(t, _zero_link(t)),
-                                         "case.yaml:4: simulation.irregularity: z.csv: ",
+    "irregularity /dev/zero": (lambda t: _irr(t, "/dev/zero"), IRR + "/dev/zero: ",
+                               "a character device"),
+    "irregularity /dev/urandom": (lambda t: _irr(t, "/dev/urandom"), IRR + "/dev/urandom: ",
+                                  "a character device"),
+    "irregularity a FIFO": (lambda t: _irr(t, _fifo(t)), IRR + "fifo: ", "a FIFO (named pipe)"),
+    "irregularity a directory": (lambda t: _irr(t, _dir(t)), IRR, "a directory"),
+    "irregularity a link to /dev/zero": (lambda t: _irr(t, _zero_link(t)), IRR + "z.csv: ",
                                          "a character device"),
-    "irregularity with NUL": (lambda t: _irr(t, '"p\\0.csv"'), "case.yaml:4: simulation.irregularity: ",
-                              "control character U+0000"),
-    "irregularity with an escape sequence": (lambda t: _irr(t, '"p\\e[2J.csv"'),
-                                             "case.yaml:4: simulation.irregularity: ", "U+001B"),
-    "irregularity with a bidi override": (lambda t: _irr(t, '"a\\u202Evsc.csv"'),
-                                          "case.yaml:4: simulation.irregularity: ", "U+202E"),
-    "irregularity an empty name": (lambda t: _irr(t, '""'), "case.yaml:4: simulation.irregularity: ",
-                                   "empty file name"),
-    "empty CSV": (lambda t: _csv(t, ""), "case.yaml:4: simulation.irregularity: p.csv: line 1: ",
-                  "a profile needs at least two"),
-    "CSV of comments only": (lambda t: _csv(t, "# nothing\n\n"), "case.yaml:4: simulation.irregularity: ",
-                             "0 row(s)"),
-    "CSV with nan": (lambda t: _csv(t, "98,0\n98.5,nan\n99,0\n"),
-                     "case.yaml:4: simulation.irregularity: p.csv: line 2: ", "dip nan is not a finite"),
-    "CSV with inf": (lambda t: _csv(t, "98,0\ninf,0.0001\n"),
-                     "case.yaml:4: simulation.irregularity: p.csv: line 2: ", "position inf is not a"),
-    "CSV with 1e308": (lambda t: _csv(t, "98,0\n98.5,1e308\n99,0\n"),
-                       "case.yaml:4: simulation.irregularity: p.csv: line 2: ", "at most 0.05 m"),
-    "CSV in millimetres": (lambda t: _csv(t, "98,0\n98.5,2.5\n99,0\n"),
-                           "case.yaml:4: simulation.irregularity: p.csv: line 2: ", "a dip of 2.5 m"),
-    "CSV with a header": (lambda t: _csv(t, "position,dip\n98,0\n99,0\n"),
-                          "case.yaml:4: simulation.irregularity: p.csv: line 1: ", "is not a number"),
-    "CSV of three columns": (lambda t: _csv(t, "98,0,1\n99,0,1\n"),
-                             "case.yaml:4: simulation.irregularity: p.csv: line 1: ", "two numbers"),
-    "CSV going back": (lambda t: _csv(t, "98,0\n97,0\n"),
-                       "case.yaml:4: simulation.irregularity: p.csv: line 2: ", "does not increase"),
-    "CSV off the track": (lambda t: _csv(t, "1000,0\n1001,0.001\n"), "case.yaml:4: simulation.irregularity: ",
+    "irregularity with NUL": (lambda t: _irr(t, '"p\\0.csv"'), IRR, "control character U+0000"),
+    "irregularity with an escape sequence": (lambda t: _irr(t, '"p\\e[2J.csv"'), IRR, "U+001B"),
+    "irregularity with a bidi override": (lambda t: _irr(t, '"a\\u202Evsc.csv"'), IRR, "U+202E"),
+    "irregularity an empty name": (lambda t: _irr(t, '""'), IRR, "empty file name"),
+    "empty CSV": (lambda t: _csv(t, ""), CSV + "line 1: ", "a profile needs at least two"),
+    "CSV of comments only": (lambda t: _csv(t, "# nothing\n\n"), CSV, "0 row(s)"),
+    "CSV with nan": (lambda t: _csv(t, "98,0\n98.5,nan\n99,0\n"), CSV + "line 2: ",
+                     "dip nan is not a finite"),
+    "CSV with inf": (lambda t: _csv(t, "98,0\ninf,0.0001\n"), CSV + "line 2: ",
+                     "position inf is not a"),
+    "CSV with 1e308": (lambda t: _csv(t, "98,0\n98.5,1e308\n99,0\n"), CSV + "line 2: ",
+                       "at most 0.05 m"),
+    "CSV in millimetres": (lambda t: _csv(t, "98,0\n98.5,2.5\n99,0\n"), CSV + "line 2: ",
+                           "a dip of 2.5 m"),
+    "CSV with a header": (lambda t: _csv(t, "position,dip\n98,0\n99,0\n"), CSV + "line 1: ",
+                          "is not a number"),
+    "CSV of three columns": (lambda t: _csv(t, "98,0,1\n99,0,1\n"), CSV + "line 1: ",
+                             "two numbers"),
+    "CSV going back": (lambda t: _csv(t, "98,0\n97,0\n"), CSV + "line 2: ", "does not increase"),
+    "CSV off the track": (lambda t: _csv(t, "1000,0\n1001,0.001\n"), IRR,
                           "outside the modelled track [0, 134] m"),
-    "CSV in UTF-16": (lambda t: _csv(t, "98,0\n99,0\n".encode("utf-16")),
-                      "case.yaml:4: simulation.irregularity: p.csv: line 1: ", "not UTF-8"),
-    "CSV of 8 million blank lines": (lambda t: _csv(t, b"\n" * 7_999_999),
-                                     "case.yaml:4: simulation.irregularity: p.csv: line 1: ", "lines"),
-    "CSV of 150 000 rows": (lambda t: _csv(t, "".join(f"{i * 1e-3:.3f},0\n" for i in range(150_000))),
-                            "case.yaml:4: simulation.irregularity: p.csv: line 100001: ", "100,000 rows"),
-    "CSV of 12 MB": (lambda t: _csv(t, b"1,0\n" * 3_000_000), "case.yaml:4: simulation.irregularity: p.csv: ",
-                     "larger than 8,000,000 bytes"),
+    "CSV in UTF-16": (lambda t: _csv(t, "98,0\n99,0\n".encode("utf-16")), CSV + "line 1: ",
+                      "not UTF-8"),
+    "CSV of 8 million blank lines": (lambda t: _csv(t, b"\n" * 7_999_999), CSV + "line 1: ",
+                                     "lines"),
+    "CSV of 150 000 rows": (lambda t: _csv(t, _rows(150_000)), CSV + "line 100001: ",
+                            "100,000 rows"),
+    "CSV of 12 MB": (lambda t: _csv(t, b"1,0\n" * 3_000_000), CSV, "larger than 8,000,000 bytes"),
     "conditions of long profiles": (lambda t: (
-        (t / "p.csv").write_text("".join(f"{i * 1e-3:.3f},0\n" for i in range(100_000))),
+        (t / "p.csv").write_text(_rows(100_000)),
         _case(t, "conditions:\n" + "".join(f"  - {{name: c{i}, irregularity: p.csv}}\n"
                                             for i in range(3))))[1],
         "case.yaml:6: conditions[2].irregularity: ", "more than 200,000 rows in all"),
-    "inline rows going back": (lambda t: _case(t, "simulation:\n  irregularity:\n    points: |\n"
+    "inline rows going back": (lambda t: _case(t, SIM + "  irregularity:\n    points: |\n"
                                                   "      98, 0\n      97, 0\n"),
                                "case.yaml:5: simulation.irregularity.points: line 2: ",
                                "does not increase"),
-    "time_step 1e-12": (lambda t: _case(t, "simulation:\n  time_step: 1.0e-12\n"),
-                        "case.yaml:4: simulation.time_step: 1e-12 s makes ", "at most 500,000 steps"),
-    "a fine mesh over a long run": (lambda t: _case(t, "simulation:\n  element_length: 0.01\n"
-                                                       "  time_step: 1.0e-4\n  run_in: 1000\n"
-                                                       "track:\n  layout:\n    entry_length: 1100\n"),
-                                    "case.yaml:3: simulation: 264,163 steps of about ", "at most 1e+10"),
-    "a fine mesh on a long track": (lambda t: _case(t, "simulation:\n  element_length: 0.01\n"
-                                                       "  far_element_length: 0.01\n  time_step: 2.0e-5\n"
-                                                       "  run_in: 90\ntrack:\n  layout:\n"
-                                                       "    entry_length: 2000\n    exit_length: 2000\n"),
-                                    "case.yaml:4: simulation.element_length: one simulation would hold ",
-                                    "at most 2 GB"),
+    "time_step 1e-12": (lambda t: _case(t, SIM + "  time_step: 1.0e-12\n"),
+                        "case.yaml:4: simulation.time_step: 1e-12 s makes ",
+                        "at most 500,000 steps"),
+    "a fine mesh over a long run": (lambda t: _case(t, FINE_LONG_RUN),
+                                    "case.yaml:3: simulation: 264,163 steps of about ",
+                                    "at most 1e+10"),
+    "a fine mesh on a long track": (lambda t: _case(t, FINE_LONG_TRACK),
+                                    "case.yaml:4: simulation.element_length: one simulation "
+                                    "would hold ", "at most 2 GB"),
     "a half car on a fine mesh": (lambda t: (t / "case.yaml").write_text(
-        f"extends: {(REFERENCE.parent / 'vehicles' / 'virm-half-car.yaml').as_posix()}\nname: h\n"
-        "simulation:\n  element_length: 0.01\n  far_element_length: 0.01\n  time_step: 2.5e-4\n"
-        "track:\n  layout:\n    entry_length: 2000\n") and "case.yaml",
-        "case.yaml:4: simulation.element_length: one simulation would hold about ", "at most 2 GB"),
+        f"extends: {HALF_CAR}\nname: h\n" + HALF_CAR_FINE) and "case.yaml",
+        "case.yaml:4: simulation.element_length: one simulation would hold about ",
+        "at most 2 GB"),
     "50 conditions of fine steps": (lambda t: _case(t, _conditions(50, 1.5e-5)),
                                     "case.yaml:5: conditions: the 50 conditions take ",
                                     "at most 2,000,000"),
-    "amplitude_scale 1e12": (lambda t: _case(t, "simulation:\n  irregularity: {spectrum: erri-low, seed: 1, "
-                                                "wavelengths: [3, 25], amplitude_scale: 1.0e12}\n"),
-                             "case.yaml:4: simulation.irregularity.amplitude_scale: ", "<= 10"),
-    "a spectrum too deep": (lambda t: _case(t, "simulation:\n  irregularity: {spectrum: fra-4, seed: 1, "
-                                               "wavelengths: [1, 120], amplitude_scale: 5}\n"),
-                            "case.yaml:4: simulation.irregularity.amplitude_scale: ", "beyond 0.05 m"),
+    "amplitude_scale 1e12": (lambda t: _case(t, SPECTRUM.format("erri-low", 3, 25, 1.0e12)),
+                             IRR[:-2] + ".amplitude_scale: ", "<= 10"),
+    "a spectrum too deep": (lambda t: _case(t, SPECTRUM.format("fra-4", 1, 120, 5)),
+                            IRR[:-2] + ".amplitude_scale: ", "beyond 0.05 m"),
     "a condition's spectrum band finer than anything": (
-        lambda t: _case(t, "conditions:\n  - {name: a, irregularity: {spectrum: erri-low, seed: 1, "
-                           "wavelengths: [1.0e-9, 1]}}\n"),
+        lambda t: _case(t, "conditions:\n  - {name: a, irregularity: {spectrum: erri-low, "
+                           "seed: 1, wavelengths: [1.0e-9, 1]}}\n"),
         "case.yaml:4: conditions[0]: simulation.irregularity.wavelengths: ", "resolve"),
     "a key with terminal escapes": (lambda t: _case(t, 'vehicle:\n  "\\e]0;x\\a\\e[2J": 1\n'),
-                                    "case.yaml:4: vehicle.\\x1b]0;x\\x07\\x1b[2J: ", "unknown key"),
+                                    "case.yaml:4: vehicle.\\x1b]0;x\\x07\\x1b[2J: ",
+                                    "unknown key"),
 }
 
 
@@ -269,7 +273,8 @@ def test_hostile_files_names_and_sizes_next_to_the_case(tmp_path, run_cli, kind)
     assert "\x1b" not in r.stderr and "\x00" not in r.stderr
 
 
-@pytest.mark.skipif(not os.access("/proc/kmsg", os.R_OK), reason="/proc/kmsg is readable by root only")
+@pytest.mark.skipif(not os.access("/proc/kmsg", os.R_OK),
+                    reason="/proc/kmsg is readable by root only")
 def test_a_kernel_file_that_waits_for_data_is_refused_not_waited_for(tmp_path, run_cli):
     """/proc/kmsg looks like a regular file but its read waits for the next kernel message."""
     r = run_cli("check", _irr(tmp_path, "/proc/kmsg"), timeout=30)
