@@ -101,8 +101,7 @@ class Problem:
             seed=int(opt["seed"]),
             timeout=float(opt["timeout"]),
             rho=float(asf.get("rho", 0.05) if asf.get("rho") is not None else 0.05),
-            improvement=float(asf.get("improvement") if asf.get("improvement") is not None
-                              else 0.2),
+            improvement=float(asf.get("improvement") if asf.get("improvement") is not None else 0.2),
             worst=None if worst is None else tuple(float(w) for w in worst),
             conditions=conditions,
             weights=tuple(c.weight for c in case.conditions),
@@ -209,8 +208,7 @@ class Problem:
         for name, w, r in zip(self.objectives, self.worst, point):
             if not w > r:
                 raise CaseError(f"{name}: optimisation.asf.worst = {w:g} must exceed the reference "
-                                f"point {r:g} (reference design {name} = "
-                                f"{r / (1 - self.improvement):g} "
+                                f"point {r:g} (reference design {name} = {r / (1 - self.improvement):g} "
                                 f"improved by {self.improvement:.0%})")
         return point
 
@@ -220,8 +218,7 @@ class Problem:
     def finite(self, objectives: dict) -> str | None:
         """None if every objective of the case is a finite number, else the reason."""
         bad = [f"{k}={objectives.get(k)!r}" for k in self.objectives
-               if not isinstance(objectives.get(k), (int, float))
-               or not math.isfinite(objectives[k])]
+               if not isinstance(objectives.get(k), (int, float)) or not math.isfinite(objectives[k])]
         return f"non-finite objectives: {', '.join(bad)}" if bad else None
 
     def value(self, objectives: dict, reference_point=None) -> float:
@@ -232,8 +229,7 @@ class Problem:
             raise ValueError("a multi-objective value needs the reference point")
         from .optim.scalarise import asf
 
-        return float(asf(self.objective_vector(objectives), reference_point, self.worst,
-                         rho=self.rho))
+        return float(asf(self.objective_vector(objectives), reference_point, self.worst, rho=self.rho))
 
     # -- traffic conditions ------------------------------------------------------------------
     def combine(self, per_condition: list[dict]) -> dict:
