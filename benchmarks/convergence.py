@@ -15,8 +15,8 @@ import time
 
 import numpy as np
 
-from lccopt.case import load_case
-from lccopt.vti.simulate import evaluate
+from lccopt.config import load_case
+from lccopt.problem import evaluate
 
 DESIGNS = {  # x = [x_r1, x_r2, x_r3, x_n, x_s1, x_s2, x_s3, x_l]
     "reference": None,

@@ -35,9 +35,8 @@ import numpy as np  # noqa: E402
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from lccopt.case import load_case  # noqa: E402
-from lccopt.problem import Problem  # noqa: E402
-from lccopt.vti.simulate import evaluate  # noqa: E402
+from lccopt.config import load_case  # noqa: E402
+from lccopt.problem import Problem, evaluate  # noqa: E402
 
 MODEL = ROOT / "configs" / "reference.yaml"
 

@@ -27,11 +27,11 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from lccopt.case import load_case  # noqa: E402
-from lccopt.vti.simulate import evaluate  # noqa: E402
+from lccopt.config import load_case  # noqa: E402
+from lccopt.problem import evaluate  # noqa: E402
 from lccopt.vti.statics import static_rail_deflection  # noqa: E402
 from lccopt.vti.track import build_track  # noqa: E402
-from lccopt.vti.vehicle import Vehicle  # noqa: E402
+from lccopt.vti.vehicle import build_vehicle  # noqa: E402
 
 MN = 1e6
 # design vectors [x_r1..3 MN/m, x_n, x_s1..3, x_l] (Tables 5 and 7; the reference pads are FC9,
@@ -91,10 +91,10 @@ def f_rms_against_strip(case, zone_end: float) -> list[float]:
 def static_deflection(case, x, where: str) -> float:
     """Static rail deflection [mm] under the static wheel load, averaged over one sleeper bay
     20 m before the crossing (ballast) or over the middle metre of the first slab (ERS)."""
-    track = build_track(case, design_vector(x))
+    track = build_track(case.scenario(), case.track_design(design_vector(x)))
     a = track.interface[0]
     spots = np.linspace(a - 20.0, a - 19.4, 7) if where == "ballast" else np.linspace(a + 2.5, a + 3.5, 7)
-    return 1e3 * float(static_rail_deflection(track, Vehicle.from_case(case).static_wheel_load, spots).mean())
+    return 1e3 * float(static_rail_deflection(track, build_vehicle(case.scenario().vehicle).static_wheel_load, spots).mean())
 
 
 def run(case) -> dict:
@@ -133,7 +133,7 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     case = with_changes(load_case(args.case), args.model)
     print(f"case {args.case}, vehicle model {case.vehicle.get('model', 'paper')}, "
-          f"static wheel load {Vehicle.from_case(case).static_wheel_load / 1e3:.1f} kN")
+          f"static wheel load {build_vehicle(case.scenario().vehicle).static_wheel_load / 1e3:.1f} kN")
     res = run(case)
     print("\n".join(table(res)))
     s = score(res)

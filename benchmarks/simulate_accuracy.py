@@ -3,11 +3,13 @@
 For the reference design, the designs of benchmarks/convergence.py and ``--random`` designs
 drawn uniformly over the bounds (integers rounded; fixed seed), F_max and E_max (and F_rms,
 E_rms) of ``evaluate(case, x)`` at the case's settings are compared with the pre-issue-11
-method: its integrator (lccopt.vti.newmark_reference.integrate_reference) at its settings
+method: its integrator (benchmarks/legacy_newmark.py) at its settings
 (REFERENCE_SETTINGS: dt = 0.2 ms, 10 m run-in, 3 m run-out, far elements <= 0.3 m).
 Accepted when every |relative difference| of F_max and E_max is at most 0.5 %.
 
     python benchmarks/simulate_accuracy.py [--case configs/reference.yaml] [--random 24] [--seed 11]
+
+The figures: benchmarks/RESULTS-simulator.md.
 """
 
 from __future__ import annotations
@@ -24,12 +26,12 @@ from pathlib import Path
 
 import numpy as np
 
-from lccopt.case import Case, load_case
-from lccopt.vti.newmark_reference import REFERENCE_SETTINGS
-from lccopt.vti.simulate import evaluate
+from lccopt.config import Case, load_case
+from lccopt.problem import evaluate
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from convergence import DESIGNS  # noqa: E402
+from legacy_newmark import REFERENCE_SETTINGS, evaluate_legacy  # noqa: E402
 
 TOLERANCE = 0.5   # % on F_max and E_max
 
@@ -50,7 +52,7 @@ def random_designs(case: Case, count: int, seed: int) -> list[np.ndarray]:
 def differences(case: Case, x) -> tuple[dict, dict]:
     """(new objectives, old objectives) of design x."""
     new = evaluate(case, x).objectives
-    old = evaluate(case.with_simulation(**REFERENCE_SETTINGS), x, legacy=True).objectives
+    old = evaluate_legacy(case.with_simulation(**REFERENCE_SETTINGS), x).objectives
     return new, old
 
 

@@ -24,9 +24,8 @@ import numpy as np  # noqa: E402
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from lccopt.case import load_case, parse_design  # noqa: E402
-from lccopt.problem import combine_conditions  # noqa: E402
-from lccopt.vti.simulate import evaluate  # noqa: E402
+from lccopt.config import load_case, parse_design  # noqa: E402
+from lccopt.problem import combine_conditions, evaluate  # noqa: E402
 
 DESIGNS = {  # name -> design in --design units (pads MN/m)
     "reference": "1120,1120,1120,8,6,6,4,0",

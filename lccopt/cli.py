@@ -21,8 +21,7 @@ from typing import Optional
 
 import typer
 
-from .case import CaseError
-from .errors import UsageError, describe_os_error
+from .errors import CaseError, UsageError, describe_os_error
 from .terminal import PipeGuard, wrap_items
 
 EXIT_OK, EXIT_INTERNAL, EXIT_USAGE, EXIT_INTERRUPTED, EXIT_PIPE = 0, 1, 2, 130, 141
@@ -58,7 +57,7 @@ def _main_options(version: bool = typer.Option(False, "--version", callback=_ver
 @app.command()
 def check(case: Path = typer.Argument(..., help="case file (YAML)")) -> None:
     """Validate a case file without simulating."""
-    from .case import load_case
+    from .config import load_case
 
     c = load_case(case)
     names = [f"{v.name}{'∈Z' if v.integer else ''} [{v.lower:g}, {v.upper:g}]{' log' if v.log else ''}"
@@ -70,6 +69,11 @@ def check(case: Path = typer.Argument(..., help="case file (YAML)")) -> None:
         for t in c.conditions:
             typer.echo(f"    {t.name}: {t.vehicle}, {t.speed * 3.6:.0f} km/h, {t.direction}"
                        + (f", weight {t.weight:g}" if c.condition_mode == "mean" else ""))
+    from .config.checks import simulation_size
+
+    steps, dofs = max(simulation_size(one.data) for one in (c.conditions or [c]))
+    typer.echo(f"  {'the longest simulation' if c.conditions else 'one simulation'}: at most "
+               f"{steps:,} steps of about {dofs:,} track dofs")
 
 
 @app.command()
@@ -84,7 +88,7 @@ def simulate(
     force: bool = typer.Option(False, "--force", help="replace a simulation already in the output directory"),
 ) -> None:
     """Simulate one design: print F_rms, F_max (kN), E_rms, E_max (J); write HDF5 and plots."""
-    from .simulate_cmd import run_simulate
+    from .simulate_command import run_simulate
 
     run_simulate(case, design, out, not no_plots, force)
 

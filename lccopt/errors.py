@@ -1,7 +1,7 @@
 """The errors a user can act on (exit 2), shared by every layer below the CLI.
 
-Kept apart from ``cli.py`` so that the engine, the report and the simulate command can raise
-them without importing the command line (which imports them).
+Kept apart from ``cli.py`` so that the config layer, the engine, the report and the simulate
+command can raise them without importing the command line (which imports them).
 """
 
 from __future__ import annotations
@@ -9,6 +9,25 @@ from __future__ import annotations
 import errno
 import os
 import re
+
+
+class CaseError(ValueError):
+    """A case file problem, already formatted as ``file:line: key.path: message``; exit 2.
+
+    Its text is one printable line whatever the case file holds: control and format
+    characters (a key or a value may carry terminal escape sequences, newlines or
+    bidirectional overrides) are shown as escapes."""
+
+    def __str__(self) -> str:
+        return printable(super().__str__())
+
+
+def printable(text: str) -> str:
+    """``text`` with every control or format character (category C*, line and paragraph
+    separators) replaced by its Python escape, so that it prints as the one line it is."""
+    if text.isprintable():
+        return text
+    return "".join(c if c.isprintable() or c == " " else repr(c)[1:-1] for c in text)
 
 
 class UsageError(Exception):

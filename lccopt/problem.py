@@ -1,6 +1,9 @@
-"""Case -> optimisation problem: the design space and the scalar value the optimiser minimises.
+"""Case -> optimisation problem: the design space, the simulation of a design and the scalar
+value the optimiser minimises.
 
-Pure and small: no files, no processes. The run engine asks it for
+Pure and small: no files, no processes. :func:`evaluate` simulates one design of a case (the
+workers' entry point: it builds the simulator's typed inputs from the case). The run engine
+asks :class:`Problem` for
 
 * ``space`` (a :class:`lccopt.optim.space.DesignSpace` with the reference design as the one
   given point, so the reference design is always evaluation 0),
@@ -21,7 +24,34 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .case import Case, CaseError
+from .config import Case
+from .errors import CaseError
+
+
+def evaluate(case: Case, x):
+    """Simulate design ``x`` of ``case`` (one simulation: a case with traffic conditions gives
+    each condition's case by ``case.condition_case(i)``).
+
+    Parameters
+    ----------
+    case
+        a validated case (:func:`lccopt.config.load_case`).
+    x
+        the design vector in the case's order, SI units.
+
+    Returns
+    -------
+    lccopt.vti.response.Evaluation
+        the objectives, time histories and facts of the run.
+
+    Raises
+    ------
+    ValueError
+        x is not a valid design of the case.
+    """
+    from .vti.evaluate import evaluate as simulate
+
+    return simulate(case.scenario(), case.track_design(x))
 
 
 @dataclass(frozen=True)

@@ -46,8 +46,9 @@ def kind_of(mode: int) -> str:
     return "not a regular file"
 
 
-def _open(path, flags: int, follow: bool, mode: int = 0o666) -> int:
-    """os.open that never blocks on a FIFO and refuses anything but a regular file."""
+def _open(path, flags: int, follow: bool, mode: int = 0o666, blocking: bool = True) -> int:
+    """os.open that never blocks on a FIFO and refuses anything but a regular file (left
+    non-blocking unless ``blocking``)."""
     flags |= os.O_NONBLOCK | os.O_CLOEXEC | (0 if follow else os.O_NOFOLLOW)
     try:
         fd = os.open(path, flags, mode)
@@ -63,7 +64,8 @@ def _open(path, flags: int, follow: bool, mode: int = 0o666) -> int:
         if not stat.S_ISREG(st.st_mode):
             raise UnsafeFile(path, f"{kind_of(st.st_mode)}, not a regular file")
         # regular files ignore O_NONBLOCK, but clear it: the descriptor may be handed on
-        os.set_blocking(fd, True)
+        if blocking:
+            os.set_blocking(fd, True)
     except BaseException:
         os.close(fd)
         raise
@@ -76,6 +78,9 @@ def _read_limited(fd: int, path, limit: int | None) -> bytes:
         while True:
             want = 1 << 20 if limit is None else min(1 << 20, limit + 1 - size)
             chunk = fh.read(want)
+            if chunk is None:   # a kernel file that waits for data (e.g. /proc/kmsg)
+                raise UnsafeFile(path, "reading it would wait for more data (a kernel or device "
+                                       "file, not a regular file's content)", errno.EAGAIN)
             if not chunk:
                 break
             chunks.append(chunk)
@@ -96,7 +101,9 @@ def read_input(path, limit: int) -> bytes:
     OSError
         the file cannot be opened (missing, no permission, ...).
     """
-    return _read_limited(_open(path, os.O_RDONLY, follow=True), path, limit)
+    # left non-blocking: a regular file reads the same, a kernel file that would wait
+    # (a /proc file looks regular) is refused instead of hanging
+    return _read_limited(_open(path, os.O_RDONLY, follow=True, blocking=False), path, limit)
 
 
 def read_owned(path, limit: int | None = None) -> bytes:

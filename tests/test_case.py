@@ -3,7 +3,8 @@
 import numpy as np
 import pytest
 
-from lccopt.case import CaseError, load_case, parse_design
+from lccopt.config import load_case, parse_design
+from lccopt.errors import CaseError
 from tests.conftest import CONFIGS
 
 REFERENCE = (CONFIGS / "reference.yaml").read_text()

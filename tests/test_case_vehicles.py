@@ -6,8 +6,9 @@ import h5py
 import numpy as np
 import pytest
 
-from lccopt.case import CaseError, load_case
-from lccopt.vti.simulate import evaluate
+from lccopt.config import load_case
+from lccopt.errors import CaseError
+from lccopt.problem import evaluate
 from tests.conftest import CHEAP_SIMULATION, CONFIGS
 
 REFERENCE = CONFIGS / "reference.yaml"
@@ -99,7 +100,8 @@ def test_the_csv_irregularity_still_loads(tmp_path):
     p = tmp_path / "c.yaml"
     p.write_text(f"extends: {REFERENCE}\nname: csv\nsimulation:\n  irregularity: p.csv\n")
     case = load_case(p)
-    assert case.simulation["irregularity"] == "p.csv" and case.irregularity.shape == (3, 2)
+    assert case.simulation["irregularity"]["source"] == "p.csv"
+    assert np.array_equal(case.irregularity, np.c_[[0.0, 50.0, 134.0], [0.0, 1e-4, 0.0]])
 
 
 @pytest.mark.parametrize("name,kind,wheels,load", [

@@ -43,8 +43,8 @@ import numpy as np
 import typer
 
 from .. import machine
-from ..case import SAFE_NAME, Case, CaseError, design_items, load_case
-from ..errors import EnvironmentFault, UsageError, describe_os_error, environment_errno
+from ..config import SAFE_NAME, Case, design_items, load_case
+from ..errors import CaseError, EnvironmentFault, UsageError, describe_os_error, environment_errno
 from ..problem import Problem
 from ..terminal import PipeGuard, wrap_items
 from .executors import ExecutorError, make_executor
@@ -53,7 +53,7 @@ from .progress import Progress, fmt, hms, objective_text, objective_value, refer
 from .rundir import (RunDir, RunError, Table, eval_name, now_iso, sha256_text,
                      versions, write_results)
 from .schedule import may_ask, release
-from .worker import Outcome, Task, evaluator_spec
+from .worker import RENAMED_EVALUATORS, Outcome, Task, evaluator_spec
 
 RESULTS_EVERY = 10.0  # [s] results.h5 is rebuilt at most this often while running (and at the end)
 SNAPSHOT_EVERY = 5.0  # [s] state.json likewise; resume replays the journal lines after it
@@ -215,7 +215,8 @@ def resume(run, workers: int | None = None, scheduler=None, case=None, allow_cha
         # never the evaluator run.json names: a run directory from elsewhere must not choose
         # code to run; the testing hook ($LCCOPT_EVALUATOR) or the simulator
         spec = evaluator_spec(evaluator)
-        if isinstance(spec, str) and isinstance(meta.get("evaluator"), str) and meta["evaluator"] != spec:
+        started = RENAMED_EVALUATORS.get(meta.get("evaluator"), meta.get("evaluator"))
+        if isinstance(spec, str) and isinstance(started, str) and started != spec:
             out.log(f"the run was started with evaluator {meta['evaluator'][:60]!r}; carrying on with {spec!r}")
         removed = rd.clean(pending={eval_name(i) for i in table.pending_ids()})
         if removed:

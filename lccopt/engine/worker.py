@@ -2,7 +2,7 @@
 
 The evaluator is named by a ``module:function`` string so that it can be sent to any
 worker (a local process or a Dask worker) and imported there. The default is the
-simulator, ``lccopt.vti.simulate:evaluate``.
+simulator, ``lccopt.problem:evaluate``.
 
 Testing hook: the environment variable ``LCCOPT_EVALUATOR=module:function`` replaces the
 simulator (tests point it at faulty evaluators that raise, return NaN, kill their process
@@ -24,7 +24,9 @@ from typing import Any, Callable
 
 from .. import machine  # no numpy at import: the thread settings below still come first
 
-DEFAULT_EVALUATOR = "lccopt.vti.simulate:evaluate"
+DEFAULT_EVALUATOR = "lccopt.problem:evaluate"
+# the simulator under the name older runs recorded in run.json
+RENAMED_EVALUATORS = {"lccopt.vti.simulate:evaluate": DEFAULT_EVALUATOR}
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)  # the parent handles these
 ENV_EVALUATOR = "LCCOPT_EVALUATOR"
 

@@ -88,7 +88,7 @@ class RunData:
     finished: bool
     state: str                     # finished | running | interrupted
     source: str                    # results.h5 | journal.jsonl
-    case: object = None            # lccopt.case.Case when the run's case could be loaded
+    case: object = None            # lccopt.config.Case when the run's case could be loaded
     case_note: str = ""
     notes: list[str] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)   # also said on the screen
@@ -164,7 +164,8 @@ def _var_info(name: str, group: str, integer: bool, lo: float, hi: float, ref: f
 
 def _load_case(run: Path, resolved_text: str | None):
     """The run's case (resolved copy), or (None, why)."""
-    from ..case import CaseError, load_case
+    from ..config import load_case
+    from ..errors import CaseError
 
     candidates = []
     if is_regular_file(run / "case.yaml"):   # never a link planted in the run
@@ -401,7 +402,8 @@ def _from_journal(run: Path, events: list[dict], res: dict | None) -> dict:
 
 
 def _names_from_case_yaml(run: Path) -> list[str] | None:
-    from ..case import CaseError, load_case
+    from ..config import load_case
+    from ..errors import CaseError
 
     try:
         return load_case(run / "case.yaml").names

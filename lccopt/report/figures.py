@@ -582,7 +582,8 @@ def _layout_of(run: RunData, h: dict | None, info: dict, x: np.ndarray) -> dict 
         try:
             from ..vti.track import build_track
 
-            t = build_track(run.case, np.asarray(x, float))
+            case = run.case
+            t = build_track(case.scenario(), case.track_design(np.asarray(x, float)))
         except Exception:  # noqa: BLE001
             return None
         lay = {"x": t.entry_sleeper_x, "k": t.entry_pad_stiffness, "strong": np.asarray(t.entry_strengthened, bool),

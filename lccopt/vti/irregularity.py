@@ -1,10 +1,10 @@
-"""Vertical rail irregularity: a measured profile (CSV) or a random profile from a standard
-spectrum (``simulation.irregularity``).
+"""Vertical rail irregularity: random profiles from standard spectra.
 
-The profile r(x) is a dip (downward positive) against the position along the track, the
-same for every design and both directions: it is generated over the fixed track coordinates
-[0, entry_length + ERS + exit_length] (never over a design's mesh) from the seed alone, so
-that designs are compared on the same track.
+A profile r(x) is a dip (downward positive) against the position along the track (the
+simulation takes it as an (N, 2) array, :class:`lccopt.vti.specs.Scenario`), the same for
+every design and both directions: a random one is generated over the fixed track coordinates
+[0, track length] (never over a design's mesh) from the seed alone, so that designs are
+compared on the same track.
 
 Spectra: one-sided PSD S(Ω) of the vertical profile in m²/(rad/m), Ω = 2π/λ the spatial
 angular frequency [rad/m], so that the variance of the profile over a band is ∫ S(Ω) dΩ.
@@ -68,25 +68,11 @@ def band_bins(length: float, wavelengths) -> np.ndarray:
     return np.arange(max(m_lo, 1), m_hi + 1)
 
 
-def check_spec(spec: dict, length: float) -> tuple[str, str] | None:
-    """(key, message) of the first problem of a spectrum irregularity on a track of ``length``,
-    or None. Mesh and time-step limits are checked with the case's accuracy checks."""
-    lo, hi = spec["wavelengths"]
-    if not lo < hi:
-        return "wavelengths", f"[min, max] must increase, got [{lo:g}, {hi:g}] m"
-    if hi > length + 1e-9:
-        return "wavelengths", (f"the longest wavelength {hi:g} m exceeds the track ({length:g} m), "
-                               f"over which the profile is generated")
-    if len(band_bins(length, (lo, hi))) == 0:
-        return "wavelengths", (f"the band [{lo:g}, {hi:g}] m holds no wavelength {length:g} m / m "
-                               f"(m whole) of the {length:g} m track: widen it")
-    return None
-
-
-def generate(spectrum: str, seed: int, wavelengths, length: float, amplitude_scale: float = 1.0) -> np.ndarray:
+def generate(spectrum: str, seed: int, wavelengths, length: float,
+             amplitude_scale: float = 1.0) -> np.ndarray:
     """Profile (positions, dips) of shape (N, 2) over [0, length], deterministic from the seed."""
-    return _generate(spectrum, int(seed), float(wavelengths[0]), float(wavelengths[1]), float(length),
-                     float(amplitude_scale)).copy()
+    return _generate(spectrum, int(seed), float(wavelengths[0]), float(wavelengths[1]),
+                     float(length), float(amplitude_scale)).copy()
 
 
 @lru_cache(maxsize=16)
@@ -104,25 +90,3 @@ def _generate(spectrum, seed, lo, hi, length, scale) -> np.ndarray:
     out = np.column_stack([x, np.append(r, r[0])])
     out.setflags(write=False)
     return out
-
-
-def track_length(case) -> float:
-    """Length of the modelled track [m] (design-independent) of a Case or its data."""
-    track = case["track"] if isinstance(case, dict) else case.track
-    return float(track["layout"]["entry_length"] + sum(track["ers"]["slab_lengths"])
-                 + track["layout"]["exit_length"])
-
-
-def profile_of(spec: dict, length: float) -> np.ndarray:
-    return generate(spec["spectrum"], spec["seed"], spec["wavelengths"], length,
-                    spec.get("amplitude_scale") or 1.0)
-
-
-def irregularity_profile(case) -> np.ndarray | None:
-    """The (N, 2) profile of a case: generated from the spectrum mapping of
-    ``simulation.irregularity`` (so a case whose settings were replaced gets its own), else
-    the CSV profile loaded with the case, else None (smooth rail)."""
-    spec = case.simulation.get("irregularity")
-    if isinstance(spec, dict):
-        return profile_of(spec, track_length(case))
-    return case.irregularity

@@ -23,7 +23,7 @@ Time histories are recorded per step. No flush of tiny values: in the reference 
 smallest nonzero state value is ~1e-68, far above the denormal range; denormals appear only
 where a track end lies several hundred metres from the wheel (the exponential decay of the
 deflection), a band of a few hundred dofs that every banded solve regenerates, so a periodic
-flush could not remove them anyway (benchmarks/simulate.py --flush, README "Speed").
+flush could not remove them anyway (benchmarks/RESULTS-simulator.md, "Denormals").
 """
 
 from __future__ import annotations

@@ -1,9 +1,9 @@
-"""Track model of one rail: layout from the case and a design vector, then M, C, K.
+"""Track model of one rail: layout from a scenario and a design, then M, C, K.
 
-Layout (x along the track; ``simulation.direction: enter`` runs the vehicle towards +x,
+Layout (x along the track; the direction ``enter`` runs the vehicle towards +x,
 ``leave`` towards -x):
 
-    0 ── ballast (entry_length) ──► x_a ══ ERS slabs ══ x_b ── ballast (exit_length) ── end
+    0 ── ballast (entry_length) ──► x_a ══ ERS slabs ══ x_b ── ballast (exit_length) ── L
 
 * Rail: Euler-Bernoulli beam elements, pinned at both ends (w = 0, rotation free).
 * Ballast track: railpad (spring + damper) -> sleeper (mass) -> support (spring + damper).
@@ -27,8 +27,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 
-from ..case import ELEMENT_UNIT, Case, vehicle_length
 from .assembly import Assembler, beam_stiffness, hermite_gram
+from .specs import ELEMENT_UNIT, Scenario, TrackDesign
 
 # dof kinds, in their order at one position
 RAIL_W, RAIL_TH, SLEEPER, SLAB_W, SLAB_TH = range(5)
@@ -38,7 +38,7 @@ RAIL_W, RAIL_TH, SLEEPER, SLAB_W, SLAB_TH = range(5)
 class TrackModel:
     """Assembled track of one rail. Indices refer to the free (unconstrained) dofs."""
     element_length: float           # rail element length where the wheel runs [m]
-    window: tuple                   # (x_start, zone_start, zone_end, x_end) of the leading wheel [m]
+    window: tuple                   # (x_start, zone_start, zone_end, x_end), leading wheel [m]
     node_x: np.ndarray              # rail node positions [m]
     rail_w: np.ndarray              # dof of rail deflection at each node (-1 where pinned)
     rail_th: np.ndarray             # dof of rail rotation at each node
@@ -65,23 +65,16 @@ class TrackModel:
         return float(self.node_x[-1])
 
 
-def design_groups(case: Case, x: np.ndarray) -> dict[str, np.ndarray]:
-    """Split a design vector into its groups (railpad_stiffness, strengthened_sleepers, ...)."""
-    groups: dict[str, list] = {}
-    for v, xi in zip(case.variables, x):
-        groups.setdefault(v.group, []).append(xi)
-    return {k: np.asarray(v, dtype=float) for k, v in groups.items()}
-
-
 def entry_sleeper_positions(x_a: float, spans_elements: np.ndarray, spacing: float) -> np.ndarray:
-    """Entry-side sleeper positions, nearest the interface first (spans x_s1..x_sM, x_sM nearest)."""
+    """Entry-side sleeper positions, nearest the interface first (spans x_s1..x_sM, x_sM
+    nearest)."""
     near = x_a - np.cumsum(spans_elements[::-1] * ELEMENT_UNIT)
     far = near[-1] - spacing * np.arange(1, int(near[-1] / spacing + 1e-9) + 1)
     pos = np.concatenate([near, far])
     return pos[pos > 1e-9]
 
 
-def wheel_window(case: Case, entry_x: np.ndarray) -> tuple[float, float, float, float]:
+def wheel_window(scenario: Scenario, entry_x: np.ndarray) -> tuple[float, float, float, float]:
     """(x_start, zone_start, zone_end, x_end) of the leading wheel [m].
 
     The evaluation zone begins at the farthest zone sleeper (zone_start) and the force zone
@@ -96,20 +89,21 @@ def wheel_window(case: Case, entry_x: np.ndarray) -> tuple[float, float, float, 
     to the zone and the missing passage of the far interface; from the exit side E_max agrees
     to 0.2 % between 10 and 20 m of run.) Trailing wheels may lie beyond a rail end at the
     start or the end of a run: they rest on a rigid continuation of the rail."""
-    zone_start = float(entry_x[case.evaluation["sleepers"] - 1])
-    zone_end = case.track["layout"]["entry_length"] + case.evaluation["force_zone_after_interface"]
-    sim = case.simulation
-    length = vehicle_length(case.vehicle)
-    if (sim.get("direction") or "enter") == "leave":
-        x_b = case.track["layout"]["entry_length"] + float(sum(case.track["ers"]["slab_lengths"]))
-        return max(zone_end, x_b) + sim["run_in"], zone_start, zone_end, zone_start - sim["run_out"] - length
-    return zone_start - sim["run_in"], zone_start, zone_end, zone_end + sim["run_out"] + length
+    zones, sim, layout = scenario.zones, scenario.settings, scenario.track.layout
+    zone_start = float(entry_x[zones.sleepers - 1])
+    zone_end = layout.entry_length + zones.force_zone_after_interface
+    length = scenario.vehicle.length
+    if sim.direction == "leave":
+        x_b = layout.entry_length + float(sum(scenario.track.ers.slab_lengths))
+        return (max(zone_end, x_b) + sim.run_in, zone_start, zone_end,
+                zone_start - sim.run_out - length)
+    return zone_start - sim.run_in, zone_start, zone_end, zone_end + sim.run_out + length
 
 
-def wheels_span(case: Case, window: tuple) -> tuple[float, float]:
+def wheels_span(scenario: Scenario, window: tuple) -> tuple[float, float]:
     """(lowest, highest) position of any wheel during the run [m]."""
     x_start, _, _, x_end = window
-    length = vehicle_length(case.vehicle)
+    length = scenario.vehicle.length
     back = -length if x_end >= x_start else length     # the other wheels trail the leading one
     ends = (x_start, x_end, x_start + back, x_end + back)
     return min(ends), max(ends)
@@ -138,24 +132,25 @@ def rail_nodes(total: float, window: tuple[float, float], fine: float, coarse: f
     return np.unique(nodes.round(9))
 
 
-def build_track(case: Case, x: np.ndarray) -> TrackModel:
-    """Build the track of ``case`` for design x (assumed checked)."""
-    t = case.track
-    le = case.simulation["element_length"]
-    lay, ers = t["layout"], t["ers"]
-    g = design_groups(case, x)
+def build_track(scenario: Scenario, design: TrackDesign) -> TrackModel:
+    """Build the track of ``scenario`` for a design (assumed checked)."""
+    t = scenario.track
+    le = scenario.settings.element_length
+    lay, ers = t.layout, t.ers
 
-    x_a = lay["entry_length"]
-    ers_length = float(sum(ers["slab_lengths"]))
+    x_a = lay.entry_length
+    ers_length = float(sum(ers.slab_lengths))
     x_b = x_a + ers_length
-    total = x_b + lay["exit_length"]
-    entry_x = entry_sleeper_positions(x_a, g["sleeper_spans"], lay["sleeper_spacing"])
-    window = wheel_window(case, entry_x)
-    exit_x = x_b + lay["exit_first_span"] + lay["sleeper_spacing"] * np.arange(
-        int((total - x_b - lay["exit_first_span"]) / lay["sleeper_spacing"] + 1e-9) + 1)
+    total = x_b + lay.exit_length
+    entry_x = entry_sleeper_positions(x_a, np.asarray(design.sleeper_spans, dtype=float),
+                                      lay.sleeper_spacing)
+    window = wheel_window(scenario, entry_x)
+    exit_x = x_b + lay.exit_first_span + lay.sleeper_spacing * np.arange(
+        int((total - x_b - lay.exit_first_span) / lay.sleeper_spacing + 1e-9) + 1)
     exit_x = exit_x[exit_x < total - 1e-9]
-    slab_edges = x_a + np.concatenate([[0.0], np.cumsum(ers["slab_lengths"])])
-    node_x = rail_nodes(total, wheels_span(case, window), le, case.simulation["far_element_length"],
+    slab_edges = x_a + np.concatenate([[0.0], np.cumsum(ers.slab_lengths)])
+    node_x = rail_nodes(total, wheels_span(scenario, window), le,
+                        scenario.settings.far_element_length,
                         np.concatenate([entry_x, exit_x, slab_edges]))
     n_el = len(node_x) - 1
     el_len = np.diff(node_x)
@@ -167,24 +162,24 @@ def build_track(case: Case, x: np.ndarray) -> TrackModel:
 
     # --- sleepers
     n_entry = len(entry_x)
-    strengthened = np.arange(n_entry) < int(g["strengthened_sleepers"][0])
-    pads = g["railpad_stiffness"][::-1]  # x_rN nearest the interface
-    pad_k = np.full(n_entry, t["railpad"]["stiffness"])
+    strengthened = np.arange(n_entry) < int(design.strengthened_sleepers)
+    pads = np.asarray(design.railpad_stiffness, dtype=float)[::-1]  # x_rN nearest the interface
+    pad_k = np.full(n_entry, t.railpad.stiffness)
     pad_k[:len(pads)] = pads[:n_entry]
     # Sec. 3.2: pad damping scales linearly with stiffness
-    pad_c = t["railpad"]["damping"] * pad_k / t["railpad"]["stiffness"]
-    ss = t["strengthened_sleeper"]
-    sl_mass = np.where(strengthened, ss["mass"], t["sleeper"]["mass"])
-    sl_k = np.where(strengthened, ss["support_stiffness"], t["support"]["stiffness"])
-    sl_c = np.where(strengthened, ss["support_damping"], t["support"]["damping"])
+    pad_c = t.railpad.damping * pad_k / t.railpad.stiffness
+    ss = t.strengthened_sleeper
+    sl_mass = np.where(strengthened, ss.mass, t.sleeper_mass)
+    sl_k = np.where(strengthened, ss.support_stiffness, t.support.stiffness)
+    sl_c = np.where(strengthened, ss.support_damping, t.support.damping)
     n_exit = len(exit_x)
     sleeper_x = np.concatenate([entry_x, exit_x])
     sleeper_node = node_of(sleeper_x)
-    all_pad_k = np.concatenate([pad_k, np.full(n_exit, t["railpad"]["stiffness"])])
-    all_pad_c = np.concatenate([pad_c, np.full(n_exit, t["railpad"]["damping"])])
-    all_mass = np.concatenate([sl_mass, np.full(n_exit, t["sleeper"]["mass"])])
-    all_k = np.concatenate([sl_k, np.full(n_exit, t["support"]["stiffness"])])
-    all_c = np.concatenate([sl_c, np.full(n_exit, t["support"]["damping"])])
+    all_pad_k = np.concatenate([pad_k, np.full(n_exit, t.railpad.stiffness)])
+    all_pad_c = np.concatenate([pad_c, np.full(n_exit, t.railpad.damping)])
+    all_mass = np.concatenate([sl_mass, np.full(n_exit, t.sleeper_mass)])
+    all_k = np.concatenate([sl_k, np.full(n_exit, t.support.stiffness)])
+    all_c = np.concatenate([sl_c, np.full(n_exit, t.support.damping)])
 
     # --- slabs: node ranges (each slab has its own nodes; neighbouring slabs are not joined)
     slab_first = node_of(slab_edges[:-1])
@@ -192,7 +187,8 @@ def build_track(case: Case, x: np.ndarray) -> TrackModel:
 
     # --- dof numbering along the track: sort (node, kind, slab) keys
     keys_node = [np.arange(n_el + 1), np.arange(n_el + 1), sleeper_node]
-    keys_kind = [np.full(n_el + 1, RAIL_W), np.full(n_el + 1, RAIL_TH), np.full(len(sleeper_node), SLEEPER)]
+    keys_kind = [np.full(n_el + 1, RAIL_W), np.full(n_el + 1, RAIL_TH),
+                 np.full(len(sleeper_node), SLEEPER)]
     keys_sub = [np.zeros(n_el + 1, int), np.zeros(n_el + 1, int), np.zeros(len(sleeper_node), int)]
     for s, (f, l) in enumerate(zip(slab_first, slab_last)):
         nodes = np.arange(f, l + 1)
@@ -226,9 +222,9 @@ def build_track(case: Case, x: np.ndarray) -> TrackModel:
         slab_dofs.append((dof[off:off + m], dof[off + m:off + 2 * m]))
         off += 2 * m
 
-    rail = t["rail"]
-    ei_rail = rail["youngs_modulus"] * rail["second_moment"]
-    m_rail = rail["density"] * rail["area"]
+    rail = t.rail
+    ei_rail = rail.youngs_modulus * rail.second_moment
+    m_rail = rail.density * rail.area
     gram = hermite_gram(el_len)  # (n_el, 4, 4)
     Mas, Cas, Kas = Assembler(n), Assembler(n), Assembler(n)
 
@@ -246,18 +242,19 @@ def build_track(case: Case, x: np.ndarray) -> TrackModel:
     Cas.add_diagonal(sleeper_dof, all_c)
 
     # ERS: compound (rail - slab), slab beams, foundation
-    share = ers["share_per_rail"]
-    sl = ers["slab"]
-    b1, b2, h = sl["width_bottom"], sl["width_top"], sl["height"]
+    share = ers.share_per_rail
+    sl = ers.slab
+    b1, b2, h = sl.width_bottom, sl.width_top, sl.height
     area = 0.5 * (b1 + b2) * h * share
-    second_moment = h ** 3 * (b1 * b1 + 4 * b1 * b2 + b2 * b2) / (36.0 * (b1 + b2)) * share  # trapezoid
-    ei_slab, m_slab = sl["youngs_modulus"] * second_moment, sl["density"] * area
-    kf = ers["foundation"]["stiffness"] * share
-    cf = ers["foundation"]["damping"] * share
-    type_ii_end = x_a + g["type_ii_strip"][0] * ELEMENT_UNIT
-    comp, comp2 = ers["compound"], ers["type_ii_compound"]
-    c_std = 2 * comp["damping_ratio"] * np.sqrt(comp["stiffness"] * m_rail)
-    c_ii = 2 * comp2["damping_ratio"] * np.sqrt(comp2["stiffness"] * m_rail)
+    # trapezoid
+    second_moment = h ** 3 * (b1 * b1 + 4 * b1 * b2 + b2 * b2) / (36.0 * (b1 + b2)) * share
+    ei_slab, m_slab = sl.youngs_modulus * second_moment, sl.density * area
+    kf = ers.foundation.stiffness * share
+    cf = ers.foundation.damping * share
+    type_ii_end = x_a + float(design.type_ii_strip) * ELEMENT_UNIT
+    comp, comp2 = ers.compound, ers.type_ii_compound
+    c_std = 2 * comp.damping_ratio * np.sqrt(comp.stiffness * m_rail)
+    c_ii = 2 * comp2.damping_ratio * np.sqrt(comp2.stiffness * m_rail)
     for (sw, sth), f, l in zip(slab_dofs, slab_first, slab_last):
         s_el = np.stack([sw[:-1], sth[:-1], sw[1:], sth[1:]], axis=1)
         g_el = gram[f:l]
@@ -267,7 +264,8 @@ def build_track(case: Case, x: np.ndarray) -> TrackModel:
         Cas.add(s_el, cf * g_el)
         r_el = el_dofs[f:l]
         is_ii = (node_x[f:l] + 0.5 * el_len[f:l]) < type_ii_end
-        Kas.add_relative(r_el, s_el, np.where(is_ii, comp2["stiffness"], comp["stiffness"])[:, None, None] * g_el)
+        k_compound = np.where(is_ii, comp2.stiffness, comp.stiffness)
+        Kas.add_relative(r_el, s_el, k_compound[:, None, None] * g_el)
         Cas.add_relative(r_el, s_el, np.where(is_ii, c_ii, c_std)[:, None, None] * g_el)
 
     info = {

@@ -4,7 +4,8 @@ Dofs are vertical, downward positive; pitch angles are positive nose down, so a 
 distance s ahead of a body's centre moves z + s θ.
 
 **The per-rail reading** (one rail is modelled; configs/reference.yaml explains it for the
-paper's vehicle). The case gives every mass and suspension value as the share of one wheel:
+paper's vehicle). A :class:`~lccopt.vti.specs.VehicleSpec` gives every mass and suspension
+value as the share of one wheel:
 ``carbody_mass`` = m_c / 8 and ``bogie_mass`` = m_b / 4 for a 4-axle car (one bogie side carries
 two wheels), ``wheelset_mass`` = the *whole* wheelset mass on each modelled wheel (the paper's
 3-dof reading, Eq. A.1 with m_w = 1819 kg), ``primary_*`` per axle box = per wheel and
@@ -35,9 +36,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..case import Case
+from .specs import VEHICLE_TYPES, VehicleSpec
 
-VEHICLE_TYPES = ("three-dof", "bogie", "half-car")
+
+def build_vehicle(spec: VehicleSpec):
+    """The vehicle of a spec: a :class:`Vehicle` for ``three-dof``, else a
+    :class:`MultiAxleVehicle`."""
+    if spec.type != "three-dof":
+        return MultiAxleVehicle.from_spec(spec)
+    return Vehicle.from_spec(spec)
 
 
 class _Common:
@@ -103,16 +110,12 @@ class Vehicle(_Common):
     translational = np.ones(3)
 
     @classmethod
-    def from_case(cls, case: Case):
-        """The case's vehicle: this class for ``type: three-dof``, else a
-        :class:`MultiAxleVehicle` (so every caller of ``Vehicle.from_case`` gets the right one)."""
-        v = case.vehicle
-        if (v.get("type") or "three-dof") != "three-dof":
-            return MultiAxleVehicle.from_case(case)
-        return cls(np.array([v["carbody_mass"], v["bogie_mass"], v["wheelset_mass"]]),
-                   v["primary_stiffness"], v["primary_damping"], v["secondary_stiffness"],
-                   v["secondary_damping"], v["speed"], v["gravity"], v["hertz_constant"], v["hertz_load"],
-                   v.get("model") or "paper")
+    def from_spec(cls, v: VehicleSpec) -> "Vehicle":
+        """The three-dof vehicle of a spec (:func:`build_vehicle` picks the class by type)."""
+        return cls(np.array([v.carbody_mass, v.bogie_mass, v.wheelset_mass]),
+                   v.primary_stiffness, v.primary_damping, v.secondary_stiffness,
+                   v.secondary_damping, v.speed, v.gravity, v.hertz_constant, v.hertz_load,
+                   v.model)
 
     @property
     def M(self) -> np.ndarray:
@@ -172,34 +175,37 @@ class MultiAxleVehicle(_Common):
     hertz_load: float
 
     @classmethod
-    def from_case(cls, case: Case) -> "MultiAxleVehicle":
-        v = case.vehicle
-        return cls.build(v["type"], carbody_mass=v["carbody_mass"], bogie_mass=v["bogie_mass"],
-                         wheelset_mass=v["wheelset_mass"], primary_stiffness=v["primary_stiffness"],
-                         primary_damping=v["primary_damping"], secondary_stiffness=v["secondary_stiffness"],
-                         secondary_damping=v["secondary_damping"], wheelbase=v["wheelbase"],
-                         bogie_pitch_inertia=v["bogie_pitch_inertia"],
-                         carbody_pitch_inertia=v.get("carbody_pitch_inertia"),
-                         bogie_distance=v.get("bogie_distance"), speed=v["speed"], gravity=v["gravity"],
-                         hertz_constant=v["hertz_constant"], hertz_load=v["hertz_load"])
+    def from_spec(cls, v: VehicleSpec) -> "MultiAxleVehicle":
+        """The bogie or half car of a spec."""
+        return cls.build(v.type, carbody_mass=v.carbody_mass, bogie_mass=v.bogie_mass,
+                         wheelset_mass=v.wheelset_mass, primary_stiffness=v.primary_stiffness,
+                         primary_damping=v.primary_damping,
+                         secondary_stiffness=v.secondary_stiffness,
+                         secondary_damping=v.secondary_damping, wheelbase=v.wheelbase,
+                         bogie_pitch_inertia=v.bogie_pitch_inertia,
+                         carbody_pitch_inertia=v.carbody_pitch_inertia,
+                         bogie_distance=v.bogie_distance, speed=v.speed, gravity=v.gravity,
+                         hertz_constant=v.hertz_constant, hertz_load=v.hertz_load)
 
     @classmethod
     def build(cls, type: str, *, carbody_mass, bogie_mass, wheelset_mass, primary_stiffness,
-              primary_damping, secondary_stiffness, secondary_damping, wheelbase, bogie_pitch_inertia,
-              carbody_pitch_inertia=None, bogie_distance=None, speed=0.0, gravity=9.81,
+              primary_damping, secondary_stiffness, secondary_damping, wheelbase,
+              bogie_pitch_inertia, carbody_pitch_inertia=None, bogie_distance=None, speed=0.0, gravity=9.81,
               hertz_constant=5.13e-8, hertz_load=100e3) -> "MultiAxleVehicle":
-        """Per-wheel values as in the case (module docstring)."""
+        """Per-wheel values as in a VehicleSpec (module docstring)."""
         if type == "bogie":
             names = ["carbody", "bogie", "bogie pitch", "wheel 1", "wheel 2"]
-            mass = [2 * carbody_mass, 2 * bogie_mass, bogie_pitch_inertia, wheelset_mass, wheelset_mass]
+            mass = [2 * carbody_mass, 2 * bogie_mass, bogie_pitch_inertia, wheelset_mass,
+                    wheelset_mass]
             trans = [1, 1, 0, 1, 1]
-            bogies = [(1, 2, 0.0)]                   # (bounce dof, pitch dof, centre ahead of the carbody's)
+            # (bounce dof, pitch dof, centre ahead of the carbody's)
+            bogies = [(1, 2, 0.0)]
             carbody = (0, None)
             wheels_of = [(3, 4)]
             offsets = [0.0, wheelbase]
         elif type == "half-car":
-            names = ["carbody", "carbody pitch", "bogie 1", "bogie 1 pitch", "bogie 2", "bogie 2 pitch",
-                     "wheel 1", "wheel 2", "wheel 3", "wheel 4"]
+            names = ["carbody", "carbody pitch", "bogie 1", "bogie 1 pitch", "bogie 2",
+                     "bogie 2 pitch", "wheel 1", "wheel 2", "wheel 3", "wheel 4"]
             mass = [4 * carbody_mass, carbody_pitch_inertia, 2 * bogie_mass, bogie_pitch_inertia,
                     2 * bogie_mass, bogie_pitch_inertia] + [wheelset_mass] * 4
             trans = [1, 0, 1, 0, 1, 0, 1, 1, 1, 1]
@@ -208,7 +214,8 @@ class MultiAxleVehicle(_Common):
             wheels_of = [(6, 7), (8, 9)]
             offsets = [0.0, wheelbase, bogie_distance, bogie_distance + wheelbase]
         else:
-            raise ValueError(f"unknown vehicle type {type!r} (expected one of {', '.join(VEHICLE_TYPES)})")
+            raise ValueError(f"unknown vehicle type {type!r} (expected one of "
+                             f"{', '.join(VEHICLE_TYPES)})")
         n = len(names)
         K, C = np.zeros((n, n)), np.zeros((n, n))
 
@@ -235,7 +242,8 @@ class MultiAxleVehicle(_Common):
                 spring(primary_stiffness, primary_damping, g)
         return cls(type, np.diag(np.asarray(mass, float)), C, K, np.asarray(trans, float),
                    np.array([names.index(f"wheel {i + 1}") for i in range(len(offsets))]),
-                   np.asarray(offsets, float), tuple(names), speed, gravity, hertz_constant, hertz_load)
+                   np.asarray(offsets, float), tuple(names), speed, gravity, hertz_constant,
+                   hertz_load)
 
     @property
     def static_wheel_loads(self) -> np.ndarray:

@@ -18,7 +18,7 @@ if str(REPO) not in sys.path:  # 'tests.engine.fakesim' importable here and in s
 
 FAKE = "tests.engine.fakesim:evaluate"
 FAULTY = "tests.engine.fakesim:faulty"
-REAL = "lccopt.vti.simulate:evaluate"
+REAL = "lccopt.problem:evaluate"
 
 from tests.conftest import CHEAP_SIMULATION, write_case  # noqa: E402,F401 (shared with tests/report)
 

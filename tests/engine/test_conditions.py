@@ -12,7 +12,8 @@ import h5py
 import numpy as np
 import pytest
 
-from lccopt.case import CaseError, load_case
+from lccopt.config import load_case
+from lccopt.errors import CaseError
 from lccopt.engine.runner import optimise, resume
 from lccopt.problem import Problem
 from lccopt import machine

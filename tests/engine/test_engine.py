@@ -8,7 +8,8 @@ import h5py
 import numpy as np
 import pytest
 
-from lccopt.case import CaseError, design_items, load_case
+from lccopt.config import design_items, load_case
+from lccopt.errors import CaseError
 from lccopt.cli import UsageError
 from lccopt.engine.journal import Journal, JournalError, line_mark, read_journal
 from lccopt.engine.rundir import RunDir

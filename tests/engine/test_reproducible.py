@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from lccopt.case import load_case
+from lccopt.config import load_case
 from lccopt.engine.journal import JournalError, read_journal
 from lccopt.engine.rundir import RunDir
 from lccopt.engine.runner import optimise, restore, resume

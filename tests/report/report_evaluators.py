@@ -26,7 +26,7 @@ def _next_call() -> int:
 
 
 def fail_window(case, x):
-    from lccopt.vti.simulate import evaluate
+    from lccopt.problem import evaluate
 
     lo, hi = (int(v) for v in os.environ.get("LCCOPT_REPORT_FAIL_CALLS", "5-13").split("-"))
     n = _next_call()

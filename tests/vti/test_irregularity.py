@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from lccopt.case import load_case
-from lccopt.vti.simulate import evaluate
+from lccopt.config import load_case
+from lccopt.problem import evaluate
 from tests.conftest import CONFIGS
 
 REFERENCE = (CONFIGS / "reference.yaml").read_text()
@@ -41,9 +41,10 @@ def test_a_smooth_dip_raises_the_force_and_a_deep_one_loses_contact(tmp_path):
 
 
 def test_bad_profile_file_is_a_case_error(tmp_path):
-    from lccopt.case import CaseError
+    from lccopt.errors import CaseError
 
-    (tmp_path / "profile.csv").write_text("1,2\n0,3\n")       # positions not increasing
+    (tmp_path / "profile.csv").write_text("1,0.002\n0,0.003\n")       # positions not increasing
     (tmp_path / "c.yaml").write_text(REFERENCE.replace("  run_out: 3.0", "  run_out: 3.0\n  irregularity: profile.csv"))
-    with pytest.raises(CaseError, match=r"simulation\.irregularity: expected two columns"):
+    with pytest.raises(CaseError, match=r"simulation\.irregularity: .*profile\.csv: line 2: "
+                                        r"position 0 m does not increase"):
         load_case(tmp_path / "c.yaml")

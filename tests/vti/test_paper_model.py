@@ -6,12 +6,12 @@ the paper's vehicle (Eq. A.3 as printed) against its closed-form static load."""
 import numpy as np
 import pytest
 
-from lccopt.case import load_case
+from lccopt.config import load_case
+from lccopt.problem import evaluate
 from lccopt.vti.newmark import integrate
-from lccopt.vti.simulate import evaluate
 from lccopt.vti.statics import static_rail_deflection
 from lccopt.vti.track import WinklerBeam, build_track
-from lccopt.vti.vehicle import Vehicle
+from lccopt.vti.vehicle import build_vehicle
 
 MN = 1e6
 REFERENCE_X = np.array([1120 * MN, 1120 * MN, 1120 * MN, 8, 6, 6, 4, 0])
@@ -33,9 +33,9 @@ def x_of(d):
 
 
 def test_the_ballast_track_is_stiffer_than_the_ers(case):
-    track = build_track(case, REFERENCE_X)
+    track = build_track(case.scenario(), case.track_design(REFERENCE_X))
     a = track.interface[0]
-    load = Vehicle.from_case(case).static_wheel_load
+    load = build_vehicle(case.scenario().vehicle).static_wheel_load
     ballast = static_rail_deflection(track, load, np.linspace(a - 20.0, a - 19.4, 7)).mean()
     ers = static_rail_deflection(track, load, np.linspace(a + 2.5, a + 3.5, 7)).mean()
     assert 0 < ballast < 0.7 * ers
@@ -64,7 +64,7 @@ def test_a_longer_type_ii_strip_lowers_f_rms_of_the_papers_min_f_rms_design(case
 def test_papers_bogie_shares_the_weight_with_the_second_wheelset(case):
     """Eq. (A.3) as printed: on a rigid rail the modelled wheel carries m_w g + (m_c + m_b) g / 2
     (the Hertz spring in series with k_s1 shifts it by k_s1/k_w = 0.2 %)."""
-    veh = Vehicle.from_case(case)
+    veh = build_vehicle(case.scenario().vehicle)
     assert veh.model == "paper" and veh.K[1, 1] == pytest.approx(veh.k_s2 + 2 * veh.k_s1)
     rigid = WinklerBeam.build(20.0, 0.1, 210e9 * 2.337e-5, 7800 * 6.977e-3, 1e13)
     hist = integrate(rigid, 1e-4, 0.0, 10.0, 50, vehicle=veh)

@@ -1,13 +1,14 @@
-"""Issue 11: the default settings and integrator give the objectives of the method before it
-(its integrator at its settings, dt 0.2 ms, 10 m run-in, far elements 0.3 m) within 0.5 %.
-benchmarks/simulate_accuracy.py checks the same on 29 designs; this is a fast subset."""
+"""The default settings and integrator give the objectives of the method before issue 11
+(benchmarks/legacy_newmark.py: its integrator at its settings, dt 0.2 ms, 10 m run-in, far
+elements 0.3 m) within 0.5 %, and the two integrators agree to round-off at the same settings.
+benchmarks/simulate_accuracy.py checks the first on 29 designs; this is a fast subset."""
 
 import numpy as np
 import pytest
 
-from lccopt.case import load_case
-from lccopt.vti.newmark_reference import REFERENCE_SETTINGS
-from lccopt.vti.simulate import evaluate
+from benchmarks.legacy_newmark import REFERENCE_SETTINGS, evaluate_legacy, integrate_reference
+from lccopt.config import load_case
+from lccopt.problem import evaluate
 
 DESIGNS = {
     "reference": None,
@@ -21,7 +22,7 @@ def test_default_settings_match_the_method_before_issue_11(name):
     case = load_case("configs/reference.yaml")
     x = case.reference if DESIGNS[name] is None else case.check_design(np.array(DESIGNS[name], float))
     new = evaluate(case, x)
-    old = evaluate(case.with_simulation(**REFERENCE_SETTINGS), x, legacy=True)
+    old = evaluate_legacy(case.with_simulation(**REFERENCE_SETTINGS), x)
     assert new.info["n_steps"] < old.info["n_steps"] / 3      # fewer steps: most of the speed-up
     for key in ("F_max", "E_max"):
         assert new.objectives[key] == pytest.approx(old.objectives[key], rel=0.005), key
@@ -32,15 +33,14 @@ def test_default_settings_match_the_method_before_issue_11(name):
 def test_integrators_agree_to_round_off_at_the_same_settings():
     """The new loop (factored Sherman-Morrison, (p, q, u) state) is the same scheme."""
     from lccopt.vti.newmark import integrate
-    from lccopt.vti.newmark_reference import integrate_reference
     from lccopt.vti.track import build_track
-    from lccopt.vti.vehicle import Vehicle
+    from lccopt.vti.vehicle import build_vehicle
 
     case = load_case("configs/reference.yaml").with_simulation(run_in=2.0, run_out=1.0)
     x = case.reference.copy()
     x[:3] = [300e6, 100e6, 60e6]
-    track = build_track(case, x)
-    veh = Vehicle.from_case(case)
+    track = build_track(case.scenario(), case.track_design(x))
+    veh = build_vehicle(case.scenario().vehicle)
     dt = case.simulation["time_step"]
     dofs = track.entry_sleeper_dof[:5]
     a = integrate(track, dt, veh.speed, 96.0, 400, vehicle=veh, record_dofs=dofs)

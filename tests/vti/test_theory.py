@@ -5,10 +5,10 @@ import numpy as np
 import pytest
 import scipy.sparse.linalg as sla
 
-from lccopt.case import load_case
+from lccopt.config import load_case
 from lccopt.vti.newmark import contact_vector, integrate
 from lccopt.vti.track import WinklerBeam, build_track
-from lccopt.vti.vehicle import Vehicle
+from lccopt.vti.vehicle import Vehicle, build_vehicle
 
 EI = 210e9 * 2.337e-5    # 54E1
 M_RAIL = 7800 * 6.977e-3
@@ -95,7 +95,7 @@ def stiff_beam():
 
 
 def test_quarter_car_static_contact_force_is_the_weight():
-    veh = Vehicle.from_case(rigid_track_case())
+    veh = build_vehicle(rigid_track_case().scenario().vehicle)
     hist = integrate(stiff_beam(), 1e-4, 0.0, 10.0, 200, vehicle=veh)
     weight = veh.masses.sum() * veh.gravity
     assert hist.contact_force[0] == pytest.approx(weight, rel=1e-9)
@@ -116,7 +116,7 @@ def test_quarter_car_eigenfrequencies_on_rigid_track(mode):
     """Free vibration started in each mode of the 3x3 problem oscillates at its frequency."""
     from scipy.linalg import eigh
 
-    base = Vehicle.from_case(rigid_track_case())
+    base = build_vehicle(rigid_track_case().scenario().vehicle)
     veh = Vehicle(base.masses, base.k_s1, 0.0, base.k_s2, 0.0, base.speed, base.gravity,
                   base.hertz_constant, base.hertz_load)         # undamped
     K = veh.K.copy()
@@ -142,8 +142,8 @@ def test_newmark_energy_balance_is_exact_over_a_whole_run():
     x = case.reference.copy()
     x[:3] = [300e6, 100e6, 60e6]          # soft pads near the interface: a lively run
     x[-1] = 40                            # and some Type II strip
-    track = build_track(case, x)
-    veh = Vehicle.from_case(case)
+    track = build_track(case.scenario(), case.track_design(x))
+    veh = build_vehicle(case.scenario().vehicle)
     M, C, K = track.M, track.C, track.K
     Mv, Cv, Kv, fv, kw = veh.M, veh.C, veh.K, veh.weight_load, veh.contact_stiffness
     dt = case.simulation["time_step"]

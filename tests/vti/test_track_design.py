@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from lccopt.case import load_case
+from lccopt.config import load_case
 from lccopt.vti.track import build_track
 
 
@@ -24,10 +24,10 @@ def rail_dof_at(track, pos):
 
 
 def test_sleeper_positions_follow_the_spans(case):
-    t = build_track(case, design(case, x_s1=7, x_s2=3, x_s3=5))
+    t = build_track(case.scenario(), case.track_design(design(case, x_s1=7, x_s2=3, x_s3=5)))
     # x_s3 = slab edge to sleeper 1, then x_s2, x_s1, then the standard 0.6 m
     assert t.entry_sleeper_x[:5] == pytest.approx([99.5, 99.2, 98.5, 97.9, 97.3])
-    ref = build_track(case, case.reference)
+    ref = build_track(case.scenario(), case.track_design(case.reference))
     assert ref.entry_sleeper_x[:4] == pytest.approx([99.6, 99.0, 98.4, 97.8])   # first sleeper 0.4 m away
     assert np.all(np.diff(ref.entry_sleeper_x[3:]) == pytest.approx(-0.6))
     assert ref.exit_sleeper_x[0] == pytest.approx(112.4)
@@ -37,7 +37,7 @@ def test_sleeper_positions_follow_the_spans(case):
 
 
 def test_railpads_stiffness_and_damping_at_the_right_seats(case):
-    t = build_track(case, design(case, x_r1=300e6, x_r2=200e6, x_r3=100e6))
+    t = build_track(case.scenario(), case.track_design(design(case, x_r1=300e6, x_r2=200e6, x_r3=100e6)))
     pad_c_per_k = 120e3 / 1120e6
     expected = [100e6, 200e6, 300e6, 1120e6, 1120e6]      # sleeper 1 (nearest) carries x_r3
     for pos, dof, k in zip(t.entry_sleeper_x, t.entry_sleeper_dof, expected):
@@ -49,7 +49,7 @@ def test_railpads_stiffness_and_damping_at_the_right_seats(case):
 
 @pytest.mark.parametrize("n_strong", [0, 1, 8, 20])
 def test_strengthened_sleepers(case, n_strong):
-    t = build_track(case, design(case, x_n=n_strong))
+    t = build_track(case.scenario(), case.track_design(design(case, x_n=n_strong)))
     ss, std = case.track["strengthened_sleeper"], case.track
     for i, dof in enumerate(t.entry_sleeper_dof[:25]):
         strong = i < n_strong
@@ -64,8 +64,8 @@ def test_strengthened_sleepers(case, n_strong):
 @pytest.mark.parametrize("x_l", [1, 37, 120])
 def test_type_ii_strip_length(case, x_l):
     """The Type II compound replaces the standard one exactly on [100, 100 + 0.1 x_l] m."""
-    ref = build_track(case, case.reference)
-    t = build_track(case, design(case, x_l=x_l))
+    ref = build_track(case.scenario(), case.track_design(case.reference))
+    t = build_track(case.scenario(), case.track_design(design(case, x_l=x_l)))
     assert t.type_ii_end == pytest.approx(100.0 + 0.1 * x_l)
     dk = (t.K - ref.K).tocsr()
     dc = (t.C - ref.C).tocsr()
@@ -91,7 +91,7 @@ def test_type_ii_strip_length(case, x_l):
 
 
 def test_dofs_are_banded(case):
-    t = build_track(case, case.reference)
+    t = build_track(case.scenario(), case.track_design(case.reference))
     coo = t.K.tocoo()
     assert np.max(np.abs(coo.row - coo.col)) <= 10
     assert t.n_dofs < 4500

@@ -9,12 +9,12 @@ import pytest
 import scipy.sparse as sp
 from scipy.sparse.linalg import spsolve
 
-from lccopt.case import load_case
-from lccopt.vti import simulate as simulate_mod
+from lccopt.config import load_case
+from lccopt.problem import evaluate
+from lccopt.vti import evaluate as vti_evaluate
 from lccopt.vti.newmark import contact_vector, integrate
-from lccopt.vti.simulate import evaluate
 from lccopt.vti.track import WinklerBeam, build_track
-from lccopt.vti.vehicle import MultiAxleVehicle, Vehicle
+from lccopt.vti.vehicle import MultiAxleVehicle, build_vehicle
 from tests.conftest import CHEAP_SIMULATION, CONFIGS
 
 EI = 210e9 * 2.337e-5
@@ -109,7 +109,7 @@ def test_woodbury_update_agrees_with_a_direct_solve_of_the_coupled_system(kind, 
     case = load_case(CONFIGS / "reference.yaml").with_simulation(element_length=0.1, far_element_length=0.6)
     x = case.reference.copy()
     x[:3] = [300e6, 100e6, 60e6]
-    track = build_track(case, x)
+    track = build_track(case.scenario(), case.track_design(x))
     veh = vehicle(kind, speed=abs(speed))
     xs = np.linspace(90.0, 110.0, 401)
     dip = 0.15e-3 * (1 - np.cos(2 * np.pi * (xs - 90.0) / 1.3))
@@ -126,8 +126,8 @@ def test_woodbury_update_agrees_with_a_direct_solve_of_the_coupled_system(kind, 
 def test_the_general_update_with_one_wheel_is_the_one_wheel_update():
     """The k-contact loop run for the 3-dof vehicle gives the one-wheel loop's result."""
     case = load_case(CONFIGS / "reference.yaml").with_simulation(run_in=2.0, run_out=1.0)
-    track = build_track(case, case.reference)
-    veh = Vehicle.from_case(case)
+    track = build_track(case.scenario(), case.track_design(case.reference))
+    veh = build_vehicle(case.scenario().vehicle)
     dofs = track.entry_sleeper_dof[:5]
     a = integrate(track, 5e-4, veh.speed, 96.0, 300, vehicle=veh, record_dofs=dofs)
     b = integrate(track, 5e-4, veh.speed, 96.0, 300, vehicle=veh, record_dofs=dofs, general=True)
@@ -170,9 +170,9 @@ def test_leave_on_a_mirrored_track_is_the_mirrored_enter(tmp_path, monkeypatch, 
     x[:3] = [300e6, 100e6, 60e6]                      # a lively design
     x[-1] = 30
     enter = evaluate(case, x)
-    track = build_track(case, x)
+    track = build_track(case.scenario(), case.track_design(x))
     L = float(track.node_x[-1])
-    monkeypatch.setattr(simulate_mod, "build_track", lambda c, xx: mirrored(build_track(case, xx)))
+    monkeypatch.setattr(vti_evaluate, "build_track", lambda s, d: mirrored(build_track(s, d)))
     leave = evaluate(case, x)
     assert leave.info["direction"] == "leave" and enter.info["direction"] == "enter"
     assert leave.info["n_wheels"] == enter.info["n_wheels"] == (4 if "half" in base else 1)
@@ -193,7 +193,7 @@ def test_leave_window_crosses_the_whole_ers_and_ends_with_the_last_wheel_past_th
     # wheels start beyond the rail end
     case = cheap_case(tmp_path, CONFIGS / "vehicles/virm-half-car.yaml", "leave",
                       "track:\n  layout:\n    exit_length: 22.0\n")
-    track = build_track(case, case.reference)
+    track = build_track(case.scenario(), case.track_design(case.reference))
     x_start, zone_start, zone_end, x_end = track.window
     sim, length = case.simulation, 19.0 + 2.5
     assert zone_end == pytest.approx(100.0 + 12.0)                    # the far edge of the ERS

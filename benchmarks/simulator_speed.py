@@ -2,7 +2,7 @@
 before issue 11 in the same run.
 
 Prints the median wall time of ``evaluate(case, reference)`` (the current method at the case's
-settings) and of the pre-issue-11 method (lccopt.vti.newmark_reference: its integrator at its
+settings) and of the pre-issue-11 method (benchmarks/legacy_newmark.py: its integrator at its
 settings, dt = 0.2 ms, 10 m run-in, far elements <= 0.3 m), timed alternately in the same
 process, with the ratio; where the current method's time goes per step (sparse product for the
 right-hand side, the two banded triangular solves, the U^-T rows when the wheel enters an
@@ -11,7 +11,9 @@ element, and the rest: Python and small products); and the time of the straightf
 factorise it with SuperLU every step), measured over a slice of the run and scaled to the full
 number of steps. The straightforward and the current integrator are checked to agree.
 
-    python benchmarks/simulate.py [--repeat 7] [--naive-steps 300] [--flush] [--scaling]
+    python benchmarks/simulator_speed.py [--repeat 7] [--naive-steps 300] [--flush] [--scaling]
+
+The figures and their history: benchmarks/RESULTS-simulator.md.
 
 --flush also times the old method without its periodic flush of tiny values (denormals).
 --scaling times the current method for longer entry tracks and other time steps.
@@ -35,14 +37,14 @@ from scipy.sparse.linalg import splu
 
 from scipy.linalg import blas, lapack
 
-from lccopt.case import load_case
-from lccopt.vti import newmark_reference
+import legacy_newmark
+from legacy_newmark import REFERENCE_SETTINGS, evaluate_legacy
+from lccopt.config import load_case
+from lccopt.problem import evaluate
 from lccopt.vti.assembly import to_upper_banded
 from lccopt.vti.newmark import contact_vector, forward_columns, integrate
-from lccopt.vti.newmark_reference import REFERENCE_SETTINGS
-from lccopt.vti.simulate import evaluate
 from lccopt.vti.track import build_track
-from lccopt.vti.vehicle import Vehicle
+from lccopt.vti.vehicle import build_vehicle
 
 
 def naive_steps(track, veh, dt, x_start, steps):
@@ -93,7 +95,7 @@ def timed(f, repeat: int = 200) -> float:
 
 def breakdown(case, x, n_steps: int) -> dict[str, float]:
     """Seconds per run of the parts of the current method's step, timed in isolation."""
-    track = build_track(case, x)
+    track = build_track(case.scenario(), case.track_design(x))
     dt = case.simulation["time_step"]
     a0, a1 = 4 / dt ** 2, 2 / dt
     M, C, K = track.M, track.C, track.K
@@ -104,7 +106,7 @@ def breakdown(case, x, n_steps: int) -> dict[str, float]:
     pq = np.random.default_rng(0).random(2 * n)
     b = pq[:n].copy()
     rows = np.zeros((2, n))
-    veh = Vehicle.from_case(case)
+    veh = build_vehicle(case.scenario().vehicle)
     x0, _, _, x1 = track.window
     elements = np.unique(np.searchsorted(track.node_x, x0 + veh.speed * dt * np.arange(n_steps + 1),
                                          side="right") - 1)
@@ -130,11 +132,11 @@ def main() -> None:
     old_case = case.with_simulation(**REFERENCE_SETTINGS)
     x = case.reference
     ev = evaluate(case, x)  # warm up imports and caches
-    ev_old = evaluate(old_case, x, legacy=True)
+    ev_old = evaluate_legacy(old_case, x)
     new_t, old_t = [], []
     for _ in range(args.repeat):   # alternate, so that the machine's load hits both alike
         t0 = time.perf_counter()
-        evaluate(old_case, x, legacy=True)
+        evaluate_legacy(old_case, x)
         old_t.append(time.perf_counter() - t0)
         t0 = time.perf_counter()
         evaluate(case, x)
@@ -164,15 +166,15 @@ def main() -> None:
     print(f"  {'rest: Python loop, small products, setup':36s} {rest:.3f} s ({rest / fast:.0%})")
 
     if args.flush:
-        saved = newmark_reference.FLUSH_EVERY, newmark_reference.FLUSH_BELOW
+        saved = legacy_newmark.FLUSH_EVERY, legacy_newmark.FLUSH_BELOW
         flushed, unflushed = [], []
         for _ in range(args.repeat):
             for store, setting in ((flushed, saved), (unflushed, (10 ** 12, 0.0))):
-                newmark_reference.FLUSH_EVERY, newmark_reference.FLUSH_BELOW = setting
+                legacy_newmark.FLUSH_EVERY, legacy_newmark.FLUSH_BELOW = setting
                 t0 = time.perf_counter()
-                evaluate(old_case, x, legacy=True)
+                evaluate_legacy(old_case, x)
                 store.append(time.perf_counter() - t0)
-        newmark_reference.FLUSH_EVERY, newmark_reference.FLUSH_BELOW = saved
+        legacy_newmark.FLUSH_EVERY, legacy_newmark.FLUSH_BELOW = saved
         print(f"old method with its flush of tiny values: median {statistics.median(flushed):.3f} s, "
               f"without: {statistics.median(unflushed):.3f} s")
 
@@ -198,8 +200,8 @@ def main() -> None:
                   f"{t / ev_v.info['n_steps'] / ev_v.info['n_dofs'] * 1e9:.0f} ns/step/dof")
 
     if args.naive_steps:
-        track = build_track(case, x)
-        veh = Vehicle.from_case(case)
+        track = build_track(case.scenario(), case.track_design(x))
+        veh = build_vehicle(case.scenario().vehicle)
         x0 = ev.info["x_start"]
         t0 = time.perf_counter()
         ref = naive_steps(track, veh, dt, x0, args.naive_steps)

@@ -1,11 +1,16 @@
-"""The integrator as it was before issue 11, kept as the comparison for the speed and accuracy
-benchmarks (benchmarks/simulate.py, benchmarks/simulate_accuracy.py, tests/vti/test_speedup.py).
+"""The simulation method as it was before issue 11, frozen: the comparison of the speed and
+accuracy benchmarks (benchmarks/simulator_speed.py, benchmarks/simulate_accuracy.py,
+tests/vti/test_speedup.py). Not part of lccopt: the package holds the current method only.
 
-It is the same Newmark scheme as :func:`lccopt.vti.newmark.integrate` (same equations, same
-results to round-off); what changed with issue 11 is mostly the default settings (time step,
-run-in, far-field elements), see ``REFERENCE_SETTINGS`` and configs/reference.yaml. The only
-edit to the old loop: the right-hand side product uses the public ``csr @ vector`` instead of
-scipy's private ``csr_matvec`` kernel (about 4 µs per step more; measured in the README).
+:func:`integrate_reference` is the same Newmark scheme as :func:`lccopt.vti.newmark.integrate`
+(same equations, same results to round-off) with the old loop: a full banded solve per step,
+two columns of A⁻¹ per element, a periodic flush of tiny values. The only edit: the right-hand
+side product uses the public ``csr @ vector`` instead of scipy's private ``csr_matvec`` kernel
+(about 4 µs per step more). :func:`evaluate_legacy` is the old evaluation around it (F_max from
+the steps inside the force zone only); run it at ``REFERENCE_SETTINGS``, the simulation
+settings of configs/reference.yaml before issue 11. What changed with issue 11 is mostly those
+settings (time step, run-in, far-field elements); the figures are in
+benchmarks/RESULTS-simulator.md.
 """
 
 from __future__ import annotations
@@ -17,8 +22,11 @@ import scipy.sparse as sp
 from scipy.linalg import lapack
 from scipy.sparse.linalg import spsolve
 
-from .assembly import to_upper_banded
-from .newmark import History, TrackLike, contact_vector, contact_vectors, inverse_columns
+from lccopt.vti.assembly import to_upper_banded
+from lccopt.vti.newmark import History, TrackLike, contact_vector, contact_vectors, inverse_columns
+from lccopt.vti.response import Evaluation, objectives_from
+from lccopt.vti.track import build_track
+from lccopt.vti.vehicle import build_vehicle
 
 FLUSH_EVERY = 200         # steps between flushes of tiny values
 FLUSH_BELOW = 1e-150      # |value| below this is set to 0 (displacements are ~1e-3 m)
@@ -28,11 +36,45 @@ REFERENCE_SETTINGS = dict(time_step=2.0e-4, element_length=0.05, far_element_len
                           run_in=10.0, run_out=3.0)
 
 
-def integrate_reference(track: TrackLike, dt: float, speed: float, x_start: float, n_steps: int, *,
-              vehicle=None, load: float = 0.0, irregularity: Callable[[float], float] | None = None,
-              record_dofs: np.ndarray | None = None, initial: tuple | None = None,
-              vehicle_offset: np.ndarray | None = None,
-              on_step: Callable | None = None) -> History:
+def evaluate_legacy(case, x) -> Evaluation:
+    """Design x of ``case`` by the method before issue 11: its integrator, the three-dof vehicle
+    only, and F_max from the steps inside the force zone only (the current method also takes
+    the force at the zone's exact ends). Objectives, the leading wheel's force and position,
+    and the step and dof counts."""
+    scenario, design = case.scenario(), case.track_design(x)
+    track = build_track(scenario, design)
+    vehicle = build_vehicle(scenario.vehicle)
+    if vehicle.n_wheels > 1:
+        raise ValueError("the legacy integrator runs the three-dof vehicle only")
+    dt = scenario.settings.time_step
+    x_start, zone_start, zone_end, x_end = track.window
+    speed = -vehicle.speed if x_end < x_start else vehicle.speed
+    n_steps = int(np.ceil(abs(x_end - x_start) / (vehicle.speed * dt)))
+    n_zone = scenario.zones.sleepers
+    irregularity = None
+    profile = scenario.irregularity
+    if profile is not None:
+        px, pr = profile[:, 0], profile[:, 1]
+        irregularity = lambda pos: float(np.interp(pos, px, pr, left=0.0, right=0.0))  # noqa: E731
+    h = integrate_reference(track, dt, speed, x_start, n_steps, vehicle=vehicle,
+                            irregularity=irregularity,
+                            record_dofs=track.entry_sleeper_dof[:n_zone])
+    v_mid = 0.5 * (h.dof_velocity[1:] + h.dof_velocity[:-1])
+    energy = dt * track.entry_support_damping[:n_zone] * np.sum(v_mid ** 2, axis=0)
+    lo, hi = min(zone_start, zone_end) - 1e-9, max(zone_start, zone_end) + 1e-9
+    in_zone = (h.position >= lo) & (h.position <= hi)
+    objectives = objectives_from(h.contact_force[in_zone], energy)
+    return Evaluation(objectives, {"contact_force": h.contact_force, "wheel_position": h.position,
+                                   "sleeper_energy": energy},
+                      {"n_steps": n_steps, "n_dofs": track.n_dofs, "time_step": dt})
+
+
+def integrate_reference(track: TrackLike, dt: float, speed: float, x_start: float, n_steps: int,
+                        *, vehicle=None, load: float = 0.0,
+                        irregularity: Callable[[float], float] | None = None,
+                        record_dofs: np.ndarray | None = None, initial: tuple | None = None,
+                        vehicle_offset: np.ndarray | None = None,
+                        on_step: Callable | None = None) -> History:
     """Run ``n_steps`` Newmark steps from static equilibrium with the wheel at ``x_start``.
 
     vehicle: a :class:`~lccopt.vti.vehicle.Vehicle` (coupled through its Hertz spring), or

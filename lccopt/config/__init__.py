@@ -1,0 +1,18 @@
+"""The config layer: case files -> a validated, typed case and the simulator's inputs.
+
+* ``reading``: YAML with the line of every key, ``extends``, reading input files safely;
+* ``schema``: the schema of a case file and its validator;
+* ``profiles``: measured rail profiles (CSV rows), held in the case as their rows;
+* ``checks``: what needs physics or the layout (time step, mesh, the vehicle on the rail);
+* ``build``: the simulator's typed inputs (``lccopt.vti.specs``) from a validated case;
+* ``case``: :class:`Case`, :func:`load_case` and the design vector's parsing and display.
+
+Data flows one way: this layer imports the simulator's specs and numerical helpers, the
+simulator imports nothing from here.
+"""
+
+from .case import Case, Condition, Variable, design_items, load_case, parse_design
+from .schema import SAFE_NAME
+
+__all__ = ["Case", "Condition", "Variable", "SAFE_NAME", "design_items", "load_case",
+           "parse_design"]

@@ -1,0 +1,407 @@
+"""Case files -> a validated, typed :class:`Case` in SI units.
+
+``load_case`` reads the file (``reading``), validates it against the schema (``schema``),
+checks what needs physics or the layout (``checks``) and returns a :class:`Case`: its design
+variables, its traffic conditions, and the simulator's typed inputs (``Case.scenario``,
+``Case.track_design``, built by ``build``). Every problem is one line
+``FILE:LINE: KEY.PATH: what is wrong`` through :class:`~lccopt.errors.CaseError`; the CLI
+prints it and exits with status 2.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from functools import cached_property
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+from ..errors import CaseError
+from ..vti.specs import Scenario, TrackDesign
+from . import build
+from .checks import (check_accuracy, check_design_size, check_design_space, check_layout_fits,
+                     check_mesh_units, check_optimisation, check_profile, simulation_size)
+from .profiles import (MAX_CASE_PROFILE_POINTS, MAX_PROFILE_BYTES, ProfileError, ProfileText,
+                       parse_rows, rows_text)
+from .reading import (check_file_name, dotted, locate, read_case_text, read_input_bytes,
+                      read_with_base, shown)
+from .schema import SAFE_NAME, SCHEMA, check
+
+
+class _Dumper(yaml.SafeDumper):
+    """YAML of a resolved case: a profile's rows as a literal block, one row per line (fast to
+    read back: one scalar, not two numbers per row); everything else as ``yaml.safe_dump``."""
+
+
+_Dumper.add_representer(ProfileText, lambda dumper, text: dumper.represent_scalar(
+    "tag:yaml.org,2002:str", str(text), style="|"))
+
+
+@dataclass(frozen=True)
+class Variable:
+    """One scalar design variable."""
+    name: str        # e.g. x_r1
+    group: str       # design section key
+    integer: bool
+    lower: float
+    upper: float
+    reference: float
+    unit: str
+    log: bool = False  # searched on a log scale (design.<group>.scale: log)
+
+    @property
+    def display(self) -> tuple[str, float]:
+        """(unit, scale) shown to people: pad stiffness in MN/m, counts as they are."""
+        return ("MN/m", 1e-6) if self.unit == "N/m" else ("", 1.0)
+
+    def show(self, value: float) -> str:
+        """``x_r1=214 MN/m``: the value in the units people use."""
+        unit, scale = self.display
+        return f"{self.name}={value * scale:.6g}" + (f" {unit}" if unit else "")
+
+
+@dataclass(frozen=True)
+class Case:
+    """A validated case. ``data`` holds the typed sections (SI units) as nested dicts.
+
+    ``text`` is the case file as written; ``resolved`` is the whole case after ``extends``
+    and defaults, as YAML: what a run directory keeps so that it stands on its own.
+    """
+    path: Path
+    text: str
+    data: dict = field(repr=False)
+    variables: tuple[Variable, ...] = ()
+    conditions: tuple["Condition", ...] = ()
+
+    @cached_property
+    def resolved(self) -> str:
+        """The whole case as YAML: every rail profile as its rows, so that it stands on its
+        own (what a run directory keeps and fingerprints; written once per case object: a
+        profile of many rows takes a second)."""
+        return yaml.dump(self.data, Dumper=_Dumper, sort_keys=False)
+
+    @property
+    def irregularity(self) -> np.ndarray | None:
+        """The rail profile (N, 2) of the case's own simulation, or None (a smooth rail)."""
+        return build.profile(self.data)
+
+    @property
+    def name(self) -> str:
+        return self.data["name"]
+
+    @property
+    def vehicle(self) -> dict:
+        return self.data["vehicle"]
+
+    @property
+    def track(self) -> dict:
+        return self.data["track"]
+
+    @property
+    def evaluation(self) -> dict:
+        return self.data["evaluation"]
+
+    @property
+    def simulation(self) -> dict:
+        return self.data["simulation"]
+
+    @property
+    def optimisation(self) -> dict | None:
+        return self.data["optimisation"]
+
+    @property
+    def names(self) -> list[str]:
+        return [v.name for v in self.variables]
+
+    @property
+    def reference(self) -> np.ndarray:
+        return np.array([v.reference for v in self.variables], dtype=float)
+
+    @property
+    def lower(self) -> np.ndarray:
+        return np.array([v.lower for v in self.variables], dtype=float)
+
+    @property
+    def upper(self) -> np.ndarray:
+        return np.array([v.upper for v in self.variables], dtype=float)
+
+    @property
+    def integer(self) -> np.ndarray:
+        return np.array([v.integer for v in self.variables], dtype=bool)
+
+    @property
+    def log(self) -> np.ndarray:
+        """Variables the optimiser searches on a log scale."""
+        return np.array([v.log for v in self.variables], dtype=bool)
+
+    def with_simulation(self, **settings) -> "Case":
+        """A copy with some simulation settings replaced (convergence studies, tests)."""
+        data = {**self.data, "simulation": {**self.data["simulation"], **settings}}
+        conditions = tuple(c.with_simulation(settings) for c in self.conditions)
+        return Case(self.path, self.text, data, self.variables, conditions)
+
+    @property
+    def condition_mode(self) -> str:
+        """worst, mean or each: how the objectives of the conditions combine."""
+        return (self.optimisation or {}).get("conditions") or "worst"
+
+    def condition_case(self, i: int) -> "Case":
+        """The case of condition i: one simulation, as the simulator runs it."""
+        return Case(self.path, self.text, self.conditions[i].data, self.variables)
+
+    def check_design(self, x) -> np.ndarray:
+        """Return x as floats if it is a valid design vector, else raise ValueError."""
+        x = np.asarray(x, dtype=float).ravel()
+        if x.size != len(self.variables):
+            raise ValueError(f"a design vector has {len(self.variables)} values "
+                             f"({', '.join(self.names)}), got {x.size}")
+        for v, xi in zip(self.variables, x):
+            if not np.isfinite(xi) or xi < v.lower or xi > v.upper:
+                raise ValueError(f"{v.name} = {xi:g} is outside [{v.lower:g}, {v.upper:g}]")
+            if v.integer and xi != round(xi):
+                raise ValueError(f"{v.name} = {xi:g} must be a whole number")
+        check_layout_fits(self.data, x, self.variables)
+        return x
+
+    def scenario(self) -> Scenario:
+        """The simulator's inputs of this case's one simulation (for a case with traffic
+        conditions: of its own vehicle section; ``condition_case(i).scenario()`` for one)."""
+        return build.scenario(self.data)
+
+    def track_design(self, x) -> TrackDesign:
+        """Design vector x, checked (ValueError), as the simulator takes it."""
+        return build.track_design(self.variables, self.check_design(x))
+
+
+@dataclass(frozen=True)
+class Condition:
+    """One traffic condition: the vehicle, speed, direction and rail profile of one simulation
+    of every design. ``data`` is the whole case as that simulation sees it."""
+    name: str
+    weight: float
+    vehicle: str
+    speed: float
+    direction: str
+    data: dict = field(repr=False)
+
+    @property
+    def irregularity(self) -> np.ndarray | None:
+        """The rail profile (N, 2) of this condition, or None (a smooth rail)."""
+        return build.profile(self.data)
+
+    def with_simulation(self, settings: dict) -> "Condition":
+        data = {**self.data, "simulation": {**self.data["simulation"], **settings}}
+        return Condition(self.name, self.weight, self.vehicle, self.speed, self.direction, data)
+
+
+_GROUPS = (  # design key, variable name stem, unit
+    ("railpad_stiffness", "x_r", "N/m"),
+    ("strengthened_sleepers", "x_n", "-"),
+    ("sleeper_spans", "x_s", "elements"),
+    ("type_ii_strip", "x_l", "elements"),
+)
+
+
+def _variables(design: dict, lines: dict, file: str) -> tuple[Variable, ...]:
+    out = []
+    for key, stem, unit in _GROUPS:
+        g = design[key]
+        path = ("design", key)
+        lo, hi = g["bounds"]
+        integer = g["kind"] == "integer"
+
+        def at(k, path=path):
+            return f"{lines.get(path + (k,), lines.get(path))}: {dotted(path + (k,))}"
+
+        if lo > hi:
+            raise CaseError(f"{at('bounds')}: lower bound {lo:g} is above upper bound {hi:g}")
+        if integer and (lo != round(lo) or hi != round(hi)):
+            raise CaseError(f"{at('bounds')}: an integer variable needs whole-number bounds, "
+                            f"got [{lo:g}, {hi:g}]")
+        if "scale" in g and g["scale"] is None:
+            del g["scale"]  # absent stays absent: the resolved case does not grow a key
+        log = g.get("scale") == "log"
+        if log and not lo > 0:
+            raise CaseError(f"{at('scale')}: a log scale needs positive bounds, "
+                            f"got [{lo:g}, {hi:g}]")
+        refs = g["reference"] if "count" in g else [g["reference"]]
+        if "count" in g and len(refs) != g["count"]:
+            raise CaseError(f"{at('reference')}: expected {g['count']} values (count), "
+                            f"got {len(refs)}")
+        for i, r in enumerate(refs):
+            name = f"{stem}{i + 1}" if "count" in g else stem
+            if integer and r != round(r):
+                raise CaseError(f"{at('reference')}: {name} = {r:g} must be a whole number")
+            if not lo <= r <= hi:
+                raise CaseError(f"{at('reference')}: reference {name} = {r:g} is outside the "
+                                f"bounds [{lo:g}, {hi:g}]")
+            out.append(Variable(name, key, integer, float(lo), float(hi), float(r), unit, log))
+    return tuple(out)
+
+
+def load_case(path: str | Path) -> Case:
+    """Read and validate a case file.
+
+    Parameters
+    ----------
+    path
+        the case file (YAML); ``extends:`` and irregularity files are relative to it.
+
+    Returns
+    -------
+    Case
+        the validated case, in SI units.
+
+    Raises
+    ------
+    CaseError
+        on any problem, as one line ``file:line: key.path: what is wrong``.
+    """
+    path = Path(path)
+    file = str(path)
+    text = read_case_text(path)
+    raw, lines = read_with_base(path, text)
+    data = check(raw, SCHEMA, (), lines, file)
+
+    def err(at: tuple, msg: str) -> CaseError:
+        return CaseError(f"{locate(lines, at, file)}: {dotted(at)}: {msg}")
+
+    if not SAFE_NAME.fullmatch(data["name"]):
+        raise err(("name",), "1-64 letters, digits, '.', '-' and '_', starting with a letter or "
+                             "digit (it names the run directory)")
+    check_mesh_units(data, err)
+    variables = _variables(data["design"], lines, file)
+    check_design_space(data, variables, err)
+    check_optimisation(data, err)
+    rows = _RowCount(err)
+    at = ("simulation", "irregularity")
+    data["simulation"]["irregularity"] = rows.add(
+        _profile_rows(data["simulation"]["irregularity"], path, lines, err, at), at)
+    check_profile(data, err, at)
+    conditions = _conditions(data, path, lines, err, rows)
+    sims = [c.data for c in conditions] or [data]
+    check_design_size([simulation_size(one) for one in sims], err)
+    return Case(path=path, text=text, data=data, variables=variables, conditions=conditions)
+
+
+def _profile_rows(value, path: Path, lines: dict, err, at: tuple):
+    """The irregularity as the case keeps it: a CSV file named is read (relative to the case
+    file) into ``{source: name, points: rows}``; anything else as it is."""
+    if not isinstance(value, str) or value == "none":
+        return value
+    if not value.strip():
+        raise err(at, "an empty file name (none: a smooth rail)")
+    where = locate(lines, at, str(path))
+    check_file_name(value, where, dotted(at))
+    csv = path.parent / value
+
+    def fail(problem: str) -> CaseError:
+        return err(at, f"{shown(str(csv))}: {problem}")
+
+    data = read_input_bytes(csv, MAX_PROFILE_BYTES, fail)
+    try:
+        text = data.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        line = data[:exc.start].count(b"\n") + 1
+        raise fail(f"line {line}: not UTF-8 text (byte {exc.start})") from None
+    try:
+        rows = parse_rows(text)
+    except ProfileError as exc:
+        raise fail(f"line {exc.line}: {exc}") from None
+    return {"source": value, "points": rows_text(rows)}
+
+
+class _RowCount:
+    """The rows of a case's profiles, counted as they are read: at most
+    MAX_CASE_PROFILE_POINTS in all (case and conditions), refused at the one that passes it."""
+
+    def __init__(self, err):
+        self.err, self.total = err, 0
+
+    def add(self, value, at: tuple):
+        if isinstance(value, dict) and "points" in value:
+            self.total += value["points"].count("\n")
+            if self.total > MAX_CASE_PROFILE_POINTS:
+                raise self.err(at, f"the case's rail profiles hold more than "
+                                   f"{MAX_CASE_PROFILE_POINTS:,} rows in all")
+        return value
+
+
+def _conditions(data: dict, path: Path, lines: dict, err,
+                rows: _RowCount) -> tuple[Condition, ...]:
+    """The traffic conditions of a case (none without a ``conditions:`` list)."""
+    vehicles = data.get("vehicles") or {}
+    listed = data.get("conditions") or []
+    if not listed:
+        if vehicles:
+            raise err(("vehicles",),
+                      "named vehicles are used by a conditions: list, and there is none")
+        if (data.get("optimisation") or {}).get("conditions") not in (None, "worst"):
+            raise err(("optimisation", "conditions"), "needs a conditions: list")
+        return ()
+    out, seen = [], set()
+    for i, c in enumerate(listed):
+        at = ("conditions", i)
+        if not SAFE_NAME.fullmatch(c["name"]):
+            raise err(at + ("name",), "1-64 letters, digits, '.', '-' and '_', starting with a "
+                                      "letter or digit (it names the condition's objectives and "
+                                      "files)")
+        if c["name"] in seen:
+            raise err(at + ("name",), f"'{c['name']}' names two conditions")
+        seen.add(c["name"])
+        if c["vehicle"] == "case":
+            vehicle = dict(data["vehicle"])
+        elif c["vehicle"] in vehicles:
+            vehicle = dict(vehicles[c["vehicle"]])
+        else:
+            raise err(at + ("vehicle",), f"no vehicle '{c['vehicle']}' (vehicles: "
+                                         f"{', '.join(['case', *vehicles])})")
+        speed = c["speed"] if c["speed"] is not None else vehicle.get("speed")
+        if speed is None:
+            raise err(at + ("speed",),
+                      f"missing key 'speed' (vehicle '{c['vehicle']}' has none)")
+        vehicle["speed"] = speed
+        sim = dict(data["simulation"])
+        sim["direction"] = c["direction"]
+        if c["irregularity"] is not None:
+            c["irregularity"] = rows.add(_profile_rows(c["irregularity"], path, lines, err,
+                                                       at + ("irregularity",)),
+                                         at + ("irregularity",))
+            sim["irregularity"] = c["irregularity"]
+        one = {k: v for k, v in data.items() if k not in ("vehicles", "conditions")}
+        one.update(vehicle=vehicle, simulation=sim)
+
+        def cond_err(where, msg, at=at, name=c["vehicle"]):
+            if where[:1] == ("vehicle",) and name != "case":   # a named vehicle's own key
+                return err(("vehicles", name) + where[1:], f"{msg} (in condition {c['name']})")
+            return err(at, f"{dotted(where)}: {msg}")
+
+        check_accuracy(one, cond_err)
+        check_profile(one, cond_err, ("simulation", "irregularity"))
+        out.append(Condition(c["name"], float(c["weight"]), c["vehicle"], float(speed),
+                             c["direction"], one))
+    return tuple(out)
+
+
+def parse_design(text: str, case: Case) -> np.ndarray:
+    """Parse ``--design 214,155,50,5,6,7,3,0`` (pads in MN/m, the rest as counted) into a
+    checked design vector in SI units (raises ValueError)."""
+    try:
+        x = [float(t) for t in text.replace(" ", "").split(",") if t]
+    except ValueError:
+        raise ValueError(f"expected comma-separated numbers, got {text!r}") from None
+    if len(x) == len(case.variables):
+        for xi, v in zip(x, case.variables):
+            unit, scale = v.display
+            u = f" {unit}" if unit else ""
+            if not np.isfinite(xi) or not v.lower * scale <= xi <= v.upper * scale:
+                raise ValueError(f"{v.name} = {xi:g}{u} is outside "
+                                 f"[{v.lower * scale:g}, {v.upper * scale:g}]{u}")
+        x = [xi / v.display[1] for xi, v in zip(x, case.variables)]
+    return case.check_design(x)
+
+
+def design_items(case: Case, x) -> list[str]:
+    """``["x_r1=214 MN/m", ..., "x_n=5", ...]``: each variable in the units people use."""
+    return [v.show(xi) for v, xi in zip(case.variables, x)]

@@ -1,0 +1,320 @@
+"""Checks of a validated case that need physics or the layout, beyond the schema's bounds.
+
+Each check takes the typed sections (``data``) and ``err(key_path, message)``, which makes the
+one-line :class:`~lccopt.errors.CaseError` naming the key's file and line, and raises it on
+the first problem. Newmark's average-acceleration rule is unconditionally stable, so a time
+step or a mesh that cannot follow the dynamics fails silently: these checks say so first.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..vti.irregularity import ELEMENTS_PER_SHORTEST_WAVE, STEPS_PER_SHORTEST_WAVE, band_bins
+from ..vti.specs import ELEMENT_UNIT
+from .build import spectrum_profile, track_length, vehicle_spec
+from .profiles import MAX_DIP, cover_problem, profile_array
+
+STEPS_PER_CONTACT_PERIOD = 5  # Newmark (average acceleration) shortens nothing, but lengthens the
+# period by (w dt)^2/12: 13 % at 5 steps per period of the stiffest mode that carries the
+# contact force (the wheel on its Hertz spring); coarser steps alias it (time_step 0.05 gave
+# E_max 2.90 J instead of 0.368 J).
+VEHICLE_KEYS = {  # keys a vehicle type needs beyond the three-dof ones
+    "bogie": ("wheelbase", "bogie_pitch_inertia"),
+    "half-car": ("wheelbase", "bogie_pitch_inertia", "carbody_pitch_inertia", "bogie_distance"),
+}
+RAIL_END_MARGIN = 1.0  # [m] the leading wheel stays this far from the pinned rail ends
+
+# What one simulation can do. Measured on this machine's reference case and VIRM half car
+# (one core; memory as the peak resident size above the interpreter's): ~1.1 kB per time step
+# (the histories), ~5.5 kB per track dof (matrices, factors, the static solve), and for a
+# vehicle of several wheels 16 bytes per dof for every element its wheels span on the fine
+# mesh (the cached rows U^-T e_j: 0.6 GB for the half car at 1 cm elements); ~40 ns per step
+# and dof.
+MAX_STEPS = 500_000         # time steps of one simulation: ~0.55 GB of histories
+MAX_MEMORY = 2e9            # [bytes] of one simulation (a worker process)
+MAX_STEP_DOFS = 1e10        # steps x track dofs of one simulation: ~7 minutes
+BYTES_PER_STEP, BYTES_PER_DOF = 1100, 5500
+# and what one design's simulations (all its traffic conditions) can do together: `lccopt
+# simulate` keeps every condition's histories until it writes them
+MAX_DESIGN_STEPS = 2_000_000
+MAX_DESIGN_STEP_DOFS = 5e10  # ~35 minutes per design
+
+
+def is_multiple(length: float, unit: float) -> bool:
+    """``length`` is a whole multiple of ``unit`` (to round-off)."""
+    q = length / unit
+    return abs(q - round(q)) < 1e-9 * max(1.0, q)
+
+
+def check_mesh_units(data: dict, err) -> None:
+    """Lengths sit on the 0.1 m grid that sleeper spans are counted in."""
+    le = data["simulation"]["element_length"]
+    if not is_multiple(ELEMENT_UNIT, le):
+        raise err(("simulation", "element_length"), f"must divide 0.1 m exactly, got {le:g}")
+    check_accuracy(data, err)
+    layout = data["track"]["layout"]
+    for key in ("entry_length", "exit_length", "sleeper_spacing", "exit_first_span"):
+        if not is_multiple(layout[key], ELEMENT_UNIT):
+            raise err(("track", "layout", key),
+                      f"must be a multiple of 0.1 m, got {layout[key]:g}")
+    for i, s in enumerate(data["track"]["ers"]["slab_lengths"]):
+        if not is_multiple(s, ELEMENT_UNIT):
+            raise err(("track", "ers", "slab_lengths", i),
+                      f"must be a multiple of 0.1 m, got {s:g}")
+
+
+def check_accuracy(data: dict, err) -> None:
+    """Reject time steps that make the simulation inaccurate (it stays stable: Newmark's
+    average-acceleration rule is unconditionally stable, so a bad step fails silently)."""
+    v, sim = data["vehicle"], data["simulation"]
+    dt = sim["time_step"]
+    k_contact = 1.5 / v["hertz_constant"] * v["hertz_load"] ** (1.0 / 3.0)
+    f_contact = np.sqrt(k_contact / v["wheelset_mass"]) / (2 * np.pi)
+    limit = 1.0 / (STEPS_PER_CONTACT_PERIOD * f_contact)
+    if dt > limit:
+        raise err(("simulation", "time_step"),
+                  f"{dt:g} s is too coarse: the wheel on its contact spring rings at "
+                  f"{f_contact:.0f} Hz, which needs at least {STEPS_PER_CONTACT_PERIOD} steps per "
+                  f"period (time_step <= {limit:.3g} s)")
+    step = v["speed"] * dt
+    if step > sim["element_length"] * (1 + 1e-9):
+        raise err(("simulation", "time_step"),
+                  f"{dt:g} s moves the wheel {step:.3g} m per step, more than one element "
+                  f"({sim['element_length']:g} m): time_step <= "
+                  f"{sim['element_length'] / v['speed']:.3g} s")
+    check_vehicle_fits(data, err)
+    check_size(data, err)
+    irr = sim.get("irregularity")
+    if isinstance(irr, dict) and "spectrum" in irr:
+        # the mesh and the time step must follow the shortest wave
+        shortest = irr["wavelengths"][0]
+        need = max(ELEMENTS_PER_SHORTEST_WAVE * sim["element_length"],
+                   STEPS_PER_SHORTEST_WAVE * step)
+        if shortest < need * (1 - 1e-9):
+            raise err(("simulation", "irregularity", "wavelengths"),
+                      f"the shortest wavelength {shortest:g} m is below what the mesh and time "
+                      f"step resolve ({need:.3g} m: {ELEMENTS_PER_SHORTEST_WAVE} elements of "
+                      f"{sim['element_length']:g} m and {STEPS_PER_SHORTEST_WAVE} steps of "
+                      f"{step:.3g} m)")
+
+
+def check_vehicle_fits(data: dict, err) -> None:
+    """The vehicle type has its keys, and the leading wheel stays on the modelled rail for the
+    whole run in either direction, whatever the design (lccopt.vti.track.wheel_window; a
+    trailing wheel beyond a rail end rests on a rigid continuation of the rail)."""
+    v, sim = data["vehicle"], data["simulation"]
+    kind = v.get("type") or "three-dof"
+    for key in VEHICLE_KEYS.get(kind, ()):
+        if v.get(key) is None:
+            raise err(("vehicle", key), f"missing key '{key}' (vehicle type {kind} needs it)")
+    if kind == "half-car" and v["bogie_distance"] <= v["wheelbase"]:
+        raise err(("vehicle", "bogie_distance"),
+                  f"{v['bogie_distance']:g} m must exceed the wheelbase ({v['wheelbase']:g} m): "
+                  f"the bogies would overlap")
+    lowest, highest, zone_start = run_extent(data)
+    length = vehicle_spec(v).length
+    layout = data["track"]["layout"]
+    total = layout["entry_length"] + sum(data["track"]["ers"]["slab_lengths"]) \
+        + layout["exit_length"]
+    leave = (sim.get("direction") or "enter") == "leave"
+    if zone_start <= 0:
+        lowest = RAIL_END_MARGIN    # the zone itself does not fit: the design check says so
+    if lowest < RAIL_END_MARGIN or highest > total - RAIL_END_MARGIN:
+        beyond_exit = highest > total - RAIL_END_MARGIN
+        key = "run_out" if beyond_exit == (not leave) else "run_in"
+        raise err(("simulation", key),
+                  f"the leading wheel would run from {lowest:.3g} m to {highest:.3g} m, beyond "
+                  f"the modelled rail [0, {total:g}] m less {RAIL_END_MARGIN:g} m at each end "
+                  f"(vehicle {length:g} m long): shorten run_in/run_out or lengthen track.layout."
+                  f"{'exit_length' if beyond_exit else 'entry_length'}")
+
+
+def run_extent(data: dict) -> tuple[float, float, float]:
+    """(lowest, highest) position of the leading wheel over the run and the start of the
+    evaluation zone [m], for the design whose zone reaches farthest (upper bounds of the
+    spans), so that every design's run lies within."""
+    v, sim = data["vehicle"], data["simulation"]
+    length = vehicle_spec(v).length
+    layout = data["track"]["layout"]
+    zone_end = layout["entry_length"] + data["evaluation"]["force_zone_after_interface"]
+    spans = data["design"]["sleeper_spans"]
+    n_zone, n_near = data["evaluation"]["sleepers"], spans["count"]
+    far_span = spans["bounds"][1] * ELEMENT_UNIT   # the zone reaches farthest at the upper bounds
+    zone_start = layout["entry_length"] - min(n_zone, n_near) * far_span \
+        - max(0, n_zone - n_near) * layout["sleeper_spacing"]
+    x_b = layout["entry_length"] + sum(data["track"]["ers"]["slab_lengths"])
+    if (sim.get("direction") or "enter") == "leave":
+        return zone_start - sim["run_out"] - length, max(zone_end, x_b) + sim["run_in"], zone_start
+    return zone_start - sim["run_in"], zone_end + sim["run_out"] + length, zone_start
+
+
+def simulation_size(data: dict) -> tuple[int, int]:
+    """(time steps, track dofs) of one simulation, at most (the farthest-reaching design) and
+    about (the dofs counted as ``lccopt.vti.track`` meshes: fine elements where the wheels
+    run, 2 m either side, coarse ones elsewhere, a node at every support)."""
+    sim, layout = data["simulation"], data["track"]["layout"]
+    lowest, highest, _ = run_extent(data)
+    run = max(highest - lowest, 0.0)
+    steps = int(np.ceil(run / (data["vehicle"]["speed"] * sim["time_step"])))
+    ers = float(sum(data["track"]["ers"]["slab_lengths"]))
+    total = layout["entry_length"] + ers + layout["exit_length"]
+    fine = min(total, run + vehicle_spec(data["vehicle"]).length + 4.0)
+    sleepers = (layout["entry_length"] + layout["exit_length"]) / layout["sleeper_spacing"]
+    supports = sleepers + len(data["track"]["ers"]["slab_lengths"]) + 1
+    rail_nodes = fine / sim["element_length"] + (total - fine) / sim["far_element_length"] \
+        + supports
+    slab_nodes = min(ers, fine) / sim["element_length"] + ers / sim["far_element_length"]
+    return steps, int(2 * rail_nodes + sleepers + 2 * slab_nodes)
+
+
+def simulation_memory(data: dict, steps: int, dofs: int) -> tuple[float, int]:
+    """(bytes, cached rows): about what one simulation of ``steps`` and ``dofs`` holds."""
+    vehicle = vehicle_spec(data["vehicle"])
+    rows = 0
+    if vehicle.type != "three-dof":     # two rows per element the wheels span, and the ends
+        rows = int(2 * (vehicle.length / data["simulation"]["element_length"] + 4))
+    return steps * BYTES_PER_STEP + dofs * (BYTES_PER_DOF + 8 * rows), rows
+
+
+def check_size(data: dict, err) -> None:
+    """One simulation stays within what a machine can hold and a worker can finish."""
+    sim = data["simulation"]
+    steps, dofs = simulation_size(data)
+    if steps > MAX_STEPS:
+        lowest, highest, _ = run_extent(data)
+        speed = data["vehicle"]["speed"]
+        raise err(("simulation", "time_step"),
+                  f"{sim['time_step']:g} s makes {steps:,} steps (the leading wheel runs "
+                  f"{highest - lowest:.3g} m at {speed:.3g} m/s); a simulation takes at most "
+                  f"{MAX_STEPS:,} steps (their histories fill the memory): time_step >= "
+                  f"{(highest - lowest) / speed / MAX_STEPS:.3g} s")
+    memory, rows = simulation_memory(data, steps, dofs)
+    if memory > MAX_MEMORY:
+        held = (f", and the {data['vehicle']['type']} keeps {rows:,} rows of them while its wheels "
+                f"cross the {sim['element_length']:g} m elements" if rows else "")
+        raise err(("simulation", "element_length"),
+                  f"one simulation would hold about {memory / 1e9:.2g} GB ({steps:,} steps, about "
+                  f"{dofs:,} track dofs{held}); at most {MAX_MEMORY / 1e9:g} GB: longer "
+                  f"elements (element_length, far_element_length), a shorter track or run")
+    if steps * dofs > MAX_STEP_DOFS:
+        raise err(("simulation",),
+                  f"{steps:,} steps of about {dofs:,} track dofs ({steps * dofs:.2g} in all) "
+                  f"is more than a simulation can do in reasonable time (at most "
+                  f"{MAX_STEP_DOFS:.0e}, about 7 minutes at 40 ns per step and dof): a longer "
+                  f"time_step or element_length, a shorter run or track")
+
+
+def check_layout_fits(data: dict, x: np.ndarray, variables) -> None:
+    """Spans, strengthened sleepers and the strip must fit the track (raises ValueError)."""
+    layout = data["track"]["layout"]
+    sim = data["simulation"]
+    groups: dict[str, list] = {}
+    for v, xi in zip(variables, x):
+        groups.setdefault(v.group, []).append(xi)
+    spans = np.array(groups["sleeper_spans"]) * ELEMENT_UNIT
+    ers_length = sum(data["track"]["ers"]["slab_lengths"])
+    strip = groups["type_ii_strip"][0] * ELEMENT_UNIT
+    if strip > ers_length + 1e-9:
+        raise ValueError(f"the Type II strip ({strip:g} m) is longer than the ERS "
+                         f"({ers_length:g} m)")
+    n_sleepers = int((layout["entry_length"] - spans.sum()) // layout["sleeper_spacing"]) \
+        + len(spans)
+    if n_sleepers < max(groups["strengthened_sleepers"][0], data["evaluation"]["sleepers"]):
+        raise ValueError(f"the entry side holds {n_sleepers} sleepers, fewer than the "
+                         f"strengthened sleepers or the evaluation zone ask for")
+    if len(groups["railpad_stiffness"]) > n_sleepers:  # the extra pads would sit on no sleeper
+        raise ValueError(f"{len(groups['railpad_stiffness'])} designed railpads, but the entry "
+                         f"side holds {n_sleepers} sleepers")
+    need = data["evaluation"]["sleepers"] * layout["sleeper_spacing"] + spans.sum() + sim["run_in"]
+    if need > layout["entry_length"] - 5.0:
+        raise ValueError(f"the evaluation zone and run-in ({need:g} m) do not fit the "
+                         f"{layout['entry_length']:g} m entry track with 5 m to spare")
+
+
+def check_design_space(data: dict, variables, err) -> None:
+    """The layout fits at the designs that reach farthest (upper bounds of the counts)."""
+    farthest = np.array([v.upper if v.group in ("sleeper_spans", "type_ii_strip",
+                                                "strengthened_sleepers")
+                         else v.reference for v in variables])
+    try:
+        check_layout_fits(data, farthest, variables)
+    except ValueError as exc:
+        raise err(("design",), f"at the upper bounds: {exc}") from None
+
+
+def check_optimisation(data: dict, err) -> None:
+    """Initial design within the budget, one worst value per objective of the ASF."""
+    opt = data["optimisation"]
+    if opt is None:
+        return
+    if opt["initial_points"] > opt["budget"]:
+        raise err(("optimisation", "initial_points"),
+                  f"{opt['initial_points']} initial points exceed the budget of {opt['budget']}")
+    worst = opt["asf"]["worst"]
+    n_obj = len(opt["objectives"])
+    n_each = len(data["conditions"] or []) if opt["conditions"] == "each" else 1
+    if n_obj * n_each > 1:
+        if worst is None:
+            raise err(("optimisation", "asf"),
+                      "missing key 'worst' (needed for two or more objectives)")
+        if len(worst) not in (n_obj, n_obj * n_each):
+            also = (f" or {n_obj * n_each} (one per objective and condition)"
+                    if n_each > 1 else "")
+            raise err(("optimisation", "asf", "worst"),
+                      f"expected {n_obj} values (one per objective){also}, got {len(worst)}")
+
+
+def check_design_size(sizes: list[tuple[int, int]], err) -> None:
+    """The simulations of one design (its conditions: ``sizes`` of each) together."""
+    steps = sum(s for s, _ in sizes)
+    work = sum(s * d for s, d in sizes)
+    if steps > MAX_DESIGN_STEPS:
+        raise err(("conditions",),
+                  f"the {len(sizes)} conditions take {steps:,} time steps per design in all; at "
+                  f"most {MAX_DESIGN_STEPS:,} (lccopt simulate holds every condition's histories "
+                  f"in memory): fewer conditions or longer time steps")
+    if work > MAX_DESIGN_STEP_DOFS:
+        raise err(("conditions",),
+                  f"the {len(sizes)} conditions take {work:.2g} steps x track dofs per design "
+                  f"in all; at most {MAX_DESIGN_STEP_DOFS:.0e} (about 35 minutes per design): "
+                  f"fewer conditions, a coarser time_step or element_length")
+
+
+def check_profile(data: dict, err, at: tuple) -> None:
+    """The rail profile of one simulation (``data["simulation"]["irregularity"]``, resolved):
+    a spectrum's band fits the track and its profile stays plausible; rows cover the track."""
+    value = data["simulation"].get("irregularity")
+    if not isinstance(value, dict):
+        return
+    length = track_length(data)
+    if "points" in value:
+        problem = cover_problem(profile_array(value["points"]), length)
+        if problem:
+            raise err(at, problem)
+        return
+    problem = spectrum_problem(value, length)
+    if problem:
+        raise err(at + (problem[0],), problem[1])
+    deepest = float(np.abs(spectrum_profile(value, length)[:, 1]).max())
+    if deepest > MAX_DIP:
+        raise err(at + ("amplitude_scale",),
+                  f"the {value['spectrum']} profile (seed {value['seed']}, wavelengths "
+                  f"{value['wavelengths'][0]:g}-{value['wavelengths'][1]:g} m, amplitude_scale "
+                  f"{value['amplitude_scale']:g}) reaches a dip of {deepest:.3g} m, beyond "
+                  f"{MAX_DIP:g} m: a narrower band of wavelengths or a smaller amplitude_scale")
+
+
+def spectrum_problem(spec: dict, length: float) -> tuple[str, str] | None:
+    """(key, message) of the first problem of a spectrum irregularity on a track of ``length``,
+    or None. Mesh and time-step limits are checked with :func:`check_accuracy`."""
+    lo, hi = spec["wavelengths"]
+    if not lo < hi:
+        return "wavelengths", f"[min, max] must increase, got [{lo:g}, {hi:g}] m"
+    if hi > length + 1e-9:
+        return "wavelengths", (f"the longest wavelength {hi:g} m exceeds the track ({length:g} m), "
+                               f"over which the profile is generated")
+    if len(band_bins(length, (lo, hi))) == 0:
+        return "wavelengths", (f"the band [{lo:g}, {hi:g}] m holds no wavelength {length:g} m / m "
+                               f"(m whole) of the {length:g} m track: widen it")
+    return None

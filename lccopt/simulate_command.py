@@ -1,0 +1,139 @@
+"""``lccopt simulate``: one design, its objectives on screen, histories in HDF5, PNG plots
+(drawn by ``lccopt.report.simulation``).
+
+The simulation is the workers' (``lccopt.problem.evaluate``, or the stand-in that
+``LCCOPT_EVALUATOR`` names, as for ``optimise``). Objectives that are not finite numbers are
+never shown as a result: the command stops with one line and writes nothing.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from pathlib import Path
+
+import typer
+
+from . import machine
+from .config import design_items, load_case, parse_design
+from .store import write_evaluation
+from .terminal import wrap_items
+from .vti.response import OBJECTIVE_DOC, Evaluation, objective_display
+
+
+def _echo_design(case, case_path: Path, x) -> None:
+    """The case and the design simulated, in lines that fit an 80-column terminal."""
+    typer.echo(f"case '{case.name}' ({case_path})")
+    typer.echo("\n".join(wrap_items(design_items(case, x), "  design ")))
+
+
+def run_simulate(case_path: Path, design: str | None, out: Path | None, plots: bool,
+                 force: bool = False) -> Evaluation:
+    from .errors import UsageError
+
+    case = load_case(case_path)
+    try:
+        x = case.reference if design is None else parse_design(design, case)
+    except ValueError as exc:
+        raise UsageError(f"--design: {exc}") from None
+    out = out or Path("runs") / f"{case.name}-simulate"
+    if (out / "simulation.h5").exists() and not force:
+        raise UsageError(f"{out} already holds a simulation: choose another --out, or add --force "
+                         f"to replace it")
+    evaluate = _simulator()
+    if case.conditions:
+        return _simulate_conditions(case, case_path, x, out, plots, evaluate)
+    t0 = time.perf_counter()
+    ev = evaluate(case, x)
+    wall = time.perf_counter() - t0
+    _check_finite(ev.objectives, case, x)
+    info = ev.info
+    _echo_design(case, case_path, x)
+    typer.echo(f"static wheel load {info['static_wheel_load'] / 1e3:.2f} kN (on a rigid rail)")
+    typer.echo(f"Hertz spring linearised at P = {info['hertz_load'] / 1e3:.1f} kN: "
+               f"k_w = {info['contact_stiffness'] / 1e9:.3f} GN/m")
+    typer.echo(f"{info['n_dofs']} track dofs, {info['n_steps']} steps of "
+               f"{info['time_step'] * 1e3:g} ms, wheel from {info['x_start']:.1f} m to "
+               f"{info['x_end']:.1f} m, {wall:.2f} s")
+    for k, v in ev.objectives.items():
+        scale, unit = objective_display(k)
+        typer.echo(f"  {k:<6} = {v * scale:10.5g} {unit:<2}  {OBJECTIVE_DOC[k]}")
+    if info["contact_loss_steps"]:
+        typer.echo(f"WARNING: contact lost (force <= 0) in {info['contact_loss_steps']} steps, "
+                   f"first at {info['contact_loss_first_position']:.2f} m; the linear contact "
+                   f"spring pulled the wheel", err=True)
+    out.mkdir(parents=True, exist_ok=True)
+    h5 = write_evaluation(out / "simulation.h5", ev, x, case.names,
+                          {"case": case.resolved, **machine.describe()})
+    typer.echo(f"histories: {h5}")
+    if plots:
+        from .report.simulation import simulation_figures
+
+        for p in simulation_figures(ev, case.name, out):
+            typer.echo(f"plot: {p}")
+    return ev
+
+
+def _simulate_conditions(case, case_path: Path, x, out: Path, plots: bool, evaluate) -> Evaluation:
+    """A case with traffic conditions: one simulation per condition, their objectives and the
+    combination the optimiser would minimise; one file with every condition."""
+    from .problem import combine_conditions
+    from .store import write_condition_evaluations
+
+    names = [c.name for c in case.conditions]
+    _echo_design(case, case_path, x)
+    keys = list(OBJECTIVE_DOC)
+    head = "".join(f"{k + ' [' + objective_display(k)[1] + ']':>12}" for k in keys)
+    typer.echo(f"{'condition':<22}{head}{'time':>7}")
+    evs = []
+    for i, c in enumerate(case.conditions):
+        t0 = time.perf_counter()
+        ev = evaluate(case.condition_case(i), x)
+        _check_finite(ev.objectives, case, x, c.name)
+        evs.append(ev)
+        vals = "".join(f"{v * objective_display(k)[0]:12.5g}" for k, v in ev.objectives.items())
+        typer.echo(f"{c.name[:21]:<22}{vals}{time.perf_counter() - t0:6.2f}s")
+        if ev.info.get("contact_loss_steps"):
+            typer.echo(f"WARNING: {c.name}: contact lost (force <= 0) in "
+                       f"{ev.info['contact_loss_steps']} steps", err=True)
+    weights = [c.weight for c in case.conditions]
+    combined = combine_conditions([e.objectives for e in evs], names, weights,
+                                  case.condition_mode)
+    label = {"worst": "worst case", "mean": "weighted mean",
+             "each": "worst case"}[case.condition_mode]
+    vals = "".join(f"{combined[k] * objective_display(k)[0]:12.5g}" for k in keys)
+    typer.echo(f"{label:<22}{vals}")
+    out.mkdir(parents=True, exist_ok=True)
+    h5 = write_condition_evaluations(out / "simulation.h5", evs, x, case.names, names,
+                                     weights, combined,
+                                     {"case": case.resolved, **machine.describe()})
+    typer.echo(f"histories: {h5}")
+    if plots:
+        from .report.simulation import simulation_figures
+
+        for c, ev in zip(case.conditions, evs):
+            (out / c.name).mkdir(exist_ok=True)
+            for p in simulation_figures(ev, case.name, out / c.name):
+                typer.echo(f"plot: {p}")
+    return Evaluation(combined, evs[0].histories, evs[0].info)
+
+
+def _simulator():
+    """The function that simulates ``(case, x)``: the workers' (lccopt.problem.evaluate) or
+    the stand-in named by LCCOPT_EVALUATOR."""
+    from .engine.worker import evaluator_spec, load_evaluator
+
+    return load_evaluator(evaluator_spec())
+
+
+def _check_finite(objectives: dict, case, x, condition: str | None = None) -> None:
+    """Stop (exit 2, one line, nothing written) when an objective is not a finite number."""
+    from .errors import UsageError
+
+    bad = [f"{k} = {v!r}" for k, v in objectives.items()
+           if not isinstance(v, (int, float)) or not math.isfinite(v)]
+    if bad:
+        under = f" under condition {condition}" if condition else ""
+        raise UsageError(f"the simulation of {case.name}{under} (design "
+                         f"{', '.join(design_items(case, x))}) gave non-finite objectives: "
+                         f"{', '.join(bad)}; nothing written")

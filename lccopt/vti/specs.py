@@ -1,0 +1,169 @@
+"""What one simulation takes: typed, immutable inputs in SI units.
+
+The simulator reads only these. The config layer (``lccopt.config``) builds them from a
+validated case; tests and scripts may build them directly. Nothing here knows about YAML,
+files or optimisation.
+
+* :class:`VehicleSpec`: the vehicle on one rail, every mass and suspension value the share of
+  one wheel (``lccopt.vti.vehicle`` explains the reading);
+* :class:`TrackSpec`: rail, layout, ballast track, strengthened sleepers and the ERS;
+* :class:`SimulationSettings`: time step, mesh, run-in and run-out, direction;
+* :class:`EvaluationZones`: where the objectives are measured;
+* :class:`TrackDesign`: one design of the entry side next to the interface (the design vector
+  split into its groups);
+* :class:`Scenario`: one simulation's inputs but the design (vehicle, track, settings, zones
+  and the rail profile).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+# [m] sleeper spans and the Type II strip are counted in 0.1 m elements (paper, Table 4)
+ELEMENT_UNIT = 0.1
+VEHICLE_TYPES = ("three-dof", "bogie", "half-car")
+
+
+@dataclass(frozen=True, kw_only=True)
+class VehicleSpec:
+    """The vehicle on one rail (per-wheel values; ``lccopt.vti.vehicle``)."""
+    type: str = "three-dof"         # three-dof, bogie or half-car
+    model: str = "paper"            # three-dof only: paper (Eq. A.3 as printed) or quarter-car
+    speed: float                    # [m/s]
+    carbody_mass: float             # [kg]
+    bogie_mass: float               # [kg]
+    wheelset_mass: float            # [kg]
+    primary_stiffness: float        # [N/m]
+    primary_damping: float          # [N s/m]
+    secondary_stiffness: float      # [N/m]
+    secondary_damping: float        # [N s/m]
+    hertz_constant: float           # G [m/N^(2/3)]
+    hertz_load: float               # P [N] at which the Hertz spring is linearised
+    gravity: float = 9.81           # [m/s^2]
+    wheelbase: float | None = None              # bogie, half-car [m]
+    bogie_pitch_inertia: float | None = None    # bogie, half-car [kg m^2]
+    carbody_pitch_inertia: float | None = None  # half-car [kg m^2]
+    bogie_distance: float | None = None         # half-car [m]
+
+    @property
+    def length(self) -> float:
+        """Distance from the leading to the last wheel [m]."""
+        if self.type == "bogie":
+            return float(self.wheelbase)
+        if self.type == "half-car":
+            return float(self.bogie_distance + self.wheelbase)
+        return 0.0
+
+
+@dataclass(frozen=True)
+class SpringDamper:
+    stiffness: float
+    damping: float
+
+
+@dataclass(frozen=True, kw_only=True)
+class Rail:
+    youngs_modulus: float   # [Pa]
+    second_moment: float    # [m^4]
+    area: float             # [m^2]
+    density: float          # [kg/m^3]
+
+
+@dataclass(frozen=True, kw_only=True)
+class Layout:
+    entry_length: float     # ballast before the ERS [m]
+    exit_length: float      # ballast after it [m]
+    sleeper_spacing: float  # [m]
+    exit_first_span: float  # slab edge to the first exit sleeper [m]
+
+
+@dataclass(frozen=True, kw_only=True)
+class StrengthenedSleeper:
+    mass: float
+    support_stiffness: float
+    support_damping: float
+
+
+@dataclass(frozen=True, kw_only=True)
+class Compound:
+    stiffness: float        # per metre of rail [N/m^2]
+    damping_ratio: float
+
+
+@dataclass(frozen=True, kw_only=True)
+class Slab:
+    youngs_modulus: float
+    density: float
+    width_bottom: float     # whole slab [m]
+    width_top: float
+    height: float
+
+
+@dataclass(frozen=True, kw_only=True)
+class ERS:
+    slab_lengths: tuple[float, ...]     # in running order, not joined [m]
+    compound: Compound
+    type_ii_compound: Compound
+    share_per_rail: float               # of the whole-track slab and foundation
+    slab: Slab
+    foundation: SpringDamper            # per metre of slab, whole slab
+
+    @property
+    def length(self) -> float:
+        return float(sum(self.slab_lengths))
+
+
+@dataclass(frozen=True, kw_only=True)
+class TrackSpec:
+    """One rail of the track: values per rail seat or per metre of rail (``lccopt.vti.track``)."""
+    rail: Rail
+    layout: Layout
+    railpad: SpringDamper
+    sleeper_mass: float
+    support: SpringDamper
+    strengthened_sleeper: StrengthenedSleeper
+    ers: ERS
+
+    @property
+    def length(self) -> float:
+        """Length of the modelled track [m] (the same for every design)."""
+        return float(self.layout.entry_length + self.ers.length + self.layout.exit_length)
+
+
+@dataclass(frozen=True, kw_only=True)
+class SimulationSettings:
+    time_step: float            # Newmark time step [s]
+    element_length: float       # rail elements where the wheels run [m]
+    far_element_length: float   # longest rail element elsewhere [m]
+    run_in: float               # run before the evaluation zone [m]
+    run_out: float              # run after the force zone [m]
+    direction: str = "enter"    # enter (towards +x, into the ERS) or leave (towards -x)
+
+
+@dataclass(frozen=True, kw_only=True)
+class EvaluationZones:
+    sleepers: int                       # zone sleepers next to the interface
+    force_zone_after_interface: float   # the force zone ends this far into the ERS [m]
+
+
+@dataclass(frozen=True, kw_only=True, eq=False)
+class TrackDesign:
+    """One design of the entry side next to the interface (paper, Table 4)."""
+    railpad_stiffness: np.ndarray   # x_r1 (farthest) .. x_rN (nearest) [N/m]
+    strengthened_sleepers: float    # x_n, whole number
+    sleeper_spans: np.ndarray       # x_s1 (farthest) .. x_sM (slab edge to first sleeper), elements
+    type_ii_strip: float            # x_l, elements from the entry slab edge
+
+
+@dataclass(frozen=True, kw_only=True)
+class Scenario:
+    """One simulation's inputs but the design: a vehicle running over a track."""
+    vehicle: VehicleSpec
+    track: TrackSpec
+    settings: SimulationSettings
+    zones: EvaluationZones
+    # (N, 2) positions [m] and dips [m, downward positive] of the rail profile, increasing
+    # positions; None: a smooth rail
+    irregularity: np.ndarray | None = field(default=None, compare=False, repr=False)
