@@ -82,3 +82,24 @@ def fake_env(monkeypatch):
     """Use the analytic stand-in in workers started from this process."""
     monkeypatch.setenv("LCCOPT_EVALUATOR", FAKE)
     return {"LCCOPT_EVALUATOR": FAKE}
+
+
+def pinned_numerics_env() -> dict:
+    """The environment that makes floating point the same on any x86-64 CPU with AVX2:
+    OpenBLAS's Haswell kernels and numpy's X86_V3 loops only (docs/runs.md, Reproducibility).
+    Skips the test where that baseline is not available (not x86-64, no AVX2, no OpenBLAS)."""
+    import platform
+
+    from lccopt import machine
+
+    if platform.machine() not in ("x86_64", "AMD64") or machine.describe()["blas_kernels"] == "unknown":
+        pytest.skip("needs OpenBLAS on x86-64 to pin the floating point of a stored run")
+    try:
+        from numpy._core._multiarray_umath import __cpu_dispatch__, __cpu_features__
+    except ImportError:
+        pytest.skip("numpy does not say which SIMD targets it dispatches to")
+    if not __cpu_features__.get("X86_V3"):
+        pytest.skip("needs an x86-64-v3 (AVX2) CPU to repeat a stored run's floating point")
+    above = [f for f in __cpu_dispatch__ if f != "X86_V3"]
+    return {"OPENBLAS_CORETYPE": "Haswell", "NPY_DISABLE_CPU_FEATURES": " ".join(above),
+            "OPENBLAS_NUM_THREADS": "1"}

@@ -9,7 +9,10 @@ bit for bit (tests/data/golden)."""
 from __future__ import annotations
 
 import json
+import os
 import shutil
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -21,7 +24,8 @@ from lccopt.engine.runner import optimise, restore, resume
 from lccopt.optim.settings import Settings
 from lccopt.problem import Problem
 
-from .conftest import FAKE, REAL, assert_same_evaluations, cli_run, read_table, write_case
+from .conftest import (FAKE, REAL, REPO, assert_same_evaluations, cli_run, pinned_numerics_env,
+                       read_table, write_case)
 
 
 def _events(run):
@@ -214,17 +218,12 @@ def test_the_golden_journals_cover_restarts_and_a_subspace_phase():
 @pytest.mark.parametrize("name", GOLDEN_RUNS)
 def test_a_golden_journal_resumes_to_its_stored_continuation_bit_for_bit(name):
     """The stopped run's journal, replayed, then carried on through the stored rest of the
-    run (each ``asked`` line checked against what the optimiser proposes), from the journal
-    alone and from a snapshot of the optimiser's state at the cut (what state.json holds)."""
-    prefix = _lines(GOLDEN / name / "journal.jsonl")
-    events = prefix + _lines(GOLDEN / name / "continuation.jsonl")
-    pb = Problem.from_case(load_case(GOLDEN / name / "case.yaml"))
-    stopped, _ = restore(pb, prefix, None)
-    snapshot = {"seq": len(prefix) - 1, "strategy": json.loads(json.dumps(stopped.state_dict()))}
-    resumed, table = restore(pb, events, snapshot)
-    replayed, _ = restore(pb, events, None)
-    assert resumed.done and table.n_done == pb.budget
-    assert _state(resumed) == _state(replayed)
+    run, from the journal alone and from a snapshot at the cut (tests/engine/golden_check.py),
+    in a process whose floating point is pinned as the golden runs' was."""
+    env = {**os.environ, "PYTHONPATH": str(REPO), **pinned_numerics_env()}
+    r = subprocess.run([sys.executable, "-m", "tests.engine.golden_check", name], env=env, cwd=REPO,
+                       capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stderr[-3000:]
 
 
 @pytest.mark.parametrize("name", GOLDEN_RUNS)
@@ -241,7 +240,7 @@ def test_lccopt_resume_of_a_golden_run_writes_its_stored_continuation(tmp_path, 
     # --allow-changed-case: the run's copy of the case, resolved again by a later config
     # layer, may read differently while meaning the same (the optimiser is what is pinned)
     r = cli_run("resume", run, "--workers", str(workers), "--allow-changed-case",
-                env={"LCCOPT_EVALUATOR": FAKE})
+                env={"LCCOPT_EVALUATOR": FAKE, **pinned_numerics_env()})
     assert r.returncode == 0, r.stderr
     want = prefix + _lines(GOLDEN / name / "continuation.jsonl")
     got = _events(run)
