@@ -36,6 +36,15 @@ def read_evaluation(path: str | Path) -> tuple[np.ndarray, Evaluation]:
         return f["design"][()], _read_group(f)
 
 
+def has_time_histories(path: str | Path) -> bool:
+    """True if the file holds an evaluation's time histories (not only per-sleeper values)."""
+    try:
+        with h5_open_owned(path) as f:
+            return "histories" in f and "contact_force" in f["histories"]
+    except (OSError, ValueError, RuntimeError):
+        return False
+
+
 def evaluation_problem(path: str | Path, i: int, x) -> str | None:
     """Why the file at ``path`` is not a complete evaluation ``i`` of design ``x`` (missing,
     damaged, a link, or another evaluation's file put in its place); None if it is."""

@@ -84,7 +84,8 @@ class ConditionPool:
                 done[c] = kept
                 continue
             out = None if task.out_path is None else str(self.run_path / part_name(task.id, c))
-            self._queue.append(Task(task.id, task.x, task.phase, task.restart, out, condition=c))
+            self._queue.append(Task(task.id, task.x, task.phase, task.restart, out, condition=c,
+                                    histories=task.histories))
         self._pump()
 
     def wait(self, timeout: float) -> list[Outcome]:

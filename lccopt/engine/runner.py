@@ -543,6 +543,8 @@ class Engine:
         self._old_handlers: dict = {}
         self._restore: list[int] = []          # ids whose lost evals/ file is simulated again
         self._restoring: set[int] = set()
+        self.histories = getattr(case, "histories", "best")
+        self._histories_done: set[int] = set()  # designs whose histories were made at the end
 
     # -- signals ---------------------------------------------------------------------------------
     def _on_signal(self, signum, frame) -> None:
@@ -611,6 +613,8 @@ class Engine:
                 if time.monotonic() - self._snapshot_at > SNAPSHOT_EVERY:
                     self._snapshot()
                 if self.executor.running == 0:
+                    if not self.stop and self.strategy.done and not self._restore and self._best_lacks_histories():
+                        continue  # its histories are simulated again (no budget), then the run ends
                     if self.stop or (self.strategy.done and not self._restore):
                         break
                     if submitted == 0 and self.executor.free() > 0:
@@ -661,6 +665,21 @@ class Engine:
             p.log(f"    lccopt resume {self.rd.path}")
             raise typer.Exit(130)
         self._summary(wall)
+
+    def _best_lacks_histories(self) -> bool:
+        """With ``histories: best``, queue the best design again when its file has no time
+        histories (once all results are in); True if it was queued."""
+        best = self.table.best()
+        if self.histories != "best" or best is None or best["id"] in self._histories_done \
+                or self.table.pending_ids():
+            return False
+        self._histories_done.add(best["id"])
+        from ..store import has_time_histories
+
+        if has_time_histories(self.rd.path / eval_name(best["id"])):
+            return False
+        self._restore.append(best["id"])
+        return True
 
     def _fill(self, requeue: list[int]) -> int:
         """Give every free worker a point; then, with all workers busy, propose the next point
@@ -739,7 +758,12 @@ class Engine:
         out = None
         if self.executor.kind == "local":
             out = str(self.rd.evals_dir() / Path(eval_name(row["id"])).name)
-        self.executor.submit(Task(row["id"], list(row["x"]), row["phase"], row["restart"], out))
+        # time histories: every design's, or the reference design's and, at the end, the best's
+        # (simulated again then: a few MB per design saved; docs/runs.md, "Disk use")
+        keep = self.histories == "all" or (self.histories == "best" and (row["id"] == 0 or row["id"] in
+                                                                          self._restoring))
+        self.executor.submit(Task(row["id"], list(row["x"]), row["phase"], row["restart"], out,
+                                  histories=keep))
 
     def _record(self, o: Outcome) -> None:
         if o.fault is not None:  # the machine refused a write: stop, the evaluation stays pending
@@ -806,7 +830,8 @@ class Engine:
             return
         same = all(abs(o.objectives[k] - v) <= 1e-9 * max(1.0, abs(v))
                    for k, v in row["objectives"].items() if k in o.objectives)
-        self.table.apply(self.journal.append("restored", id=o.id, file=eval_name(o.id), same=same))
+        self.table.apply(self.journal.append("restored", id=o.id, file=eval_name(o.id), same=same,
+                                             why="histories" if o.id in self._histories_done else "lost"))
         if not same:
             self.progress.log(f"#{o.id} simulated again gives other objectives than the journal's "
                               f"(another machine or library version?); the journal's values are kept")

@@ -68,6 +68,23 @@ class Task:
     restart: int = 0
     out_path: str | None = None  # local pool: the worker writes evals/NNNNNN.h5 itself
     condition: int = -1          # traffic condition (engine/conditions.py); -1: the case as it is
+    histories: bool = True       # keep the time histories (else only the per-sleeper ones)
+
+
+# Histories small enough to keep for every design (one value per sleeper, not per time step):
+# the sleeper-energy profile and the track's layout.
+PER_SLEEPER = ("sleeper_position", "sleeper_energy", "sleeper_strengthened", "entry_sleeper_position",
+               "entry_pad_stiffness", "entry_strengthened")
+
+
+def kept(ev, histories: bool):
+    """The evaluation as it is stored: whole, or without its time histories."""
+    if histories:
+        return ev
+    from ..vti.response import Evaluation
+
+    return Evaluation(ev.objectives, {k: v for k, v in (ev.histories or {}).items() if k in PER_SLEEPER},
+                      ev.info)
 
 
 @dataclass
@@ -119,7 +136,7 @@ def run_task(case, task: Task, evaluator: Callable, worker: str) -> Outcome:
         try:
             from ..store import write_evaluation
 
-            write_evaluation(task.out_path, ev, task.x, case.names,
+            write_evaluation(task.out_path, kept(ev, task.histories), task.x, case.names,
                              attrs={"id": task.id, "phase": task.phase, "restart": task.restart,
                                     "worker": worker, "wall_time": wall, "condition": task.condition,
                                     **out.machine})
@@ -132,7 +149,7 @@ def run_task(case, task: Task, evaluator: Callable, worker: str) -> Outcome:
             else:
                 out.objectives, out.error = None, f"could not write {task.out_path}: {exc}"
     else:
-        out.evaluation = ev
+        out.evaluation = kept(ev, task.histories)
     return out
 
 

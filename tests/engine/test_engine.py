@@ -57,7 +57,8 @@ def test_run_directory_and_results_layout(tmp_path, capsys):
         assert t["value"][i] == pytest.approx(pb.value(obj, point), rel=1e-12)
     with h5py.File(run / "results.h5", "r") as f:  # external links to the histories
         np.testing.assert_array_equal(f["evals/000003/design"][()], t["x"][3])
-        assert "contact_force" in f["evals/000003/histories"]
+        assert "contact_force" in f["evals/000000/histories"]   # the reference's time histories
+        assert "contact_force" in f[f"evals/{best:06d}/histories"]   # and the best's (histories: best)
     for i, name in enumerate(t["file"]):
         x, ev = read_evaluation(run / name)
         np.testing.assert_array_equal(x, t["x"][i])
