@@ -1,31 +1,47 @@
-"""Throughput of the run engine against the number of local workers.
+"""Throughput of the run engine against the number of workers, and the time of a proposal.
 
     python benchmarks/throughput.py                       # quickstart case, 40 evaluations, 1 and 2 workers
     python benchmarks/throughput.py --budget 60 --workers 1 2 4
     python benchmarks/throughput.py --cheap --workers 2 --repeat 3   # the tests' coarse simulation
     python benchmarks/throughput.py --conditions 1 2 6 --workers 1 2  # traffic conditions per design
 
-For each worker count, runs the case (real simulator) into a temporary run directory and
-reads the engine's own accounting from the journal's ``session`` line:
+Scale on any machine, with the stand-in evaluator (benchmarks/standin.py: it sleeps, so 128
+workers need no 128 cores):
+
+    python benchmarks/throughput.py --standin 0.15 --workers 2 8 16 32 64 --budget 240 --from 80
+    python benchmarks/throughput.py --standin 0.15 --dask --workers 16 64 --budget 240 --from 80
+    python benchmarks/throughput.py --standin 0.5 --case configs/traffic.yaml --workers 64 \
+        --budget 40 --from 10 --initial 10
+    python benchmarks/throughput.py --asks --case configs/moo.yaml --points 1000 --batch 1 16 64
+
+For each worker count, runs the case into a temporary run directory and reads the engine's
+own accounting from the journal's ``session`` line:
 
 * wall: the ask/evaluate/tell loop (worker start-up excluded, printed apart);
-* throughput = evaluations / wall, parallel efficiency = throughput(n) / (n * throughput(1));
+* throughput = evaluations / wall; with ``--from N``, the marginal throughput between the
+  N-th committed evaluation and the last (the journal's commit times: start-up, the initial
+  design and the reference design running alone left out);
+* efficiency: with ``--standin D``, throughput / (workers / D) (what the workers could do if
+  never idle); else throughput(n) / (n * throughput(first count));
 * optimiser = time in ask/tell; bookkeeping = journal, state snapshots, results.h5, files
   written by the engine process; overhead = (optimiser + bookkeeping) / wall;
-* mean simulation time per evaluation (measured in the worker);
-* busy = total simulation time / (workers * wall): the share of worker time spent simulating
-  (1 - busy is the time workers sat idle or were being handed their next point);
+* busy = total evaluation time / (workers * wall): the share of worker time spent evaluating;
 * held = worker time idle because the next proposal waited for an earlier evaluation still
-  running (the cost of the reproducible order, lccopt/engine/schedule.py), share of
-  workers * wall; nan for lccopt versions without the rule.
+  running (the reproducible order, lccopt/engine/schedule.py), share of workers * wall.
+
+``--dask`` starts a Dask scheduler and ``dask worker --nworkers N --nthreads 1`` as
+subprocesses of this machine (N = the worker count) and runs through ``--scheduler``.
+``--profile`` runs the engine under cProfile and prints where its time goes.
+
+``--asks`` measures the optimiser alone (no engine, no processes): a Strategy on the case's
+design space told the stand-in's values, asked in blocks of ``--batch`` points; prints the
+time of an ask (per block and per point) at each multiple of 100 points.
 
 ``--conditions`` gives every design that many traffic conditions (VIRM at speeds from 80 to
 160 km/h, both directions; one task per design and condition) and reports designs and
-simulations per second.
-
-``--cheap`` uses the tests' coarse simulation settings (tests/conftest.py, ~0.1-0.2 s per
-evaluation), where the engine's own costs and any waiting show most; ``--repeat`` runs each
-worker count several times (interleaved) and prints every run and the median.
+simulations per second. ``--cheap`` uses the tests' coarse simulation settings
+(tests/conftest.py, ~0.1-0.2 s per evaluation); ``--repeat`` runs each worker count several
+times (interleaved) and prints every run and the median.
 """
 
 from __future__ import annotations
@@ -36,7 +52,10 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")  # as the lccopt command does (lccopt/cli.py)
 
 import argparse
+import contextlib
 import json
+import subprocess
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -44,7 +63,7 @@ from pathlib import Path
 import numpy as np
 
 REPO = Path(__file__).resolve().parents[1]
-
+STANDIN = "benchmarks.standin:evaluate"
 
 CHEAP = """\
 simulation:
@@ -66,8 +85,45 @@ def conditions_yaml(n: int) -> str:
         for i, v in enumerate(speeds))
 
 
-def run_once(case: Path, budget: int, initial: int, workers: int, root: Path, cheap: bool = False,
-             tag: str = "", conditions: int = 1) -> dict:
+@contextlib.contextmanager
+def dask_cluster(n: int, env: dict):
+    """A scheduler and ``dask worker --nworkers n --nthreads 1`` as subprocesses; its address."""
+    from distributed import Client
+
+    with tempfile.TemporaryDirectory(prefix="lccopt-dask-") as tmp:
+        sfile = Path(tmp) / "scheduler.json"
+        penv = {**os.environ, **env, "PYTHONPATH": str(REPO)}
+        common = ["--no-dashboard"]
+        sched = subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_scheduler", "--port", "0",
+                                  "--scheduler-file", str(sfile), *common], env=penv, cwd=REPO,
+                                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        workers = None
+        try:
+            while not sfile.exists():
+                time.sleep(0.1)
+            time.sleep(0.2)
+            address = json.loads(sfile.read_text())["address"]
+            workers = subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_worker", address,
+                                        "--nworkers", str(n), "--nthreads", "1", "--memory-limit", "0",
+                                        *common], env=penv, cwd=REPO,
+                                       stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+            with Client(address, set_as_default=False) as c:
+                c.wait_for_workers(n, timeout=600)
+            yield address
+        finally:
+            for p in (workers, sched):
+                if p is not None:
+                    p.terminate()
+            for p in (workers, sched):
+                if p is not None:
+                    try:
+                        p.wait(30)
+                    except subprocess.TimeoutExpired:
+                        p.kill()
+
+
+def run_once(case: Path, budget: int, initial: int, workers: int, root: Path, args, tag: str = "",
+             conditions: int = 1) -> dict:
     from lccopt.engine.runner import optimise
 
     name = f"throughput-w{workers}-c{conditions}{tag}"
@@ -75,20 +131,119 @@ def run_once(case: Path, budget: int, initial: int, workers: int, root: Path, ch
     # the worst over several conditions lies above the one-condition case's ASF worst values
     worst = "  asf:\n    worst: [50000.0, 5.0]\n" if conditions > 1 else ""
     path.write_text(f"extends: {case.resolve()}\nname: {name}\noptimisation:\n"
-                    f"  budget: {budget}\n  initial_points: {initial}\n" + worst + (CHEAP if cheap else "")
-                    + conditions_yaml(conditions), encoding="utf-8")
+                    f"  budget: {budget}\n  initial_points: {initial}\n" + worst
+                    + (CHEAP if args.cheap else "") + conditions_yaml(conditions), encoding="utf-8")
+    evaluator = STANDIN if args.standin else None
+    env = {"LCCOPT_STANDIN_SECONDS": str(args.standin)} if args.standin else {}
+    os.environ.update(env)
     t0 = time.perf_counter()
-    run = optimise(path, workers=workers, runs=root / "runs", progress=False)
-    total = time.perf_counter() - t0
+    with contextlib.ExitStack() as stack:
+        scheduler = stack.enter_context(dask_cluster(workers, env)) if args.dask else None
+        t0 = time.perf_counter()
+        kw = dict(runs=root / "runs", progress=False, evaluator=evaluator)
+        if args.profile:
+            import cProfile
+            import pstats
+
+            prof = cProfile.Profile()
+            run = prof.runcall(optimise, path, workers=None if args.dask else workers,
+                               scheduler=scheduler, **kw)
+            pstats.Stats(prof).sort_stats("cumulative").print_stats(45)
+        else:
+            run = optimise(path, workers=None if args.dask else workers, scheduler=scheduler, **kw)
+        total = time.perf_counter() - t0
     events = [json.loads(line) for line in (run / "journal.jsonl").read_text().splitlines()]
     session = next(e for e in events if e["event"] == "session")
-    sims = [e["wall_time"] for e in events if e["event"] in ("evaluated", "failed")]
-    return {"workers": workers, "conditions": conditions,
-            "evaluations": session["evaluations"], "wall": session["wall_time"],
-            "startup": total - session["wall_time"], "optimiser": session["optimiser_time"],
+    done = [e for e in events if e["event"] in ("evaluated", "failed")]
+    sims = [e["wall_time"] for e in done]
+    wall = session["wall_time"]
+    thr = session["evaluations"] / wall
+    if args.start and len(done) > args.start + 1:
+        at = [e["at"] for e in done]
+        thr = (len(at) - args.start) / (at[-1] - at[args.start - 1])
+    return {"workers": workers, "conditions": conditions, "thr": thr,
+            "evaluations": session["evaluations"], "wall": wall,
+            "startup": total - wall, "optimiser": session["optimiser_time"],
             "bookkeeping": session["bookkeeping_time"], "sim_mean": float(np.mean(sims)),
-            "busy": float(np.sum(sims)) / (workers * session["wall_time"]),
-            "held": session.get("held_time", float("nan")) / (workers * session["wall_time"])}
+            "busy": float(np.sum(sims)) / (workers * wall),
+            "held": session.get("held_time", float("nan")) / (workers * wall),
+            "batch": next((e.get("batch", 1) for e in events if e["event"] == "schedule"), 1)}
+
+
+def throughput(args) -> None:
+    keys = [(w, c) for c in args.conditions for w in args.workers]
+    runs: dict[tuple, list[dict]] = {key: [] for key in keys}
+    with tempfile.TemporaryDirectory(prefix="lccopt-throughput-") as tmp:
+        for k in range(args.repeat):
+            for w, c in keys:
+                r = run_once(args.case, args.budget, args.initial, w, Path(tmp), args, f"-{k}", c)
+                runs[(w, c)].append(r)
+                print(f"workers {w}, conditions {c}: {r['evaluations']} designs in {r['wall']:.1f} s "
+                      f"(+{r['startup']:.1f} s start-up and summary), evaluations {r['sim_mean']:.3f} s "
+                      f"mean per design, {r['thr']:.1f}/s, busy {r['busy']:.2f}, held {r['held']:.3f}",
+                      flush=True)
+    rows = []
+    for w, c in keys:
+        rs = runs[(w, c)]
+        rows.append({"workers": w, "conditions": c, **{
+            k: float(np.median([r[k] for r in rs]))
+            for k in ("thr", "busy", "held", "optimiser", "bookkeeping", "wall", "evaluations", "batch")}})
+    how = (f"stand-in evaluations of {args.standin} s" if args.standin
+           else "cheap simulation" if args.cheap else "simulator")
+    print(f"\ncase {args.case.name} ({how}, {'Dask' if args.dask else 'local pool'}), budget "
+          f"{args.budget} ({args.initial} initial), {'marginal from evaluation ' + str(args.start) if args.start else 'whole loop'}"
+          f", median of {args.repeat}")
+    print("| conditions | workers | batch | designs/s | simulations/s | efficiency | busy | held | "
+          "optimiser [s] | bookkeeping [s] | overhead [% wall] |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    for r in rows:
+        if args.standin:
+            eff = r["thr"] * r["conditions"] * args.standin / r["workers"]
+        else:
+            one = next(q for q in rows if q["conditions"] == r["conditions"])  # first worker count
+            eff = r["thr"] / (r["workers"] * one["thr"] / one["workers"])
+        over = 100.0 * (r["optimiser"] + r["bookkeeping"]) / r["wall"]
+        print(f"| {r['conditions']} | {r['workers']} | {r['batch']:.0f} | {r['thr']:.2f} | "
+              f"{r['thr'] * r['conditions']:.1f} | {eff:.2f} | {r['busy']:.2f} | {r['held']:.3f} | "
+              f"{r['optimiser']:.2f} | {r['bookkeeping']:.2f} | {over:.1f} |")
+
+
+def asks(args) -> None:
+    """Time of the optimiser's asks against the number of points (no engine)."""
+    sys.path.insert(0, str(REPO))
+    from benchmarks.standin import objectives
+    from lccopt.config import load_case
+    from lccopt.problem import Problem
+
+    case = load_case(args.case)
+    pb = Problem.from_case(case)
+    print(f"case {args.case.name}: surrogate {pb.surrogate}, {pb.dim} variables, "
+          f"{args.points} points")
+    print("| batch | points | ask [ms per block] | ask [ms per point] | tell [ms per point] |")
+    print("|---|---|---|---|---|")
+    for q in args.batch:
+        s = pb.strategy(budget=args.points)
+        if pb.multi:
+            ref = pb.reference_point(objectives(case, np.array(pb.reference))[0])
+            s.set_aggregate(pb.aggregate(ref))
+        blocks: dict[int, list] = {}
+        t_tell = 0.0
+        while not s.done:
+            t0 = time.perf_counter()
+            props = s.ask(q)
+            dt = time.perf_counter() - t0
+            blocks.setdefault(100 * ((s.n_asked - 1) // 100 + 1), []).append((dt, len(props)))
+            t0 = time.perf_counter()
+            for p in props:
+                obj, energy = objectives(case, p.x)
+                value = pb.value(obj, getattr(s.aggregate, "point", None)) if pb.multi else pb.value(obj, None)
+                s.tell(p.id, value, pb.outputs(obj, [float(v) for v in energy]))
+            t_tell += time.perf_counter() - t0
+        for n, b in sorted(blocks.items()):
+            per_block = 1e3 * np.median([dt for dt, _ in b])
+            per_point = 1e3 * sum(dt for dt, _ in b) / sum(m for _, m in b)
+            print(f"| {q} | {n - 99}-{n} | {per_block:.1f} | {per_point:.2f} | "
+                  f"{1e3 * t_tell / s.n_told:.2f} |", flush=True)
 
 
 def main() -> None:
@@ -98,41 +253,22 @@ def main() -> None:
     ap.add_argument("--initial", type=int, default=10)
     ap.add_argument("--workers", type=int, nargs="+", default=[1, 2])
     ap.add_argument("--cheap", action="store_true", help="coarse simulation settings (as the tests)")
+    ap.add_argument("--standin", type=float, default=0.0,
+                    help="the stand-in evaluator of this duration [s] instead of the simulator")
+    ap.add_argument("--dask", action="store_true", help="a Dask scheduler and worker processes")
+    ap.add_argument("--from", dest="start", type=int, default=0,
+                    help="marginal throughput from this committed evaluation on")
+    ap.add_argument("--profile", action="store_true", help="cProfile of the engine process")
     ap.add_argument("--repeat", type=int, default=1, help="runs per worker count (median reported)")
     ap.add_argument("--conditions", type=int, nargs="+", default=[1],
                     help="traffic conditions per design (one run per count)")
+    ap.add_argument("--asks", action="store_true", help="time the optimiser's asks alone")
+    ap.add_argument("--points", type=int, default=1000, help="--asks: points (the budget)")
+    ap.add_argument("--batch", type=int, nargs="+", default=[1], help="--asks: points per ask")
     args = ap.parse_args()
-    keys = [(w, c) for c in args.conditions for w in args.workers]
-    runs: dict[tuple, list[dict]] = {key: [] for key in keys}
-    with tempfile.TemporaryDirectory(prefix="lccopt-throughput-") as tmp:
-        for k in range(args.repeat):
-            for w, c in keys:
-                r = run_once(args.case, args.budget, args.initial, w, Path(tmp), args.cheap, f"-{k}", c)
-                runs[(w, c)].append(r)
-                print(f"workers {w}, conditions {c}: {r['evaluations']} designs in {r['wall']:.1f} s "
-                      f"(+{r['startup']:.1f} s start-up and summary), simulations {r['sim_mean']:.3f} s "
-                      f"mean per design, busy {r['busy']:.2f}, held {r['held']:.3f}", flush=True)
-    rows = []
-    for w, c in keys:
-        rs = runs[(w, c)]
-        thr = float(np.median([r["evaluations"] / r["wall"] for r in rs]))
-        rows.append({"workers": w, "conditions": c, "thr": thr,
-                     "busy": float(np.median([r["busy"] for r in rs])),
-                     "held": float(np.median([r["held"] for r in rs])),
-                     "optimiser": float(np.median([r["optimiser"] for r in rs])),
-                     "bookkeeping": float(np.median([r["bookkeeping"] for r in rs])),
-                     "wall": float(np.median([r["wall"] for r in rs]))})
-    print(f"\ncase {args.case.name}{' (cheap simulation)' if args.cheap else ''}, budget {args.budget} "
-          f"({args.initial} initial), median of {args.repeat}")
-    print("conditions  workers  designs/s  simulations/s  efficiency  busy  held   optimiser[s]  "
-          "bookkeeping[s]  overhead[% of wall]")
-    for r in rows:
-        one = next(q for q in rows if q["conditions"] == r["conditions"])  # first worker count
-        eff = r["thr"] / (r["workers"] * one["thr"] / one["workers"])
-        over = 100.0 * (r["optimiser"] + r["bookkeeping"]) / r["wall"]
-        print(f"{r['conditions']:>10}  {r['workers']:>7}  {r['thr']:9.3f}  {r['thr'] * r['conditions']:13.3f}  "
-              f"{eff:10.2f}  {r['busy']:4.2f}  {r['held']:5.3f}  {r['optimiser']:12.2f}  "
-              f"{r['bookkeeping']:14.2f}  {over:19.1f}")
+    if str(REPO) not in sys.path:
+        sys.path.insert(0, str(REPO))
+    asks(args) if args.asks else throughput(args)
 
 
 if __name__ == "__main__":

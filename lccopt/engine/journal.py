@@ -1,5 +1,10 @@
 """The run journal: an append-only, fsynced JSON-lines file; each line is a commit point.
 
+Lines may be appended without waiting for the disk (``append(..., sync=False)``) and made
+durable together by ``sync()``: one fsync covers every line before it, in order, so the lines
+on disk are always a prefix of those written (the engine syncs before it starts an
+evaluation, and at least every fraction of a second).
+
 Every line is one JSON object with ``seq`` (0, 1, 2, ... without gaps), ``event`` and the
 event's fields. A line is committed once it and its newline are on disk (write + flush +
 fsync). A process killed mid-write can leave a torn last line: :func:`read_journal` drops it
@@ -68,6 +73,7 @@ class Journal:
         self.path = Path(path)
         self._fh = fh
         self.next_seq = next_seq
+        self.unsynced = False  # lines written since the last fsync
 
     @classmethod
     def open(cls, path: str | Path) -> tuple["Journal", list[dict], bool]:
@@ -82,15 +88,28 @@ class Journal:
         fh.seek(length)
         return cls(path, fh, len(events)), events, torn
 
-    def append(self, event: str, **fields) -> dict:
+    def append(self, event: str, sync: bool = True, **fields) -> dict:
+        """Write one event (``seq`` added) and return it; with ``sync`` also wait until it,
+        and every line before it, is on disk."""
         ev = {"seq": self.next_seq, "event": event, **fields}
         line = json.dumps(ev, allow_nan=True, separators=(",", ":")) + "\n"
         self._fh.write(line.encode("utf-8"))
-        self._fh.flush()
-        os.fsync(self._fh.fileno())
         self.next_seq += 1
+        self.unsynced = True
+        if sync:
+            self.sync()
         return ev
+
+    def sync(self) -> None:
+        """Every line written so far on disk (one flush and fsync; nothing if already)."""
+        if self.unsynced:
+            self._fh.flush()
+            os.fsync(self._fh.fileno())
+            self.unsynced = False
 
     def close(self) -> None:
         if not self._fh.closed:
-            self._fh.close()
+            try:
+                self.sync()
+            finally:
+                self._fh.close()

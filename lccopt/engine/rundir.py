@@ -284,6 +284,7 @@ class Table:
         self.seq = -1
         self.last_event: dict | None = None
         self.lag: int | None = None          # the schedule's lag (workers) of the last session
+        self.batch = 1                       # and its block size (schedule.batch_size)
 
     def apply(self, ev: dict) -> None:
         self.seq = ev["seq"]
@@ -314,6 +315,7 @@ class Table:
             self.finished = True
         elif kind == "schedule":
             self.lag = int(ev["lag"])
+            self.batch = int(ev.get("batch", 1))
         elif kind == "case_changed":  # e.g. a larger budget: a finished run carries on
             self.finished = False
 

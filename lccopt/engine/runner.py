@@ -52,7 +52,7 @@ from .journal import Journal, JournalError, line_mark, read_journal
 from .progress import Progress, fmt, hms, objective_text, objective_value, reference_objectives
 from .rundir import (RunDir, RunError, Table, eval_name, now_iso, sha256_text,
                      versions, write_results)
-from .schedule import may_ask, release
+from .schedule import batch_size, may_ask, release
 from .worker import RENAMED_EVALUATORS, Outcome, Task, evaluator_spec
 
 RESULTS_EVERY = 10.0  # [s] results.h5 is rebuilt at most this often while running (and at the end)
@@ -465,6 +465,7 @@ class Replay:
             self.results[ev["id"]] = ("failed", ev.get("reason", ""))
         elif kind == "schedule":
             self.lag = int(ev["lag"])
+            self.strategy.set_batch(int(ev.get("batch", 1)))
         elif kind == "reference" and self.problem is not None:
             self.asf = {"point": ev["point"], "worst": ev.get("worst"), "rho": ev.get("rho")}
             self._set_aggregate()
@@ -530,6 +531,8 @@ class Engine:
         self._ahead: int | None = None   # id asked ahead, waiting for a free worker
         # proposal n sees exactly the results 0 .. n-lag-1 (schedule.py); lag = the workers
         self.lag = max(1, int(executor.slots))
+        self.batch = batch_size(self.lag)  # proposals per surrogate fit (schedule.py)
+        self.strategy.set_batch(self.batch)
         self.stop = False
         self.abort = False
         self._stop_logged = False
@@ -597,8 +600,9 @@ class Engine:
                   f"budget {pb.budget}, {self.table.n_done} done")
             p.log(f"minimising {what}; {self.executor.description}")
             p.start(self.table, len(self.case.conditions) or 1)
-            if self.table.lag != self.lag:
-                self.table.apply(self.journal.append("schedule", lag=self.lag, time=now_iso()))
+            if self.table.lag != self.lag or self.table.batch != self.batch:
+                self.table.apply(self.journal.append("schedule", lag=self.lag, batch=self.batch,
+                                                     time=now_iso()))
             self._release()
             requeue = self.table.pending_ids()
             if requeue:
@@ -683,34 +687,40 @@ class Engine:
 
     def _fill(self, requeue: list[int]) -> int:
         """Give every free worker a point; then, with all workers busy, propose the next point
-        already, so that the next worker to finish gets it at once (the ask runs while the
-        simulations do). A proposal waits for the results it must see (``_ask``); a free
-        worker then idles until the late one arrives. Points asked but not yet running are
-        pending in the journal: a resume runs them first, in order, and only then asks
-        again, as the run would have."""
-        n = 0
+        already, so that the next worker to finish gets it at once (the ask, or a whole
+        block of proposals, runs while the evaluations do). A proposal waits for the results
+        it must see (``_ask``); a free worker then idles until the late one arrives. Points
+        asked but not yet running are pending in the journal: a resume runs them first, in
+        order, and only then asks again, as the run would have. The asked lines are on disk
+        (one fsync for them all) before their evaluations start."""
         self._held = False
-        while self.executor.free() > 0:
+        rows = []
+        free = self.executor.free()
+        while len(rows) < free:
             if self._restore:
                 i = self._restore.pop(0)
                 self._restoring.add(i)
-                self._submit(self.table.rows[i])
+                rows.append(self.table.rows[i])
             elif requeue:
-                self._submit(self.table.rows[requeue.pop(0)])
+                rows.append(self.table.rows[requeue.pop(0)])
             elif self._ahead is not None:
-                self._submit(self.table.rows[self._ahead])
+                rows.append(self.table.rows[self._ahead])
                 self._ahead = None
             else:
                 row = self._ask()
                 if row is None:
                     break
-                self._submit(row)
-            n += 1
+                rows.append(row)
+        t0 = time.perf_counter()
+        self.journal.sync()
+        self.t_bookkeeping += time.perf_counter() - t0
+        for row in rows:
+            self._submit(row)
         if self.executor.free() == 0 and not requeue and self._ahead is None:
             row = self._ask()
             if row is not None:
                 self._ahead = row["id"]
-        return n
+        return len(rows)
 
     def _ask(self) -> dict | None:
         """One proposal from the optimiser, committed to the journal; None if there is none now."""
@@ -733,8 +743,8 @@ class Engine:
             self._release()  # no more proposals: every result may be told
             return None
         pr = props[0]
-        ev = self.journal.append("asked", id=int(pr.id), x=[float(v) for v in pr.x], phase=pr.phase,
-                                 restart=int(pr.restart))
+        ev = self.journal.append("asked", sync=False, id=int(pr.id), x=[float(v) for v in pr.x],
+                                 phase=pr.phase, restart=int(pr.restart))
         self.table.apply(ev)
         self.t_bookkeeping += time.perf_counter() - t1
         self._release()
@@ -799,7 +809,7 @@ class Engine:
         if error is None:
             if o.id == 0 and self.table.reference is None:
                 point = pb.reference_point(objectives)  # CaseError if worst <= reference point
-                self.table.apply(j.append("reference", id=0, x=row["x"], objectives=objectives, point=point,
+                self.table.apply(j.append("reference", sync=False, id=0, x=row["x"], objectives=objectives, point=point,
                                           worst=list(pb.worst) if pb.worst else None, rho=pb.rho,
                                           improvement=pb.improvement))
                 self.ref_point = point
@@ -807,9 +817,9 @@ class Engine:
             value = pb.value(objectives, self.ref_point)
             if pb.surrogate == "sleeper-energies" and o.parts is not None:
                 common["parts"] = o.parts  # what the composite surrogate fits (and a replay tells)
-            self.table.apply(j.append("evaluated", value=value, **common))
+            self.table.apply(j.append("evaluated", sync=False, value=value, **common))
         else:
-            self.table.apply(j.append("failed", reason=error, **common))
+            self.table.apply(j.append("failed", sync=False, reason=error, **common))
         self.t_bookkeeping += time.perf_counter() - t0
         self._release()  # told when its turn comes, not when it arrives (schedule.py)
         self.progress.update(self.table, last=row)
@@ -844,6 +854,7 @@ class Engine:
         if self.table.seq == self._saved_seq:
             return
         t0 = time.perf_counter()
+        self.journal.sync()  # a snapshot never reflects a line that is not on disk
         self.rd.save_state(self.table.seq, self.strategy.state_dict(), line_mark(self.table.last_event))
         self._saved_seq = self.table.seq
         self._snapshot_at = time.monotonic()

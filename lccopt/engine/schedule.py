@@ -16,11 +16,22 @@ interrupted and resumed or not. ``k`` running plus one proposed ahead is the mos
 anyway (the engine asks one point ahead while every worker is busy), so a worker waits only
 when an evaluation takes longer than the ones started after it have taken together.
 
+Blocks: with more than two workers the optimiser computes its proposals in blocks of ``q``
+points (``batch_size``: q = k), one surrogate fit and one scored candidate set per block
+(``Strategy.set_batch``). A proposal that opens a block obeys the rule above; the others of
+the block were computed with it and are handed out at once, waiting for nothing. So block
+``b`` starting at proposal ``n`` is computed from exactly the results ``0 .. n-k-1``, and
+its last point sees nothing newer (a lag of up to ``k + q - 1``): the price of one fit per
+``q`` points, measured in benchmarks/RESULTS-scale.md. The block size is a function of the
+worker count alone, never of timing; with one or two workers the proposals are those of
+one point per fit.
+
 Multi-objective cases: the reference design (evaluation 0) fixes the ASF reference point, so
 its result is told as soon as it is there, and proposals 1, 2, ... wait for it.
 
-The lag is journalled (``schedule`` line, at the start of a session whose worker count differs
-from the journal's), so that a replay of the journal makes the same calls.
+The lag and the block size are journalled (``schedule`` line, at the start of a session whose
+worker count differs from the journal's), so that a replay of the journal makes the same
+calls.
 """
 
 from __future__ import annotations
@@ -30,6 +41,12 @@ from typing import Callable, Optional
 # (status, value or reason[, outputs]): ("ok", value), ("ok", value, objective vector) or
 # ("failed", reason); None if not there yet
 Result = Optional[tuple]
+
+
+def batch_size(lag: int) -> int:
+    """Points per block with ``lag`` workers (designs in flight): 1 with one or two (the
+    proposals of one point per fit), else one block per round of the workers."""
+    return 1 if lag <= 2 else int(lag)
 
 
 def asks_over(strategy) -> bool:
@@ -42,7 +59,8 @@ def may_tell(strategy, i: int, lag: int, multi: bool) -> bool:
 
 
 def may_ask(strategy, lag: int, multi: bool) -> bool:
-    """All results 0 .. n-lag-1 told (and, multi-objective, the reference design's)."""
+    """All results 0 .. n-lag-1 told (and, multi-objective, the reference design's); a point
+    of a block already computed waits for nothing."""
     n = strategy.n_asked
     pending = strategy.pending
     if not pending:
@@ -50,7 +68,7 @@ def may_ask(strategy, lag: int, multi: bool) -> bool:
     first = pending[0]  # records are in id order
     if multi and n >= 1 and first == 0:
         return False
-    return first >= n - lag
+    return strategy.n_ahead > 0 or first >= n - lag
 
 
 def release(strategy, lag: int, multi: bool, result: Callable[[int], Result]) -> list[int]:

@@ -77,3 +77,63 @@ class AskContext:
             rows = kcm == k
             out[ci[rows]] = (cdist(Cu[rows], Tu[kt == k]) < self.tol).any(axis=1)
         return out
+
+
+class CandidatePool:
+    """The candidates of a block of proposals: drawn once and scored by the surrogate once;
+    each point proposed (``add``) lowers the candidates' distances to the used points and
+    takes its duplicates out, so the block's points spread apart as pySOT's batches do.
+
+    Parameters
+    ----------
+    space : DesignSpace
+    ctx : AskContext
+        The block's context (its points to keep away from, duplicate radius and surrogate).
+    C : ndarray (n, d)
+        The candidates (unused points).
+    src : list of str
+        Their phase kinds ("adaptive", "local", "random").
+    """
+
+    def __init__(self, space: DesignSpace, ctx: AskContext, C: np.ndarray, src: list):
+        self.space, self.C, self.src = space, C, list(src)
+        self.Cu = space.to_unit(C) if len(C) else np.empty((0, space.dim))
+        self.local = np.array([k == "local" for k in self.src], dtype=bool)
+        self.free = np.ones(len(C), dtype=bool)
+        self.dist = (cdist(self.Cu, ctx.near_u).min(axis=1) if len(ctx.near_u) and len(C)
+                     else np.full(len(C), np.inf))
+        self.value = (np.asarray(ctx.surrogate(self.Cu), dtype=float)
+                      if ctx.surrogate is not None and len(C) else None)
+        self.int, self.cont, self.tol = ctx.int, ctx.cont, ctx.tol
+
+    def best(self, w: float, local: bool = True) -> int | None:
+        """Index of the free candidate of lowest merit w * scaled surrogate value +
+        (1 - w) * scaled distance term (the distance term alone without a surrogate);
+        ``local``: the local search's points compete. None if none is free."""
+        idx = np.flatnonzero(self.free if local else self.free & ~self.local)
+        if not len(idx):
+            return None
+        d = self.dist[idx]
+        d = np.where(np.isfinite(d), d, 1.0)  # nothing to keep away from yet
+        dd = _scale(d.max() - d)
+        if self.value is None:
+            return int(idx[np.argmin(dd)])
+        return int(idx[np.argmin(w * _scale(self.value[idx]) + (1.0 - w) * dd)])
+
+    def add(self, x: np.ndarray) -> None:
+        """A point just proposed: near from now on, and its duplicates are taken."""
+        if not len(self.C):
+            return
+        xu = self.space.to_unit(x)
+        diff = self.Cu - xu[None, :]
+        self.dist = np.minimum(self.dist, np.sqrt(np.einsum("ij,ij->i", diff, diff)))
+        same = np.all(self.C[:, self.int] == x[None, self.int], axis=1)
+        if self.cont.any():
+            dc = diff[:, self.cont]
+            same &= np.sqrt(np.einsum("ij,ij->i", dc, dc)) < self.tol
+        self.free &= ~same
+
+
+def _scale(v: np.ndarray) -> np.ndarray:
+    lo, hi = float(v.min()), float(v.max())
+    return (v - lo) / (hi - lo) if hi > lo else np.zeros_like(v)

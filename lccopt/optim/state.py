@@ -2,8 +2,9 @@
 
 Everything a proposal depends on is written: the space, budget, initial design size, seed,
 settings, the random generator's state, every record (with told outputs), the queued design,
-the phase and its step counters, and the restart policy's state. The caches (fitted RBFs'
-distance matrices) and the aggregate are not: the aggregate is set again by whoever restores
+the points of the last block not handed out yet, the phase and its step counters, and the
+restart policy's state. The caches (fitted RBFs' distance matrices), the aggregate and the
+block size are not: they are set again by whoever restores
 (``Strategy.set_aggregate``). A state of another format or version raises ValueError; the
 run engine then rebuilds the strategy from the run's journal instead.
 """
@@ -36,6 +37,9 @@ def state_dict(s) -> dict:
         "records": [{**r, "x": [float(v) for v in r["x"]]} for r in s.records],
         "queue": [[float(v) for v in x] for x in s._queue],
         "exhausted": s.exhausted,
+        # a block's points not handed out yet (absent in states of one-point asks)
+        **({"ahead": [{**r, "x": [float(v) for v in r["x"]]} for r in s._ahead],
+            "ahead_exhausted": s._ahead_exhausted} if s._ahead or s._ahead_exhausted else {}),
         "phase": s.phase.to_dict(),
         "steps": {"sigma": s.sigma, "n_fail": s._n_fail, "n_succ": s._n_succ,
                   "failed_row": s.failed_row, "n_adaptive": s._n_adaptive,
@@ -59,6 +63,8 @@ def from_state(cls, d: dict, candidates=None, restarts=None):
     s.records = [{**r, "x": np.array(r["x"], dtype=float)} for r in d["records"]]
     s._queue = [np.array(x, dtype=float) for x in d["queue"]]
     s.exhausted = bool(d["exhausted"])
+    s._ahead = [{**r, "x": np.array(r["x"], dtype=float)} for r in d.get("ahead", [])]
+    s._ahead_exhausted = bool(d.get("ahead_exhausted", False))
     s.phase = Phase.from_dict(d["phase"])
     st = d["steps"]
     s.sigma = float(st["sigma"])

@@ -33,7 +33,7 @@ import numpy as np
 from scipy.spatial.distance import cdist
 
 from .candidates import CandidateRequest, Dycors, bound_probes, perturb_probability
-from .context import AskContext
+from .context import AskContext, CandidatePool
 from .local_search import local_search
 from .restarts import NextPhase, Phase, RestartPolicy
 from .sampling import latin_hypercube, to_space
@@ -100,6 +100,8 @@ class Strategy:
         self.rng = np.random.default_rng(seed)
         self.records: list[dict] = []
         self.exhausted = False
+        self._ahead: list[dict] = []     # records of the last block not handed out yet
+        self._ahead_exhausted = False    # the space was exhausted when it was computed
         given = space.given_array
         lhs = latin_hypercube(space, max(0, self.n_initial - len(given)), self.rng, exclude=given)
         self._begin_phase(NextPhase(list(given) + list(lhs)), index=0)
@@ -117,6 +119,7 @@ class Strategy:
         self._composite = CompositeFit()
         self._aggregate = None  # composite: outputs (n, k) -> values (n,); not state
         self._free = space.ub - space.lb > 0
+        self.batch = 1  # points per block (set_batch); not state
 
     def _begin_phase(self, plan: NextPhase, index: int) -> None:
         """Start a phase: its design queued, the step size and counters reset; a phase that
@@ -203,42 +206,90 @@ class Strategy:
     def ask(self, k: int = 1) -> list[Proposal]:
         """Up to k new points; fewer only at the budget or when the space is exhausted.
 
+        Points are computed in blocks of at least ``batch`` (``set_batch``): a block fits
+        the surrogate once and picks its points one after the other from one scored set of
+        candidates, each pick joining the distance criterion before the next (``_block``).
+        What a block computed beyond k is handed out by the next asks (it is state, so a
+        replay of the same calls gives the same points).
+
         Parameters
         ----------
         k : int
-            Points wanted (one surrogate fit serves them all).
+            Points wanted.
 
         Returns
         -------
         list of Proposal
         """
         out: list[Proposal] = []
-        ctx = None
-        for _ in range(int(k)):
-            if self.n_asked >= self.budget or self.exhausted:
-                break
+        while len(out) < int(k) and self.n_asked < self.budget and not self.exhausted:
+            if not self._ahead:
+                want = min(max(int(k) - len(out), self.batch), self.budget - self.n_asked)
+                n0 = self.n_asked
+                self._block(want)
+                self._ahead = self.records[n0:]  # handed out below, in order
+                del self.records[n0:]
+                if not self._ahead:
+                    break
+            rec = self._ahead.pop(0)
+            self.records.append(rec)
+            if not self._ahead and self._ahead_exhausted:
+                self.exhausted, self._ahead_exhausted = True, False
+            out.append(Proposal(rec["id"], rec["x"].copy(), rec["phase"], rec["restart"]))
+        return out
+
+    def set_batch(self, batch: int) -> None:
+        """Points computed per block from now on (1: one point per surrogate fit). A run
+        engine sets it from its worker count; it is not state: whoever restores a strategy
+        sets it again (as ``set_aggregate``), and a block already computed is handed out
+        first whatever the new size."""
+        if int(batch) < 1:
+            raise ValueError("batch must be >= 1")
+        self.batch = int(batch)
+
+    @property
+    def n_ahead(self) -> int:
+        """Points of the last block not handed out yet."""
+        return len(self._ahead)
+
+    def _block(self, m: int) -> None:
+        """Compute up to m proposals as records (fewer when the space is exhausted)."""
+        ctx = pool = None
+        made = 0
+        while made < m:
             if not self._queue and self.restarts.phase_over(self):
                 self._begin_phase(self.restarts.next_phase(self), self.phase.index + 1)
-                ctx = None
+                ctx = pool = None
             if self._queue:
                 x, kind = self._queue.pop(0), "initial"
                 if ctx is not None:
                     ctx.add(x)
+                    if pool is not None:
+                        pool.add(x)
             else:
                 if ctx is None:
                     ctx = self._prepare()
-                pick = self._select(ctx)
+                if m == 1:  # one point: the full selection (candidates drawn for it alone)
+                    pick = self._select(ctx)
+                else:
+                    if pool is None:
+                        pool = self._pool(ctx)
+                    pick = self._pick(ctx, pool) or self._select(ctx)
                 if pick is None:
-                    self.exhausted = True
+                    if made:
+                        self._ahead_exhausted = True
+                    else:
+                        self.exhausted = True
                     break
                 x, kind = pick
                 ctx.add(x)
-            rec = {"id": self.n_asked, "x": np.asarray(x, dtype=float).copy(), "phase": kind,
-                   "restart": self.phase.index, "status": "pending", "value": None,
-                   "reason": None, "outputs": None}
-            self.records.append(rec)
-            out.append(Proposal(rec["id"], rec["x"].copy(), kind, self.phase.index))
-        return out
+                if pool is not None:
+                    pool.add(x)
+            self.records.append({"id": self.n_asked, "x": np.asarray(x, dtype=float).copy(),
+                                 "phase": kind, "restart": self.phase.index,
+                                 "status": "pending", "value": None, "reason": None,
+                                 "outputs": None})
+            made += 1
 
     def _movable(self) -> np.ndarray:
         """Variables the steps and the local search may change (not a held one)."""
@@ -300,6 +351,23 @@ class Strategy:
             self._w_index += 1
         self._n_adaptive += 1
         return C[i].copy(), src[i]
+
+    def _pool(self, ctx: AskContext) -> "CandidatePool":
+        """The candidates of a block, drawn once and scored by the surrogate once."""
+        C, src = self._free_candidates(ctx, max(WEIGHTS))
+        return CandidatePool(self.space, ctx, C, src)
+
+    def _pick(self, ctx: AskContext, pool: "CandidatePool"):
+        """The next point of a block from its pool by the merit of Eq. (11) at the next
+        weight, or None when the pool is used up (the caller draws afresh)."""
+        w = WEIGHTS[self._w_index % len(WEIGHTS)]
+        i = pool.best(w, local=self.settings.local_weights == "all" or w == max(WEIGHTS))
+        if i is None:
+            return None
+        if ctx.surrogate is not None:
+            self._w_index += 1
+        self._n_adaptive += 1
+        return pool.C[i].copy(), pool.src[i]
 
     def _free_candidates(self, ctx: AskContext, w: float):
         """The candidates that are not used points, with their phase kinds: the generator's,

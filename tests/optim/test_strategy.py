@@ -9,7 +9,7 @@ from benchmarks import problems
 from lccopt.optim import context
 from lccopt.optim.candidates import perturb
 from lccopt.optim.sampling import latin_hypercube, to_space
-from lccopt.optim.settings import Settings
+from lccopt.optim.settings import WEIGHTS, Settings
 from lccopt.optim.space import DesignSpace
 from lccopt.optim.strategy import PHASES, Proposal, Strategy
 from tests.optim.helpers import ShortPhases, fingerprint, run_serial
@@ -298,22 +298,48 @@ def test_settings_are_the_surrogate_defaults_and_changes_are_checked():
         Strategy(space, restart_from="alternate")
 
 
-def test_one_ask_fits_once_for_several_points():
-    """ask(k) proposes k distinct points from one surrogate fit (each point added to the
-    used ones before the next is chosen): the same points as k asks with nothing told
-    in between."""
+def test_one_ask_fits_once_for_several_points_and_spreads_them():
+    """ask(k) proposes k distinct points from one surrogate fit and one scored candidate set,
+    each pick joining the distance criterion before the next (pySOT's batch mode)."""
+    from scipy.spatial.distance import cdist
+
+    from lccopt.optim.context import CandidatePool
+
     p = problems.paper_size("levy")
-    a, b = (Strategy(p.space, budget=60, seed=8) for _ in range(2))
-    for s in (a, b):
-        for pr in s.ask(30):
-            s.tell(pr.id, p(pr.x))
-    fits = []
-    real = a._fit
-    a._fit = lambda *args: fits.append(1) or real(*args)
-    batch = a.ask(4)
-    one = [b.ask(1)[0] for _ in range(4)]
-    assert len(fits) == 1 and len({q.x.tobytes() for q in batch}) == 4
-    assert [q.x.tobytes() for q in batch] == [q.x.tobytes() for q in one]
+    a = Strategy(p.space, budget=60, seed=8)
+    for pr in a.ask(30):
+        a.tell(pr.id, p(pr.x))
+    fits, pools = [], []
+    real_fit, real_pool = a._fit, a._pool
+    a._fit = lambda *args: fits.append(1) or real_fit(*args)
+    a._pool = lambda ctx: pools.append(real_pool(ctx)) or pools[-1]
+    snapshot = json.loads(fingerprint(a))
+    batch = a.ask(8)
+    assert len(fits) == 1 and len(pools) == 1
+    X = np.array([q.x for q in batch])
+    sp = p.space
+    assert len(np.unique(X, axis=0)) == 8 and np.all((X >= sp.lb) & (X <= sp.ub))
+    assert np.array_equal(X[:, sp.int_mask], np.rint(X[:, sp.int_mask]))
+    # picked from one set: the pool's maximin picks at weight 0 are the brute-force ones
+    b = Strategy.from_state(snapshot)
+    ctx = b._prepare()
+    C, src = b._free_candidates(ctx, max(WEIGHTS))
+    np.testing.assert_array_equal(C, pools[0].C)
+    pool = CandidatePool(b.space, ctx, C, src)
+    used = list(ctx.near_u)
+    for _ in range(5):
+        i = pool.best(0.0)
+        far = cdist(pool.Cu, np.array(used)).min(axis=1)
+        assert far[i] == far[pool.free].max()
+        pool.add(pool.C[i])
+        used.append(pool.Cu[i])
+        assert not pool.free[i]
+    # a block is state: what it computed beyond k comes out of the next asks, after a restore
+    c = Strategy.from_state(snapshot)
+    c.set_batch(8)
+    first = c.ask(1)
+    rest = Strategy.from_state(json.loads(fingerprint(c))).ask(7)
+    assert c.n_ahead == 7 and [q.x.tobytes() for q in first + rest] == [q.x.tobytes() for q in batch]
 
 
 # -- log scales ------------------------------------------------------------------------------------
