@@ -136,6 +136,10 @@ def run_once(case: Path, budget: int, initial: int, workers: int, root: Path, ar
     evaluator = STANDIN if args.standin else None
     env = {"LCCOPT_STANDIN_SECONDS": str(args.standin)} if args.standin else {}
     os.environ.update(env)
+    import resource
+
+    cpu = lambda who: (lambda u: u.ru_utime + u.ru_stime)(resource.getrusage(who))  # noqa: E731
+    own0, kids0 = cpu(resource.RUSAGE_SELF), cpu(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
     with contextlib.ExitStack() as stack:
         scheduler = stack.enter_context(dask_cluster(workers, env)) if args.dask else None
@@ -152,6 +156,7 @@ def run_once(case: Path, budget: int, initial: int, workers: int, root: Path, ar
         else:
             run = optimise(path, workers=None if args.dask else workers, scheduler=scheduler, **kw)
         total = time.perf_counter() - t0
+    own, kids = cpu(resource.RUSAGE_SELF) - own0, cpu(resource.RUSAGE_CHILDREN) - kids0
     events = [json.loads(line) for line in (run / "journal.jsonl").read_text().splitlines()]
     session = next(e for e in events if e["event"] == "session")
     done = [e for e in events if e["event"] in ("evaluated", "failed")]
@@ -166,6 +171,9 @@ def run_once(case: Path, budget: int, initial: int, workers: int, root: Path, ar
             "startup": total - wall, "optimiser": session["optimiser_time"],
             "bookkeeping": session["bookkeeping_time"], "sim_mean": float(np.mean(sims)),
             "busy": float(np.sum(sims)) / (workers * wall),
+            # CPU per evaluation [ms]: this process (the engine; with --dask also the client)
+            # and its children (the workers with their forked children, or the Dask processes)
+            "cpu_engine": 1e3 * own / len(done), "cpu_workers": 1e3 * kids / len(done),
             "held": session.get("held_time", float("nan")) / (workers * wall),
             "batch": next((e.get("batch", 1) for e in events if e["event"] == "schedule"), 1)}
 
@@ -187,15 +195,17 @@ def throughput(args) -> None:
         rs = runs[(w, c)]
         rows.append({"workers": w, "conditions": c, **{
             k: float(np.median([r[k] for r in rs]))
-            for k in ("thr", "busy", "held", "optimiser", "bookkeeping", "wall", "evaluations", "batch")}})
+            for k in ("thr", "busy", "held", "optimiser", "bookkeeping", "wall", "evaluations", "batch",
+                      "cpu_engine", "cpu_workers")}})
     how = (f"stand-in evaluations of {args.standin} s" if args.standin
            else "cheap simulation" if args.cheap else "simulator")
     print(f"\ncase {args.case.name} ({how}, {'Dask' if args.dask else 'local pool'}), budget "
           f"{args.budget} ({args.initial} initial), {'marginal from evaluation ' + str(args.start) if args.start else 'whole loop'}"
           f", median of {args.repeat}")
     print("| conditions | workers | batch | designs/s | simulations/s | efficiency | busy | held | "
-          "optimiser [s] | bookkeeping [s] | overhead [% wall] |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|")
+          "optimiser [s] | bookkeeping [s] | overhead [% wall] | CPU engine [ms/design] | "
+          "CPU workers [ms/design] |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
         if args.standin:
             eff = r["thr"] * r["conditions"] * args.standin / r["workers"]
@@ -205,7 +215,8 @@ def throughput(args) -> None:
         over = 100.0 * (r["optimiser"] + r["bookkeeping"]) / r["wall"]
         print(f"| {r['conditions']} | {r['workers']} | {r['batch']:.0f} | {r['thr']:.2f} | "
               f"{r['thr'] * r['conditions']:.1f} | {eff:.2f} | {r['busy']:.2f} | {r['held']:.3f} | "
-              f"{r['optimiser']:.2f} | {r['bookkeeping']:.2f} | {over:.1f} |")
+              f"{r['optimiser']:.2f} | {r['bookkeeping']:.2f} | {over:.1f} | {r['cpu_engine']:.1f} | "
+              f"{r['cpu_workers']:.1f} |")
 
 
 def asks(args) -> None:

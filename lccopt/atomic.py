@@ -1,6 +1,9 @@
 """Atomic, durable file writes: a temporary file in the same directory, fsync, rename, fsync
 of the directory. A file that exists under its final name is therefore complete, whatever
-kill -9 or a power cut interrupted."""
+kill -9 or a power cut interrupted. With ``durable=False`` (a run's evaluation files, one
+per evaluation: two fsyncs each would bound a run's throughput by the disk's fsync rate) the
+fsyncs are left out: the file is still complete whatever kill -9 interrupted, but a power cut
+can leave it damaged, which ``lccopt resume`` detects and simulates again."""
 
 from __future__ import annotations
 
@@ -30,9 +33,9 @@ def normal_mode(path, directory: bool = False) -> None:
 
 
 @contextlib.contextmanager
-def atomic_path(path):
-    """Yield a temporary path next to ``path``; on success it is fsynced and renamed to
-    ``path``; on failure it is removed."""
+def atomic_path(path, durable: bool = True):
+    """Yield a temporary path next to ``path``; on success it is fsynced (``durable``) and
+    renamed to ``path``; on failure it is removed."""
     path = Path(path)
     # a link in the way is replaced, never followed (rename does not follow it); a folder or a
     # special file is refused with its own name (rename would otherwise name the temporary file)
@@ -46,14 +49,16 @@ def atomic_path(path):
     normal_mode(tmp)
     try:
         yield tmp
-        with open(tmp, "rb") as fh:
-            os.fsync(fh.fileno())
+        if durable:
+            with open(tmp, "rb") as fh:
+                os.fsync(fh.fileno())
         os.replace(tmp, path)
     except BaseException:
         with contextlib.suppress(OSError):
             os.unlink(tmp)
         raise
-    fsync_dir(path.parent)
+    if durable:
+        fsync_dir(path.parent)
 
 
 def atomic_write_bytes(path, data: bytes) -> None:

@@ -18,10 +18,12 @@ from .safeio import h5_open_owned
 from .vti.response import HISTORY_DOC, OBJECTIVE_UNITS, Evaluation
 
 
-def write_evaluation(path: str | Path, evaluation: Evaluation, x, names, attrs: dict | None = None) -> Path:
-    """Write one evaluation atomically (tmp + fsync + rename); return the path."""
+def write_evaluation(path: str | Path, evaluation: Evaluation, x, names, attrs: dict | None = None,
+                     durable: bool = True) -> Path:
+    """Write one evaluation atomically (tmp + fsync + rename; no fsync unless ``durable``:
+    ``atomic.atomic_path``); return the path."""
     path = Path(path)
-    with atomic_path(path) as tmp, h5py.File(tmp, "w") as f:
+    with atomic_path(path, durable) as tmp, h5py.File(tmp, "w") as f:
         _write_design(f, x, names)
         _write_group(f, evaluation, attrs)
     return path
@@ -70,10 +72,11 @@ def evaluation_problem(path: str | Path, i: int, x) -> str | None:
 # and the first condition's histories and info, so readers of one-condition files read it too.
 
 def merge_condition_files(path: str | Path, parts, names, weights, objectives: dict,
-                          attrs: dict) -> Path:
-    """Merge the per-condition files ``parts`` (in condition order) into one file, atomically."""
+                          attrs: dict, durable: bool = True) -> Path:
+    """Merge the per-condition files ``parts`` (in condition order) into one file, atomically
+    (``durable``: as ``write_evaluation``)."""
     path = Path(path)
-    with atomic_path(path) as tmp, h5py.File(tmp, "w") as f:
+    with atomic_path(path, durable) as tmp, h5py.File(tmp, "w") as f:
         for i, (part, name) in enumerate(zip(parts, names)):
             with h5_open_owned(part) as src:
                 if i == 0:
@@ -89,10 +92,11 @@ def merge_condition_files(path: str | Path, parts, names, weights, objectives: d
 
 
 def write_condition_evaluations(path: str | Path, evaluations, x, design_names, names, weights,
-                                objectives: dict, attrs: dict) -> Path:
-    """Write the evaluations of one design under every condition (in order) as one file."""
+                                objectives: dict, attrs: dict, durable: bool = True) -> Path:
+    """Write the evaluations of one design under every condition (in order) as one file
+    (``durable``: as ``write_evaluation``)."""
     path = Path(path)
-    with atomic_path(path) as tmp, h5py.File(tmp, "w") as f:
+    with atomic_path(path, durable) as tmp, h5py.File(tmp, "w") as f:
         _write_design(f, x, design_names)
         first = evaluations[0]
         _write_group(f, Evaluation(objectives, first.histories, first.info), attrs)

@@ -8,9 +8,11 @@ when all its conditions are in: the conditions' objectives combined by the case'
 
 Files, per design i and condition c: the condition's result is written (atomically) to
 ``evals/00000i.c<c>.h5`` as it arrives; once all are in they are merged into
-``evals/00000i.h5`` and the parts are removed. A part that exists is complete, so a run
+``evals/00000i.h5`` and the parts are removed. A part that exists is complete (written to a
+temporary name and renamed; not fsynced, as every evaluation file: runner.py), so a run
 stopped half-way through a design's conditions (kill -9, Ctrl-C, a full disk) keeps the
-conditions already computed: on resume the design runs again for the missing ones only.
+conditions already computed: on resume the design runs again for the missing ones only (and
+for a part a power cut damaged).
 
 A design whose condition fails fails as a whole (the reason names the condition); its other
 conditions still finish, so their parts are there if the design is ever run again.
@@ -166,13 +168,14 @@ class ConditionPool:
         try:
             if task.out_path is not None:   # the workers wrote the parts
                 paths = [self.run_path / part_name(task.id, c) for c in range(self.m)]
-                merge_condition_files(target, paths, names, self.problem.weights, objectives, attrs)
+                merge_condition_files(target, paths, names, self.problem.weights, objectives, attrs,
+                                      durable=False)
                 for p in paths:
                     p.unlink(missing_ok=True)
             else:                            # Dask: the evaluations came back whole
                 write_condition_evaluations(target, [parts[c].evaluation for c in range(self.m)],
                                             task.x, self.case.names, names, self.problem.weights,
-                                            objectives, attrs)
+                                            objectives, attrs, durable=False)
             out.file_written = True
         except Exception as exc:  # noqa: BLE001
             if environment_errno(exc) is not None:

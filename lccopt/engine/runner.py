@@ -7,7 +7,9 @@ write their own immutable ``evals/NNNNNN.h5`` before reporting back).
 Commit protocol, per evaluation ``i``:
 
 1. ``asked`` line (id, x, phase, restart) after ``strategy.ask`` returned the proposal;
-2. the worker writes ``evals/00000i.h5`` (tmp + fsync + rename);
+2. the worker writes ``evals/00000i.h5`` (tmp + rename: complete whatever kill -9 interrupts;
+   not fsynced, one file per evaluation being more than a disk's fsync rate allows at
+   scale: a file a power cut damaged is found by the resume, which simulates it again);
 3. ``evaluated`` (objectives, scalar value, wall time, worker, file) or ``failed`` (reason)
    line when the outcome arrives; ``strategy.tell`` (value and objective vector, which the
    composite surrogate of a multi-objective run fits) / ``tell_failed`` when its turn comes:
@@ -802,7 +804,8 @@ class Engine:
 
                 write_evaluation(self.rd.path / eval_name(o.id), o.evaluation, row["x"], self.case.names,
                                  attrs={"id": o.id, "phase": row["phase"], "restart": row["restart"],
-                                        "worker": o.worker, "wall_time": o.wall_time, **o.machine})
+                                        "worker": o.worker, "wall_time": o.wall_time, **o.machine},
+                                 durable=False)
                 file = eval_name(o.id)
         common = dict(id=o.id, objectives=objectives or {}, wall_time=o.wall_time, worker=o.worker, file=file,
                       at=round(time.time(), 3))  # when it was committed: `lccopt status` rates
