@@ -109,6 +109,43 @@ def test_kill_9_at_random_moments_then_resume_equals_an_uninterrupted_run(tmp_pa
     assert sorted(p.name for p in (run / "evals").iterdir()) == [f"{i:06d}.h5" for i in range(20)]
 
 
+def test_kill_9_mid_block_then_resume_equals_an_uninterrupted_run(tmp_path):
+    """Four workers: proposals come in blocks of four (one fit each), handed out as workers
+    free up; a kill -9 lands between a block's computation and its last point's start (its
+    points not yet handed out are nowhere but in the lost process), and the resumed run still
+    equals the uninterrupted one."""
+    env = {"LCCOPT_EVALUATOR": FAKE, "LCCOPT_FAKE_DELAY": "0.05", "LCCOPT_FAKE_SPREAD": "0.9"}
+    case = write_case(tmp_path, "k9b", budget=36, initial=6, seed=5)
+    first = cli_run("optimise", case, "--workers", "4", "--runs", tmp_path / "uninterrupted", env=env)
+    assert first.returncode == 0, first.stderr
+    reference = read_table(tmp_path / "uninterrupted" / "k9b")
+    runs = tmp_path / "runs"
+    run = runs / "k9b"
+    rng = random.Random(20261205)
+    kills = 0
+    for _ in range(4):
+        args = ["resume", run, "--workers", "4"] if run.exists() else \
+            ["optimise", case, "--workers", "4", "--runs", runs]
+        p = cli(*args, env=env)
+        _wait_for(lambda: (run / "journal.jsonl").exists() or p.poll() is not None, what="the run to start")
+        target = _n_done(run) + rng.randint(2, 6)
+        _wait_for(lambda: _n_done(run) >= target or p.poll() is not None, what="evaluations to finish")
+        time.sleep(rng.uniform(0.0, 0.05))
+        workers = _children(p.pid)
+        if p.poll() is None:
+            p.kill()
+            kills += 1
+        p.communicate()
+        _wait_for(lambda: not any(_alive(w) for w in workers), 30, "orphaned workers to exit")
+        _check_consistent(run)
+    assert kills >= 3
+    done = cli_run("resume", run, "--workers", "4", env=env)
+    assert done.returncode == 0, done.stderr
+    assert_same_evaluations(reference, read_table(run))
+    events, _, _ = read_journal(run / "journal.jsonl")
+    assert [(e["lag"], e["batch"]) for e in events if e["event"] == "schedule"] == [(4, 4)]
+
+
 def test_ctrl_c_saves_exits_130_and_resumes_to_the_same_run(tmp_path):
     case = write_case(tmp_path, "cc", budget=12, initial=5, seed=2)
     # two workers, evaluation times varying from point to point: results arrive out of order

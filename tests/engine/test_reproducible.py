@@ -20,6 +20,7 @@ import pytest
 from lccopt.config import load_case
 from lccopt.engine.journal import JournalError, read_journal
 from lccopt.engine.rundir import RunDir
+from lccopt.engine.schedule import batch_size
 from lccopt.engine.runner import optimise, recorded_settings, restore, resume
 from lccopt.optim.settings import Settings
 from lccopt.problem import Problem
@@ -58,8 +59,9 @@ def test_the_same_case_twice_with_the_real_simulator_and_two_workers_gives_ident
     assert [e["lag"] for e in _events(runs[0]) if e["event"] == "schedule"] == [2]
 
 
-@pytest.mark.parametrize("workers", [2, 3])
+@pytest.mark.parametrize("workers", [2, 3, 6])
 def test_results_arriving_out_of_order_do_not_change_the_run(tmp_path, monkeypatch, workers):
+    """With 3 and 6 workers the proposals come in blocks of 3 and 6 (one fit each)."""
     # evaluation times between 0.1x and 1.9x of 40 ms, a fixed function of x: the workers
     # finish in an order that differs from the ids (checked below) and from run to run
     monkeypatch.setenv("LCCOPT_FAKE_DELAY", "0.04")
@@ -72,6 +74,8 @@ def test_results_arriving_out_of_order_do_not_change_the_run(tmp_path, monkeypat
         assert _asked(runs[0]) == _asked(run)
     arrived = [e["id"] for run in runs for e in _events(run) if e["event"] in ("evaluated", "failed")]
     assert arrived != sorted(arrived), "the test needs results that arrive out of order"
+    schedule = [e for e in _events(runs[0]) if e["event"] == "schedule"]
+    assert [(e["lag"], e["batch"]) for e in schedule] == [(workers, batch_size(workers))]
 
 
 def test_a_resume_with_another_worker_count_is_replayed_exactly(tmp_path):

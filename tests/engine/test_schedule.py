@@ -1,7 +1,8 @@
 """The schedule rule (lccopt/engine/schedule.py) without processes: an event-driven stand-in
 for the engine with k workers and random evaluation times. Whatever the times, the optimiser
-gets the same calls in the same order, proposal n sees exactly the results 0..n-k-1, and a
-replay of the journal the stand-in writes rebuilds the optimiser exactly."""
+gets the same calls in the same order, proposal n (the first of a block, with blocks of
+q = batch_size(k) points) sees exactly the results 0..n-k-1, and a replay of the journal the
+stand-in writes rebuilds the optimiser exactly."""
 
 from __future__ import annotations
 
@@ -14,7 +15,7 @@ import pytest
 
 from benchmarks import problems
 from lccopt.engine.runner import Replay
-from lccopt.engine.schedule import may_ask, release
+from lccopt.engine.schedule import batch_size, may_ask, release
 from lccopt.optim.space import DesignSpace
 from lccopt.optim.strategy import Strategy
 
@@ -28,9 +29,10 @@ class Recording(Strategy):
 
     def ask(self, k=1):
         told = tuple(r["id"] for r in self.records if r["status"] != "pending")
+        fresh = self.n_ahead == 0  # this call computes a block (or one point)
         out = super().ask(k)
         for p in out:
-            self.calls.append(("ask", p.id, told))
+            self.calls.append(("ask", p.id, told, fresh))
         return out
 
     def tell(self, x_or_id, value, outputs=None):
@@ -67,7 +69,9 @@ def engine(strategy, fun, k, multi, timing_seed):
         release(strategy, k, multi, results.get)
         return p
 
-    log("schedule", lag=k)
+    q = batch_size(k)
+    strategy.set_batch(q)
+    log("schedule", lag=k, batch=q)
     while True:
         while len(running) < k:
             if ahead is not None:
@@ -94,16 +98,22 @@ def engine(strategy, fun, k, multi, timing_seed):
 
 
 def told_before_each_ask(calls, k, multi):
+    """Each call that computes proposals (a block's first) sees exactly results 0..n-k-1;
+    the other points of a block are handed out whatever has been told since."""
+    blocks = 0
     for c in calls:
-        if c[0] == "ask":
+        if c[0] == "ask" and c[3]:
             n, told = c[1], set(c[2])
             want = set(range(max(0, n - k)))
             if multi and n >= 1:
                 want.add(0)
             assert told == want, (n, sorted(told), sorted(want))
+            blocks += 1
+    return blocks
 
 
-@pytest.mark.parametrize("k,multi", [(1, False), (2, False), (2, True), (3, True)])
+@pytest.mark.parametrize("k,multi", [(1, False), (2, False), (2, True), (3, True), (4, False),
+                                     (5, True)])
 def test_same_calls_whatever_the_timing(k, multi):
     p = problems.paper_size("levy")
     runs = []
@@ -111,14 +121,22 @@ def test_same_calls_whatever_the_timing(k, multi):
         s = Recording(p.space, budget=45, n_initial=8, seed=7)
         journal = engine(s, p, k, multi, timing)
         assert s.done and s.n_told == 45 and not s.pending
-        told_before_each_ask(s.calls, k, multi)
-        runs.append((s.calls, json.dumps(s.state_dict(), sort_keys=True)))
+        blocks = told_before_each_ask(s.calls, k, multi)
+        q = batch_size(k)
+        assert blocks < 45 if q > 1 else blocks == 45  # blocks of q: fewer fits than points
+        # what the proposals depend on: each block's call with the results it saw, the tells
+        # (in id order) and the points; a point handed out of a block may come before or
+        # after a tell, as the workers finish
+        blocks_seen = [c for c in s.calls if c[0] == "ask" and c[3]]
+        tells = [c for c in s.calls if c[0] != "ask"]
+        points = [e["x"] for e in journal if e["event"] == "asked"]
+        runs.append((blocks_seen, tells, points, json.dumps(s.state_dict(), sort_keys=True)))
         # the journal's arrival order differs from run to run; its replay is exact
         r = Strategy(p.space, budget=45, n_initial=8, seed=7)
         rep = Replay(r, multi)
         for ev in journal:
             rep(ev)
-        assert json.dumps(r.state_dict(), sort_keys=True) == runs[-1][1]
+        assert json.dumps(r.state_dict(), sort_keys=True) == runs[-1][-1]
     assert all(run == runs[0] for run in runs[1:])
 
 
