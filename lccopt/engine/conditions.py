@@ -32,7 +32,8 @@ import numpy as np
 
 from .. import machine
 from ..errors import describe_os_error, environment_errno
-from ..store import merge_condition_files, read_evaluation, write_condition_evaluations
+from ..store import (merge_condition_files, read_evaluation, write_condition_evaluations,
+                     write_evaluation)
 from .worker import Outcome, Task
 
 
@@ -166,13 +167,19 @@ class ConditionPool:
         attrs = {"id": task.id, "phase": task.phase, "restart": task.restart, "worker": workers,
                  "wall_time": wall, **entries}
         try:
-            if task.out_path is not None:   # the workers wrote the parts
+            if task.out_path is not None:   # the workers wrote the parts (or sent them here)
                 paths = [self.run_path / part_name(task.id, c) for c in range(self.m)]
+                for c, o in parts.items():
+                    if not o.file_written:  # a Dask worker that does not see the run directory
+                        write_evaluation(paths[c], o.evaluation, task.x, self.case.names,
+                                         attrs={"id": task.id, "condition": c, "worker": o.worker,
+                                                "wall_time": o.wall_time, **o.machine},
+                                         durable=False)
                 merge_condition_files(target, paths, names, self.problem.weights, objectives, attrs,
                                       durable=False)
                 for p in paths:
                     p.unlink(missing_ok=True)
-            else:                            # Dask: the evaluations came back whole
+            else:                            # the evaluations came back whole
                 write_condition_evaluations(target, [parts[c].evaluation for c in range(self.m)],
                                             task.x, self.case.names, names, self.problem.weights,
                                             objectives, attrs, durable=False)

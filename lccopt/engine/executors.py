@@ -18,7 +18,10 @@ run single-threaded BLAS, ignore SIGINT and die with the parent process.
 :class:`DaskExecutor` submits to a ``dask.distributed`` scheduler (``--scheduler ADDRESS``).
 A task past the timeout is cancelled and recorded as failed (Dask cannot kill a running
 Python thread: the worker thread stays busy until the simulation returns); a worker that
-dies is handled by Dask (the task is retried elsewhere, then reported as failed).
+dies is handled by Dask (the task is retried elsewhere, then reported as failed). A worker
+that sees the run directory (the same machine, or a shared file system: it finds there the
+probe file this process wrote, with its random content) writes the evaluation file itself,
+as a local worker does; any other returns the whole evaluation and this process writes it.
 """
 
 from __future__ import annotations
@@ -26,6 +29,7 @@ from __future__ import annotations
 import contextlib
 import multiprocessing.connection as mpc
 import os
+import queue
 import signal
 import socket
 import subprocess
@@ -318,16 +322,33 @@ class LocalPool:
 # ------------------------------------------------------------------------------ Dask
 
 _DASK_EVALUATORS: dict = {}
+_SEES_RUN: dict = {}  # probe (path, content) -> whether this worker sees the run directory
 
 
-def dask_task(case, task: Task, spec) -> Outcome:
-    """Runs on a Dask worker (returns the whole Evaluation: the parent writes the file)."""
+def sees_run(probe) -> bool:
+    """Whether the probe file at ``probe[0]`` holds ``probe[1]`` here (the run directory is
+    this worker's too); asked once per worker process and run."""
+    key = tuple(probe)
+    if key not in _SEES_RUN:
+        try:
+            with open(probe[0], encoding="ascii") as fh:
+                _SEES_RUN[key] = fh.read(100) == probe[1]
+        except (OSError, ValueError):
+            _SEES_RUN[key] = False
+    return _SEES_RUN[key]
+
+
+def dask_task(case, task: Task, spec, probe=None) -> Outcome:
+    """Runs on a Dask worker: writes the evaluation file if it sees the run directory
+    (``probe``), else returns the whole Evaluation for the parent to write."""
     try:
         from distributed import get_worker
 
         name = get_worker().address
     except Exception:  # noqa: BLE001
         name = "dask"
+    if task.out_path is not None and not (probe is not None and sees_run(probe)):
+        task.out_path = None
     key = spec if isinstance(spec, str) else id(spec)
     fn = _DASK_EVALUATORS.get(key)
     if fn is None:
@@ -372,6 +393,8 @@ class DaskExecutor:
         self.address = address
         self.client = None
         self._futures: dict = {}  # future -> (task, submitted at)
+        self._done: queue.SimpleQueue = queue.SimpleQueue()  # futures as they finish
+        self._probe: tuple[str, str] | None = None  # (path, content) of the run directory's probe
         self._slots_cache = (0.0, 0)
         self.description = f"Dask scheduler {address if isinstance(address, str) else 'in-process'}"
 
@@ -426,29 +449,31 @@ class DaskExecutor:
         return max(0, self._n_threads() - len(self._futures))
 
     def submit(self, task: Task) -> None:
-        task.out_path = None  # Dask workers may not share our file system
-        fut = self.client.submit(dask_task, self.case, task, self.spec, pure=False,
+        if task.out_path is not None and self._probe is None:
+            self._probe = _write_probe(Path(task.out_path).parent)
+        fut = self.client.submit(dask_task, self.case, task, self.spec, self._probe, pure=False,
                                  key=f"lccopt-eval-{task.id}-{uuid.uuid4().hex[:8]}")
         self._futures[fut] = (task, time.monotonic())
+        fut.add_done_callback(self._done.put)  # no scan of every future in flight per wait
 
     def wait(self, timeout: float) -> list[Outcome]:
-        from distributed import wait as dwait
-
         if not self._futures:
             time.sleep(timeout)
             return []
         now = time.monotonic()
         limit = min([timeout] + [max(0.0, t0 + self.timeout - now) for _, t0 in self._futures.values()])
+        finished = []
         try:
-            dwait(list(self._futures), timeout=max(0.01, limit), return_when="FIRST_COMPLETED")
-        except Exception:  # noqa: BLE001 - a timeout of the wait itself
+            finished.append(self._done.get(timeout=max(0.01, limit)))
+            while True:
+                finished.append(self._done.get_nowait())
+        except queue.Empty:
             pass
         out: list[Outcome] = []
         now = time.monotonic()
-        for fut in list(self._futures):
-            task, t0 = self._futures[fut]
-            if fut.done():
-                del self._futures[fut]
+        for fut in finished:
+            if fut in self._futures:
+                task, t0 = self._futures.pop(fut)
                 if fut.status == "finished":
                     out.append(fut.result())
                 else:
@@ -459,11 +484,11 @@ class DaskExecutor:
                         reason = f"{type(e).__name__}: {e}"
                     out.append(Outcome.of(task, error=f"Dask task failed: {reason}"[:500],
                                        wall_time=now - t0, worker="dask"))
-            elif now - t0 > self.timeout:
-                del self._futures[fut]
-                fut.cancel()
-                out.append(Outcome.of(task, error=f"timed out after {self.timeout:g} s (Dask task cancelled)",
-                                   wall_time=now - t0, worker="dask"))
+        for fut in [f for f, (_, t0) in self._futures.items() if now - t0 > self.timeout]:
+            task, t0 = self._futures.pop(fut)
+            fut.cancel()
+            out.append(Outcome.of(task, error=f"timed out after {self.timeout:g} s (Dask task cancelled)",
+                                  wall_time=now - t0, worker="dask"))
         return out
 
     def kill_running(self) -> None:
@@ -477,6 +502,21 @@ class DaskExecutor:
                 self.kill_running()
                 self.client.close()
             self.client = None
+        if self._probe is not None:
+            with contextlib.suppress(OSError):
+                os.unlink(self._probe[0])
+            self._probe = None
+
+
+def _write_probe(directory: Path) -> tuple[str, str]:
+    """A file of random content in the run's evals/ (named ``*.tmp``: a resume removes one
+    left behind), by which a Dask worker knows it sees the run directory."""
+    content = uuid.uuid4().hex
+    path = directory / f"dask-probe.{content[:8]}.tmp"
+    fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_NOFOLLOW", 0), 0o644)
+    with os.fdopen(fd, "w", encoding="ascii") as fh:
+        fh.write(content)
+    return str(path.resolve()), content
 
 
 def make_executor(case, spec, workers: int | None, scheduler, timeout: float):

@@ -767,9 +767,9 @@ class Engine:
         self.t_optimiser += time.perf_counter() - t0
 
     def _submit(self, row: dict) -> None:
-        out = None
-        if self.executor.kind == "local":
-            out = str(self.rd.evals_dir() / Path(eval_name(row["id"])).name)
+        # the evaluation file's path: a local worker writes it, a Dask worker if it sees the
+        # run directory (executors.py), else the outcome brings the evaluation to write here
+        out = str(self.rd.evals_dir() / Path(eval_name(row["id"])).name)
         # time histories: every design's, or the reference design's and, at the end, the best's
         # (simulated again then: a few MB per design saved; docs/runs.md, "Disk use")
         keep = self.histories == "all" or (self.histories == "best" and (row["id"] == 0 or row["id"] in
