@@ -85,6 +85,63 @@ def conditions_yaml(n: int) -> str:
         for i, v in enumerate(speeds))
 
 
+class CpuSampler:
+    """CPU time [s] of this process and of all its descendants (the workers and their forked
+    children, or the Dask processes), sampled every 0.2 s from /proc, so that the CPU per
+    evaluation between two moments of a run (start-up left out) can be read off."""
+
+    def __init__(self):
+        import threading
+
+        self.samples: list[tuple[float, float, float]] = []
+        self._stop = threading.Event()
+        self._tick = os.sysconf("SC_CLK_TCK")
+        self._thread = threading.Thread(target=self._run, daemon=True)
+
+    def __enter__(self):
+        self._thread.start()
+        return self
+
+    def __exit__(self, *exc):
+        self._stop.set()
+        self._thread.join()
+
+    def _stat(self) -> dict[int, tuple[int, float]]:
+        out = {}
+        for d in os.listdir("/proc"):
+            if d.isdigit():
+                try:
+                    with open(f"/proc/{d}/stat") as fh:
+                        f = fh.read().rsplit(")", 1)[1].split()
+                except OSError:
+                    continue
+                # ppid; utime + stime + cutime + cstime (children already waited for)
+                out[int(d)] = (int(f[1]), sum(int(v) for v in f[11:15]) / self._tick)
+        return out
+
+    def _run(self) -> None:
+        me = os.getpid()
+        while not self._stop.is_set():
+            st = self._stat()
+            kids, todo = set(), [me]
+            while todo:
+                p = todo.pop()
+                for q, (pp, _) in st.items():
+                    if pp == p and q not in kids:
+                        kids.add(q)
+                        todo.append(q)
+            own = st.get(me, (0, 0.0))[1]
+            self.samples.append((time.time(), own, sum(st[q][1] for q in kids)))
+            self._stop.wait(0.2)
+
+    def between(self, t0: float, t1: float) -> tuple[float, float]:
+        """CPU seconds (this process, its descendants) used between wall-clock times t0, t1."""
+        t = np.array([s[0] for s in self.samples])
+        own = np.interp([t0, t1], t, [s[1] for s in self.samples])
+        kids = np.interp([t0, t1], t, [s[2] for s in self.samples])
+        return float(own[1] - own[0]), float(kids[1] - kids[0])
+
+
 @contextlib.contextmanager
 def dask_cluster(n: int, env: dict):
     """A scheduler and ``dask worker --nworkers n --nthreads 1`` as subprocesses; its address."""
@@ -142,6 +199,7 @@ def run_once(case: Path, budget: int, initial: int, workers: int, root: Path, ar
     own0, kids0 = cpu(resource.RUSAGE_SELF), cpu(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
     with contextlib.ExitStack() as stack:
+        sampler = stack.enter_context(CpuSampler())
         scheduler = stack.enter_context(dask_cluster(workers, env)) if args.dask else None
         t0 = time.perf_counter()
         kw = dict(runs=root / "runs", progress=False, evaluator=evaluator)
@@ -163,9 +221,16 @@ def run_once(case: Path, budget: int, initial: int, workers: int, root: Path, ar
     sims = [e["wall_time"] for e in done]
     wall = session["wall_time"]
     thr = session["evaluations"] / wall
+    at = [e["at"] for e in done]
+    first = args.start if args.start and len(done) > args.start + 1 else 1
     if args.start and len(done) > args.start + 1:
-        at = [e["at"] for e in done]
         thr = (len(at) - args.start) / (at[-1] - at[args.start - 1])
+    # marginal CPU per evaluation over the same stretch (start-up and shut-down left out)
+    m_own, m_kids = sampler.between(at[first - 1], at[-1])
+    m_n = len(at) - first
+    from lccopt.config import load_case
+
+    conditions = max(conditions, len(load_case(run / "case.yaml").conditions))  # the case's own
     return {"workers": workers, "conditions": conditions, "thr": thr,
             "evaluations": session["evaluations"], "wall": wall,
             "startup": total - wall, "optimiser": session["optimiser_time"],
@@ -174,6 +239,7 @@ def run_once(case: Path, budget: int, initial: int, workers: int, root: Path, ar
             # CPU per evaluation [ms]: this process (the engine; with --dask also the client)
             # and its children (the workers with their forked children, or the Dask processes)
             "cpu_engine": 1e3 * own / len(done), "cpu_workers": 1e3 * kids / len(done),
+            "mcpu_engine": 1e3 * m_own / m_n, "mcpu_workers": 1e3 * m_kids / m_n,
             "held": session.get("held_time", float("nan")) / (workers * wall),
             "batch": next((e.get("batch", 1) for e in events if e["event"] == "schedule"), 1)}
 
@@ -193,10 +259,10 @@ def throughput(args) -> None:
     rows = []
     for w, c in keys:
         rs = runs[(w, c)]
-        rows.append({"workers": w, "conditions": c, **{
+        rows.append({"workers": w, "conditions": rs[0]["conditions"], **{
             k: float(np.median([r[k] for r in rs]))
             for k in ("thr", "busy", "held", "optimiser", "bookkeeping", "wall", "evaluations", "batch",
-                      "cpu_engine", "cpu_workers")}})
+                      "cpu_engine", "cpu_workers", "mcpu_engine", "mcpu_workers")}})
     how = (f"stand-in evaluations of {args.standin} s" if args.standin
            else "cheap simulation" if args.cheap else "simulator")
     print(f"\ncase {args.case.name} ({how}, {'Dask' if args.dask else 'local pool'}), budget "
@@ -204,8 +270,8 @@ def throughput(args) -> None:
           f", median of {args.repeat}")
     print("| conditions | workers | batch | designs/s | simulations/s | efficiency | busy | held | "
           "optimiser [s] | bookkeeping [s] | overhead [% wall] | CPU engine [ms/design] | "
-          "CPU workers [ms/design] |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+          "CPU workers [ms/design] | marginal CPU engine / workers [ms/design] | cores needed |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
         if args.standin:
             eff = r["thr"] * r["conditions"] * args.standin / r["workers"]
@@ -216,7 +282,17 @@ def throughput(args) -> None:
         print(f"| {r['conditions']} | {r['workers']} | {r['batch']:.0f} | {r['thr']:.2f} | "
               f"{r['thr'] * r['conditions']:.1f} | {eff:.2f} | {r['busy']:.2f} | {r['held']:.3f} | "
               f"{r['optimiser']:.2f} | {r['bookkeeping']:.2f} | {over:.1f} | {r['cpu_engine']:.1f} | "
-              f"{r['cpu_workers']:.1f} |")
+              f"{r['cpu_workers']:.1f} | {r['mcpu_engine']:.1f} / {r['mcpu_workers']:.1f} | "
+              f"{need(r, args):.2f} |")
+
+
+def need(r: dict, args) -> float:
+    """Cores the engine and its workers would use at full efficiency: the marginal CPU per
+    design times the designs per second the workers could do (workers / (conditions * D))."""
+    if not args.standin:
+        return float("nan")
+    ideal = r["workers"] / (r["conditions"] * args.standin)
+    return ideal * 1e-3 * (r["mcpu_engine"] + r["mcpu_workers"])
 
 
 def asks(args) -> None:

@@ -71,3 +71,66 @@ def test_a_dask_worker_writes_the_file_only_where_it_sees_the_run_directory(tmp_
         away = executors.dask_task(case, Task(1, x, out_path=str(evals / "000001.h5")), FAKE, other)
         assert away.error is None and not away.file_written and away.evaluation is not None
         assert not (evals / "000001.h5").exists()
+
+
+def test_a_real_scheduler_with_eight_worker_processes_runs_an_optimisation(tmp_path):
+    """As on a cluster: `dask scheduler` and `dask worker ADDRESS --nworkers 8 --nthreads 1`
+    as processes of their own, then `lccopt optimise CASE --scheduler ADDRESS` as a user runs
+    it. Eight workers give a lag and a block of eight, every worker takes part, and the run's
+    evaluations are those of the local pool with eight workers (the same schedule)."""
+    import json
+    import os
+    import subprocess
+    import sys
+    import time
+
+    import numpy as np
+
+    distributed = pytest.importorskip("distributed")
+    from lccopt.engine.journal import read_journal
+
+    from .conftest import REPO, cli_run
+
+    env = {**os.environ, "PYTHONPATH": str(REPO), "LCCOPT_FAKE_DELAY": "0.05"}
+    sfile = tmp_path / "scheduler.json"
+    procs = [subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_scheduler", "--port", "0",
+                               "--no-dashboard", "--scheduler-file", str(sfile)], env=env, cwd=tmp_path,
+                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)]
+    try:
+        deadline = time.monotonic() + 60
+        while not sfile.exists() and time.monotonic() < deadline:
+            time.sleep(0.1)
+        time.sleep(0.2)  # written whole
+        address = json.loads(sfile.read_text())["address"]
+        procs.append(subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_worker", address,
+                                       "--nworkers", "8", "--nthreads", "1", "--no-dashboard",
+                                       "--memory-limit", "0"], env=env, cwd=tmp_path,
+                                      stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
+        with distributed.Client(address, timeout="20s") as client:
+            client.wait_for_workers(8, timeout=90)  # the lag is the worker threads at the start
+        case = write_case(tmp_path, "cluster", budget=32, initial=8, seed=9)
+        r = cli_run("optimise", case, "--scheduler", address, "--runs", tmp_path / "dask",
+                    env={"LCCOPT_EVALUATOR": FAKE, "LCCOPT_FAKE_DELAY": "0.05"}, timeout=120)
+        assert r.returncode == 0, r.stderr
+    finally:
+        for p in reversed(procs):
+            p.terminate()
+        for p in reversed(procs):
+            try:
+                p.wait(30)
+            except subprocess.TimeoutExpired:
+                p.kill()
+                p.wait()
+    run = tmp_path / "dask" / "cluster"
+    table = read_table(run)
+    assert list(table["id"]) == list(range(32)) and set(table["status"]) == {"ok"}
+    assert len(set(table["worker"])) == 8 and all(w.startswith("tcp://") for w in table["worker"])
+    events = read_journal(run / "journal.jsonl")[0]
+    assert [(e["lag"], e["batch"]) for e in events if e["event"] == "schedule"] == [(8, 8)]
+    assert "8 worker threads" in next(e for e in events if e["event"] == "session")["executor"]
+    for name in table["file"]:
+        read_evaluation(run / name)
+    local = read_table(optimise(case, workers=8, runs=tmp_path / "local", evaluator=FAKE,
+                                progress=False))
+    assert_same_evaluations(local, table)
+    assert np.isfinite(table["value"]).all()
