@@ -310,6 +310,7 @@ def asks(args) -> None:
     print("|---|---|---|---|---|")
     for q in args.batch:
         s = pb.strategy(budget=args.points)
+        ref = None
         if pb.multi:
             ref = pb.reference_point(objectives(case, np.array(pb.reference))[0])
             s.set_aggregate(pb.aggregate(ref))
@@ -323,7 +324,7 @@ def asks(args) -> None:
             t0 = time.perf_counter()
             for p in props:
                 obj, energy = objectives(case, p.x)
-                value = pb.value(obj, getattr(s.aggregate, "point", None)) if pb.multi else pb.value(obj, None)
+                value = pb.value(obj, ref)
                 s.tell(p.id, value, pb.outputs(obj, [float(v) for v in energy]))
             t_tell += time.perf_counter() - t0
         for n, b in sorted(blocks.items()):

@@ -1,9 +1,11 @@
 """The run journal: an append-only, fsynced JSON-lines file; each line is a commit point.
 
-Lines may be appended without waiting for the disk (``append(..., sync=False)``) and made
-durable together by ``sync()``: one fsync covers every line before it, in order, so the lines
-on disk are always a prefix of those written (the engine syncs before it starts an
-evaluation, and at least every fraction of a second).
+Lines may be appended without waiting for the disk (``append(..., sync=False)``), handed to
+the operating system by ``flush()`` (then they survive kill -9 of the process) and made
+durable together by ``sync()``: one fsync covers every line before it. Lines reach the file
+in order, so the file always holds a prefix of the lines appended (a torn last line at
+most). The engine flushes before it starts evaluations and syncs at least once a second:
+one fsync per evaluation would bound a run by the disk's fsync rate.
 
 Every line is one JSON object with ``seq`` (0, 1, 2, ... without gaps), ``event`` and the
 event's fields. A line is committed once it and its newline are on disk (write + flush +
@@ -100,8 +102,12 @@ class Journal:
             self.sync()
         return ev
 
+    def flush(self) -> None:
+        """Every line appended so far handed to the operating system (no fsync)."""
+        self._fh.flush()
+
     def sync(self) -> None:
-        """Every line written so far on disk (one flush and fsync; nothing if already)."""
+        """Every line appended so far on disk (one flush and fsync; nothing if already)."""
         if self.unsynced:
             self._fh.flush()
             os.fsync(self._fh.fileno())

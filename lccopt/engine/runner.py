@@ -18,6 +18,10 @@ Commit protocol, per evaluation ``i``:
 4. every few seconds: ``state.json`` (strategy state + the journal seq it reflects) and
    ``results.h5`` (rebuilt from the journal), both atomic.
 
+Journal lines are handed to the operating system before the evaluations they start (they
+survive kill -9) and fsynced together at least every ``SYNC_EVERY`` seconds and before a
+snapshot (a power cut loses at most the last second: those evaluations run again).
+
 The optimiser calls are a fixed function of the journal lines (``Replay``: each ``asked`` or
 ``exhausted`` line is an ask, a result is told as the schedule rule allows after each line,
 with the lag of the session's ``schedule`` line), so the optimiser state after any committed
@@ -59,6 +63,7 @@ from .worker import RENAMED_EVALUATORS, Outcome, Task, evaluator_spec
 
 RESULTS_EVERY = 10.0  # [s] results.h5 is rebuilt at most this often while running (and at the end)
 SNAPSHOT_EVERY = 5.0  # [s] state.json likewise; resume replays the journal lines after it
+SYNC_EVERY = 1.0      # [s] the journal is fsynced at least this often (a power cut loses less)
 
 
 def _usage_error(message: str) -> Exception:
@@ -541,6 +546,7 @@ class Engine:
         self._saved_seq = table.seq
         self._results_at = 0.0
         self._snapshot_at = time.monotonic()
+        self._synced_at = time.monotonic()
         self.t_optimiser = 0.0     # time in ask/tell
         self.t_bookkeeping = 0.0   # journal, snapshots, results.h5, files written here
         self.t_held = 0.0          # worker-seconds idle because a proposal waited for a late result
@@ -629,6 +635,7 @@ class Engine:
                 t_wait = time.monotonic()
                 for o in self.executor.wait(0.2):
                     self._record(o)
+                self.journal.flush()  # the results' lines survive a kill -9 from here on
                 if self.case.conditions:
                     p.parts(self.table, self.executor.parts_done)
                 if idle:
@@ -693,8 +700,8 @@ class Engine:
         block of proposals, runs while the evaluations do). A proposal waits for the results
         it must see (``_ask``); a free worker then idles until the late one arrives. Points
         asked but not yet running are pending in the journal: a resume runs them first, in
-        order, and only then asks again, as the run would have. The asked lines are on disk
-        (one fsync for them all) before their evaluations start."""
+        order, and only then asks again, as the run would have. The asked lines are written
+        (handed to the OS: they survive kill -9) before their evaluations start."""
         self._held = False
         rows = []
         free = self.executor.free()
@@ -714,7 +721,10 @@ class Engine:
                     break
                 rows.append(row)
         t0 = time.perf_counter()
-        self.journal.sync()
+        self.journal.flush()
+        if time.monotonic() - self._synced_at > SYNC_EVERY:
+            self.journal.sync()
+            self._synced_at = time.monotonic()
         self.t_bookkeeping += time.perf_counter() - t0
         for row in rows:
             self._submit(row)
