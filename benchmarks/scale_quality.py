@@ -22,8 +22,9 @@ budgets) with the real simulator in this process (regret ratio (f - f_best_known
 (f_reference - f_best_known), the best known of benchmarks/RESULTS-paper.md or better).
 Rows are appended to ``--out`` as runs finish (runs already there are skipped), so the
 script can be stopped and started again. ``--report`` prints the tables: per suite, problem
-and config, the median regret over seeds, and against 1:1 the seeds better / worse and the
-median of the paired differences.
+and config, the median regret over seeds, and against 1:1 (and a config with blocks against
+the same workers with one point per fit, k:1) the seeds better / worse and the median of the
+paired differences.
 """
 
 from __future__ import annotations
@@ -197,8 +198,8 @@ def report(paths: list[str]) -> None:
     configs = sorted({(k[2], k[3]) for k in by})
     for suite in sorted({k[0] for k in by}):
         probs = sorted({k[1] for k in by if k[0] == suite})
-        print(f"\n{suite}: median regret over seeds; against 1:1 (paired by seed): better / worse "
-              f"seeds, median paired difference")
+        print(f"\n{suite}: median regret over seeds; against 1:1, then (blocks) against k:1, "
+              f"paired by seed: better / worse seeds, median paired difference")
         print("| problem | " + " | ".join(f"{k}:{q}" for k, q in configs) + " |")
         print("|---|" + "---|" * len(configs))
         for prob in probs + ["all (median of per-problem medians)"]:
@@ -214,13 +215,13 @@ def report(paths: list[str]) -> None:
                     cells.append("")
                     continue
                 cell = f"{statistics.median(v.values()):.4g}"
-                base = by.get((suite, prob, 1, 1))
-                if base and (k, q) != (1, 1):
-                    common = sorted(set(v) & set(base))
+                for base in [by.get((suite, prob, 1, 1)) if (k, q) != (1, 1) else None,
+                             by.get((suite, prob, k, 1)) if q > 1 else None]:
+                    common = sorted(set(v) & set(base or {}))
                     d = [v[s] - base[s] for s in common]
-                    better = sum(x < 0 for x in d)
-                    worse = sum(x > 0 for x in d)
-                    cell += f" ({better}/{worse}, {statistics.median(d):+.3g})" if d else ""
+                    if d:
+                        better, worse = sum(x < 0 for x in d), sum(x > 0 for x in d)
+                        cell += f" ({better}/{worse}, {statistics.median(d):+.3g})"
                 cells.append(cell)
             print(f"| {prob} | " + " | ".join(cells) + " |")
 

@@ -636,8 +636,8 @@ class Engine:
                 for o in self.executor.wait(0.2):
                     self._record(o)
                 self.journal.flush()  # the results' lines survive a kill -9 from here on
-                if self.case.conditions:
-                    p.parts(self.table, self.executor.parts_done)
+                if self.case.conditions and not self._restoring:  # a design simulated again
+                    p.parts(self.table, self.executor.parts_done)      # spends no budget: not shown
                 if idle:
                     self.t_held += idle * (time.monotonic() - t_wait)
                 if self.stop and not self._stop_logged:

@@ -54,21 +54,21 @@ def test_a_dask_worker_writes_the_file_only_where_it_sees_the_run_directory(tmp_
     other content (another machine's directory of the same name), it writes nothing and
     returns the evaluation for the lccopt process to write."""
     from lccopt.config import load_case
-    from lccopt.engine import executors
+    from lccopt.engine import dask_pool
     from lccopt.engine.worker import Task
     from lccopt.problem import Problem
 
     case = load_case(write_case(tmp_path, "probe", budget=4, initial=4, seed=1))
     evals = tmp_path / "evals"
     evals.mkdir()
-    probe = executors._write_probe(evals)
+    probe = dask_pool._write_probe(evals)
     assert probe[0].endswith(".tmp") and open(probe[0]).read() == probe[1]
     x = list(Problem.from_case(case).reference)
-    here = executors.dask_task(case, Task(0, x, out_path=str(evals / "000000.h5")), FAKE, probe)
+    here = dask_pool.dask_task(case, Task(0, x, out_path=str(evals / "000000.h5")), FAKE, probe)
     assert here.error is None and here.file_written and here.evaluation is None
     assert read_evaluation(evals / "000000.h5")[1].objectives == here.objectives
     for other in [(probe[0], "0" * 32), (str(tmp_path / "nowhere.tmp"), probe[1])]:
-        away = executors.dask_task(case, Task(1, x, out_path=str(evals / "000001.h5")), FAKE, other)
+        away = dask_pool.dask_task(case, Task(1, x, out_path=str(evals / "000001.h5")), FAKE, other)
         assert away.error is None and not away.file_written and away.evaluation is not None
         assert not (evals / "000001.h5").exists()
 
