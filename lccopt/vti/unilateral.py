@@ -20,9 +20,10 @@ The effective matrix A = K + a0 M + a1 C (every support in) is factorised once, 
 the k moving wheel contacts that makes one Woodbury (capacitance) system of size k + m for m
 sleepers off the ballast, in the factored form with rows U⁻ᵀe_j (cached per sleeper). Each step
 starts from the previous step's contact set and iterates (active set) until every sleeper's
-state agrees with its penetration: the first passes flip every disagreeing sleeper, later ones
-only the first (Murty's least-index rule, finite for a positive definite matrix); at most
-``max_iterations`` passes, a step that did not settle is counted in ``History.info``. Where no sleeper is off the ballast a step costs what
+state agrees with its penetration, flipping every disagreeing sleeper at once. The damper makes
+a consistent set not always exist (it can pull up a sleeper whose penetration says "in"); after
+``max_iterations`` passes the sleepers still changing keep their state of the step before, and
+the step is counted in ``History.info['unsettled']``. Where no sleeper is off the ballast a step costs what
 :func:`~lccopt.vti.newmark.integrate_wheels` costs plus a gather of the sleepers'
 displacements: no refactorisation, ever.
 
@@ -46,7 +47,6 @@ from .assembly import to_upper_banded
 from .newmark import History, _check_on_rail, contact_vectors, forward_columns
 
 GRAVITY = 9.81
-FLIP_ALL = 4        # active-set passes that flip every disagreeing sleeper at once
 
 
 @dataclass(frozen=True)
@@ -243,7 +243,7 @@ def integrate_unilateral(track, dt: float, speed: float, x_start: float, n_steps
                          supports: SleeperSupports, vehicle=None, load: float = 0.0,
                          irregularity: Callable[[float], float] | None = None,
                          record_dofs: np.ndarray | None = None, on_step: Callable | None = None,
-                         max_iterations: int = 60) -> History:
+                         max_iterations: int = 8) -> History:
     """:func:`~lccopt.vti.newmark.integrate` with unilateral sleeper supports (module docstring).
 
     vehicle: any vehicle (its k wheels are k moving contacts), or None for one constant moving
@@ -343,23 +343,25 @@ def integrate_unilateral(track, dt: float, speed: float, x_start: float, n_steps
             rhs[out_set.dofs] -= q_out
         y = tbsv(kd, chol, rhs, trans=1, overwrite_x=1)
         c0 = wh.c0(t, s)
-        for it in range(1, max_iterations + 1):
+        start = out_set.contact.copy()
+        for it in range(1, max_iterations + 2):
             delta, u_new = out_set.solve(y, Sm, c0, wh.kap, chol, kd)
             pu = u_new[dof]
             now = pu >= low
             changed = now ^ out_set.contact
             if not changed.any():
                 break
-            if it == max_iterations:
+            if it == max_iterations + 1:           # the step's last solve: accepted as it is
                 stats["unsettled"] += 1
                 break
-            if it > FLIP_ALL:
-                # Murty's least-index rule: one sleeper at a time, which cannot cycle (the
-                # step's matrix is symmetric positive definite)
-                first = np.flatnonzero(changed)[0]
-                changed = np.zeros_like(changed)
-                changed[first] = True
-                now = out_set.contact ^ changed
+            if it == max_iterations:
+                # no consistent set (a damper can pull a sleeper that its penetration would
+                # release): the sleepers still changing keep their state of the step before
+                now = np.where(changed, start, out_set.contact)
+                changed = now ^ out_set.contact
+                if not changed.any():
+                    stats["unsettled"] += 1
+                    break
             # move the changed sleepers' constant loads (and dampers) into y
             dq = out_set.switch(now, changed, S[1])
             y = y + dot(dq, rows.get(dof[changed]))
