@@ -10,8 +10,9 @@ rail's profile changes (the track geometry). Both follow from the unilateral sup
 not from a choice made here (docs/settlement.md).
 
 Block sizes adapt: a block is as long as keeps the change of the zone's differential settlement
-within ``tolerance`` (the loads are those at the block's start, so the result converges as the
-tolerance shrinks; tests/vti/test_settlement_iteration.py shows it).
+within ``tolerance + relative`` times the differential settlement reached (the loads are those
+at the block's start, so the result converges as both shrink;
+tests/vti/test_settlement_iteration.py shows it).
 """
 
 from __future__ import annotations
@@ -99,22 +100,24 @@ class SettlementResult:
 
 
 def predict_settlement(track, zone: SettlementZone, conditions: Sequence[Condition], *,
-                       horizon_years: float, law=None, tolerance: float = 0.2e-3,
-                       growth: float = 10.0, max_blocks: int = 40, rail_seats: float = 2.0,
+                       horizon_years: float, law=None, tolerance: float = 0.5e-3,
+                       relative: float = 0.0, growth: float = 10.0, max_blocks: int = 60,
+                       rail_seats: float = 2.0,
                        level_span: tuple[float, float] | None = None) -> SettlementResult:
     """Settlement of ``zone`` of ``track`` under ``conditions`` up to ``horizon_years``.
 
     law: a settlement law of :mod:`lccopt.degradation.laws` (default :class:`VarandasLaw`),
     fed with ``rail_seats`` times the modelled rail seat's force (the laws take the force under
-    a whole sleeper; one rail is modelled, loaded as its twin). tolerance [m]: largest change
-    of the zone's differential settlement (each sleeper's increment minus the farthest settling
-    sleeper's) in one block; a block is at most ``growth`` times longer than the one before.
+    a whole sleeper; one rail is modelled, loaded as its twin). tolerance [m], relative [-]: the
+    largest change of the zone's differential settlement (each sleeper's increment minus the
+    farthest settling sleeper's) in one block is tolerance + relative x the differential
+    settlement reached; a block is at most ``growth`` times longer than the one before.
     After ``max_blocks`` blocks the rest of the horizon is one block (``info['truncated']``).
     level_span: (x_from, x_to) [m] of the rail profile measured; default the settling zone
     plus 3 m either side."""
     law = law or VarandasLaw()
-    if horizon_years <= 0 or tolerance <= 0 or growth <= 1:
-        raise ValueError("horizon_years and tolerance must be > 0 and growth > 1")
+    if horizon_years <= 0 or tolerance <= 0 or relative < 0 or growth <= 1:
+        raise ValueError("horizon_years, tolerance must be > 0, relative >= 0, growth > 1")
     n = zone.n_settling
     sup = zone.supports
     xs = sup.x[:n]
@@ -130,12 +133,13 @@ def predict_settlement(track, zone: SettlementZone, conditions: Sequence[Conditi
             step, truncated = left, True
         else:
             step = left if last is None else min(left, growth * last)
-            step = state.fit(step, tolerance)
+            reached = float(np.max(np.abs(state.settlement - state.settlement[-1])))
+            step = state.fit(step, tolerance + relative * reached)
         state.advance(step)
         t += step
         last = step
         state.record(t, step)
-    return state.result(truncated, tolerance)
+    return state.result(truncated, (tolerance, relative))
 
 
 class _State:
