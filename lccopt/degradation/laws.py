@@ -95,7 +95,8 @@ class VarandasLaw:
         a = self.alpha + 1.0
         fa = f ** a
         band = fa - np.vstack([fa[1:], np.zeros((1, fa.shape[1]))])
-        return self.gamma * np.sum(harmonic(c, self.beta) * band, axis=0) / harmonic(self.n0, self.beta)
+        total = np.sum(harmonic(c, self.beta) * band, axis=0)
+        return self.gamma * total / harmonic(self.n0, self.beta)
 
     def constant(self, force, cycles) -> np.ndarray:
         """Settlement [m] after ``cycles`` cycles of a constant peak ``force`` [N]."""
@@ -136,10 +137,12 @@ class LogarithmicLaw:
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             ratio = np.where(a > 0, s / a, np.inf)
             # equivalent cycles already carried at this load
-            log_neq = np.where(ratio >= 1.0, (ratio - 1.0) / self.log_rate, np.log(np.maximum(ratio, 1e-300)))
+            log_neq = np.where(ratio >= 1.0, (ratio - 1.0) / self.log_rate,
+                               np.log(np.maximum(ratio, 1e-300)))
             neq = np.exp(np.minimum(log_neq, 700.0))
             n_new = neq + cycles
-            grown = a * np.where(n_new >= 1.0, 1.0 + self.log_rate * np.log(np.maximum(n_new, 1.0)), n_new)
+            log_n = np.log(np.maximum(n_new, 1.0))
+            grown = a * np.where(n_new >= 1.0, 1.0 + self.log_rate * log_n, n_new)
         return np.where((a > 0) & (cycles > 0), np.maximum(grown, s), s)
 
 

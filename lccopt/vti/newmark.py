@@ -103,7 +103,7 @@ class History:
     wheel_force: np.ndarray | None = None             # (steps+1, wheels)
     wheel_rail_displacement: np.ndarray | None = None  # (steps+1, wheels)
     # unilateral sleeper supports (lccopt/vti/unilateral.py), else None
-    support_force: np.ndarray | None = None    # (steps+1, supports) ballast force [N], >= 0 apart from damping
+    support_force: np.ndarray | None = None    # (steps+1, supports) ballast force [N]
     support_contact: np.ndarray | None = None  # (steps+1, supports) 1 in contact, 0 over a void
     info: dict | None = None                   # active-set statistics of the unilateral supports
 

@@ -23,12 +23,14 @@ starts from the previous step's contact set and iterates (active set) until ever
 state agrees with its penetration, flipping every disagreeing sleeper at once. The damper makes
 a consistent set not always exist (it can pull up a sleeper whose penetration says "in"); after
 ``max_iterations`` passes the sleepers still changing keep their state of the step before, and
-the step is counted in ``History.info['unsettled']``. Where no sleeper is off the ballast a step costs what
+the step is counted in ``History.info['unsettled']``. Where no sleeper is off the ballast a
+step costs what
 :func:`~lccopt.vti.newmark.integrate_wheels` costs plus a gather of the sleepers'
 displacements: no refactorisation, ever.
 
 Discrete energy balance (THEORY.md's, extended): with the support forces' trapezoidal work
-½(F_n + F_{n+1})·Δu the balance is exact; the spring's energy ½ k_b ⟨p⟩² differs from that work
+½(F_n + F_{n+1})·Δu the balance is exact; the spring's energy ½ k_b ⟨p⟩² differs from that
+work
 only in a step where the sleeper switches, by ½ k_b p_n p_{n+1} (p_n, p_{n+1} on either side of
 zero), which shrinks as Δt² (tests/vti/test_voids_energy.py).
 """
@@ -271,7 +273,8 @@ def integrate_unilateral(track, dt: float, speed: float, x_start: float, n_steps
     ab, kd = to_upper_banded(K + a0 * M + a1 * C)
     chol, info = lapack.dpbtrf(ab, lower=0, overwrite_ab=1)
     if info != 0:
-        raise np.linalg.LinAlgError(f"effective track matrix is not positive definite (dpbtrf info={info})")
+        raise np.linalg.LinAlgError(
+            f"effective track matrix is not positive definite (dpbtrf info={info})")
     chol = np.asfortranarray(chol)
     MC = sp.hstack([M, C]).tocsr()
     S = np.zeros((3, n))                  # rows p, q, u as in newmark.integrate
@@ -413,7 +416,8 @@ class _OutSet:
     """The sleepers off the ballast in a step: their rows U⁻ᵀe_j, the Woodbury terms, the solve.
 
     With D = diag(k_b + a1 c_b) over the m sleepers off the ballast, E their rows and S the
-    wheels' rows, the step's displacements are u' = U⁻¹(y + Sᵀc + Eᵀ D σ) with the wheel forces
+    wheels' rows, the step's displacements are u' = U⁻¹(y + Sᵀc + Eᵀ D σ) with the wheel
+    forces
     c = c0 - Κ δ, where δ = S(...) and σ = E(...) solve
 
         [I + S Sᵀ Κ    -S Eᵀ D] [δ]   [S y + S Sᵀ c0]
