@@ -1,9 +1,12 @@
-"""What one passage does to the ballast: per-axle peak sleeper forces from a simulation, and
-the settlement zone of a built transition track (which sleepers settle, which follow).
+"""What one passage does to the ballast: per-axle peak sleeper forces from a simulation, the
+traffic conditions that cause them, and the settlement zone of a built transition track
+(which sleepers settle, which follow).
 
-The settlement iteration (:mod:`lccopt.degradation.iteration`) calls one function per traffic
-condition, ``simulate(supports) -> Loading``; :func:`vti_condition` builds it from a track, a
-vehicle and a run, so that the iteration itself knows nothing of how the passage is simulated.
+The settlement iteration (:mod:`lccopt.degradation.iteration`) sees a traffic condition as a
+:class:`Condition`: how often it passes, ``simulate(supports) -> Loading`` and its axles
+(static wheel loads and spacing, for the iteration's quasi-static load model);
+:func:`vti_condition` builds one from a track, a vehicle and a run, so that the iteration
+itself knows nothing of how the passage is simulated.
 """
 
 from __future__ import annotations
@@ -40,16 +43,39 @@ def axle_peaks(history: History, sleeper_x: np.ndarray) -> np.ndarray:
     return np.stack([np.where(nearest == w, f, -np.inf).max(axis=0) for w in range(k)]).clip(0.0)
 
 
-def vti_condition(track, vehicle, *, dt: float, speed: float, x_start: float, n_steps: int,
-                  irregularity: Callable[[float], float] | None = None
-                  ) -> Callable[[SleeperSupports], Loading]:
-    """simulate(supports) -> Loading for one vehicle run over ``track`` (the arguments of
-    :func:`~lccopt.vti.newmark.integrate`)."""
+@dataclass(frozen=True)
+class Axles:
+    """The wheels of one passage on the modelled rail: ``offsets`` [m] behind the leading wheel
+    (front first, as the rows of :attr:`Loading.peak_force`), static ``loads`` [N] per wheel,
+    ``direction`` +1 (towards +x) or -1."""
+    offsets: np.ndarray
+    loads: np.ndarray
+    direction: float = 1.0
+
+
+@dataclass(frozen=True)
+class Condition:
+    """One kind of passage: ``passes_per_year`` passages simulated by ``simulate``, with the
+    axles ``axles``."""
+    name: str
+    passes_per_year: float
+    simulate: Callable[[SleeperSupports], Loading]
+    axles: Axles
+
+
+def vti_condition(name: str, passes_per_year: float, track, vehicle, *, dt: float,
+                  speed: float, x_start: float, n_steps: int,
+                  irregularity: Callable[[float], float] | None = None) -> Condition:
+    """A :class:`Condition`: ``vehicle`` running over ``track`` (the arguments of
+    :func:`~lccopt.vti.newmark.integrate`) ``passes_per_year`` times a year."""
     def simulate(supports: SleeperSupports) -> Loading:
         h = integrate(track, dt, speed, x_start, n_steps, vehicle=vehicle, supports=supports,
                       irregularity=irregularity)
         return Loading(axle_peaks(h, supports.x), float(np.max(h.wheel_force)))
-    return simulate
+    axles = Axles(np.asarray(vehicle.wheel_offsets, dtype=float),
+                  np.asarray(vehicle.static_wheel_loads, dtype=float),
+                  -1.0 if speed < 0 else 1.0)
+    return Condition(name, float(passes_per_year), simulate, axles)
 
 
 @dataclass(frozen=True)

@@ -63,15 +63,54 @@ def test_varandas_reference_test_and_constant_load():
 
 
 def test_logarithmic_law_constant_load_and_strain_hardening():
-    law = LogarithmicLaw()
-    assert law.constant(50e3, 1e6) == pytest.approx(VarandasLaw().constant(50e3, 1e6), rel=1e-12)
+    law = LogarithmicLaw(first_cycle=0.2e-3, log_rate=0.3)
+    assert law.constant(50e3, 1.0) == pytest.approx(0.2e-3, rel=1e-12)
+    assert law.constant(50e3, 1e6) == pytest.approx(0.2e-3 * (1 + 0.3 * np.log(1e6)), rel=1e-12)
     # a constant load in blocks: the closed form
-    h = LoadHistory.empty(1)
+    s = law.start(1)
     for n in (10, 90, 900, 9000):
-        h = h.add([40e3], n)
-    assert law.settlement(h)[0] == pytest.approx(float(law.constant(40e3, 1e4)), rel=1e-10)
+        s = law.add(s, [[40e3]], [n])
+    assert law.settlement(s)[0] == pytest.approx(float(law.constant(40e3, 1e4)), rel=1e-10)
     # a heavier block after a lighter one settles more than the light one alone
-    light = LoadHistory.empty(1).add([30e3], 1e5)
-    assert law.settlement(light.add([60e3], 1e5))[0] > law.settlement(light.add([30e3], 1e5))[0]
+    light = law.add(law.start(1), [[30e3]], [1e5])
+    assert law.add(light, [[60e3]], [1e5])[0] > law.add(light, [[30e3]], [1e5])[0]
     # a sleeper over a void (no load) does not settle
-    assert law.settlement(light.add([0.0], 1e6))[0] == law.settlement(light)[0]
+    assert law.add(light, [[0.0]], [1e6])[0] == light[0]
+    with pytest.raises(ValueError):
+        LogarithmicLaw(first_cycle=0.0, log_rate=0.3)
+
+
+def random_history(law, n, rng):
+    state = law.start(n)
+    for _ in range(30):
+        state = law.add(state, rng.uniform(30e3, 50e3, (1, n)), [rng.uniform(1, 1e4)])
+    return state
+
+
+@pytest.mark.parametrize("law", [VarandasLaw(), LogarithmicLaw(first_cycle=0.2e-3, log_rate=0.3)],
+                         ids=["varandas", "logarithmic"])
+def test_sensitivity_is_the_derivative_by_each_row(law):
+    """What the implicit block update differentiates: d settlement / d peak of each new row,
+    against central differences, also where two rows tie (they rise together)."""
+    rng = np.random.default_rng(0)
+    state = random_history(law, 5, rng)
+    peaks = rng.uniform(25e3, 60e3, (3, 5))
+    cycles = np.array([100.0, 100.0, 50.0])
+    s, d = law.sensitivity(state, peaks, cycles)
+    np.testing.assert_allclose(s, law.settlement(law.add(state, peaks, cycles)), rtol=1e-12)
+    h = 0.5
+    for r in range(3):
+        up, down = peaks.copy(), peaks.copy()
+        up[r] += h
+        down[r] -= h
+        fd = (law.settlement(law.add(state, up, cycles))
+              - law.settlement(law.add(state, down, cycles))) / (2 * h)
+        np.testing.assert_allclose(d[r], fd, rtol=1e-4, atol=1e-6 * np.abs(fd).max())
+    peaks[1] = peaks[0]
+    s, d = law.sensitivity(state, peaks, cycles)
+    up, down = peaks.copy(), peaks.copy()
+    up[:2] += h
+    down[:2] -= h
+    fd = (law.settlement(law.add(state, up, cycles))
+          - law.settlement(law.add(state, down, cycles))) / (2 * h)
+    np.testing.assert_allclose(d[0] + d[1], fd, rtol=1e-4, atol=1e-6 * np.abs(fd).max())
