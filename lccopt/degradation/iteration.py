@@ -15,9 +15,10 @@ the long horizon (10^7 axle passes) cheap and stable:
 * **Loads between simulations.** Load of an axle on a sleeper = its quasi-static load (the
   static wheel loads on the settled track with its voids) + the dynamic part the last
   simulation measured (simulated peak - quasi-static load then). A new simulation is run when
-  the profile has changed by ``allowance`` since the last one; the allowance adapts so that
+  the profile has changed by an allowance since the last one; the allowance adapts so that
   the error of those loads (measured at each new simulation: predicted vs simulated) stays
-  near ``tolerance``.
+  near ``tolerance``. The cycles since the last simulation are then run again with the
+  dynamic part blended from the last simulation's to the new one's (predictor-corrector).
 * **Blocks in log N.** Settlement laws grow like N^0.2 or ln N: block ends grow geometrically
   (``steps_per_decade`` a decade of cycles), shortened while any load changes by more than
   ``tolerance`` within a block or the profile would pass the allowance.
@@ -178,6 +179,9 @@ class _Loads:
         qs = self.quasi_static(settlement)
         error, parts = 0.0, []
         for j, (q, ld) in enumerate(zip(qs, loadings)):
+            if ld.peak_force.shape[0] != q.shape[0] or ld.peak_force.shape[1] < n:
+                raise ValueError(f"a simulation gave peak forces of shape {ld.peak_force.shape}"
+                                 f", expected ({q.shape[0]} axles, >= {n} sleepers)")
             sim = ld.peak_force[:, :n]
             error = max(error, float(np.max(np.abs(np.maximum(q + self.dynamic[j], 0.0) - sim))))
             parts.append(sim - q)
@@ -194,17 +198,17 @@ class _Loads:
         return min(max(t, 0.0), 1.0), (d / dd if 0.0 < t < 1.0 else None)
 
     def _dynamic(self, settlement):
+        """(dynamic parts at ``settlement``, their progress gradient or None)."""
         if self.blend is None:
-            return self.dynamic, 0.0, None
+            return self.dynamic, None
         theta, grad = self._theta(settlement)
-        new = self.blend[2]
-        return [d + theta * (e - d) for d, e in zip(self.dynamic, new)], theta, grad
+        return [d + theta * (e - d) for d, e in zip(self.dynamic, self.blend[2])], grad
 
     def __call__(self, settlement, jacobian: bool = True):
         """(rows (axles of all conditions, sleepers) [N] fed to the law, d rows / d settlement
         (rows, sleepers, sleepers)), rows in condition order."""
         qs = self.quasi_static(settlement)
-        dyn, _, grad = self._dynamic(settlement)
+        dyn, grad = self._dynamic(settlement)
         f = np.vstack([np.maximum(q + d, 0.0) for q, d in zip(qs, dyn)])
         if not jacobian:
             return self.scale * f, None

@@ -97,8 +97,7 @@ class ZoneStatics:
         """Support-dof displacements u (cases, m) and contact sets (cases, m) of the static
         states with support displacements ``a`` (cases, m) of the loads, over ``gap`` (m,).
         contact: a starting guess (active set), e.g. the last call's."""
-        sup = self.supports
-        kb, rest = sup.stiffness, sup.rest
+        rest = self.supports.rest
         c = np.ones(a.shape, dtype=bool) if contact is None else np.array(contact, dtype=bool)
         for _ in range(max_iterations):
             u = self._states(gap, a, c)
