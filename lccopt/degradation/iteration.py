@@ -56,8 +56,10 @@ class SettlementResult:
     largest per-axle ballast force of each condition in the block (simulated where
     ``simulated``, else the quasi-static load plus the last simulation's dynamic part);
     wheel_force_max (blocks+1, conditions) [N]: largest wheel-rail force of the passage, NaN
-    where not simulated; simulated (blocks+1,) bool; sleeper_x [m]; n_simulations: single
-    passage simulations run; info.
+    where not simulated; simulated (blocks+1,) bool: a simulation ran at the end of the block
+    (inside the run on the predictor's profile, which the corrector then moves by a fraction
+    of the allowance; the first and the last on the recorded profile); sleeper_x [m];
+    n_simulations: single passage simulations run; info.
     """
     years: np.ndarray
     axle_passes: np.ndarray
@@ -137,6 +139,9 @@ def predict_settlement(track, zone: SettlementZone, conditions: Sequence[Conditi
         raise ValueError("horizon_years, tolerance, steps_per_decade, rail_seats must be > 0, "
                          "max_simulations >= 2")
     conditions = tuple(conditions)
+    rates = [c.passes_per_year for c in conditions]
+    if not conditions or min(rates) < 0 or sum(rates) <= 0:
+        raise ValueError("conditions: at least one, passes_per_year >= 0, some > 0")
     xs = zone.supports.x[:zone.n_settling]
     span = level_span or (float(xs.min()) - 3.0, float(xs.max()) + 3.0)
     lx = np.asarray(track.node_x, float)

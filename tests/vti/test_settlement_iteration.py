@@ -164,3 +164,12 @@ def test_implicit_blocks_are_stable_where_explicit_ones_make_a_checkerboard(refe
     assert np.max(np.abs(np.diff(implicit, 2))) < 1e-3          # the dip's own curvature
     assert np.max(np.abs(one - implicit)) < 1e-3
     assert np.max(np.abs(np.diff(explicit, 2))) > 3e-3
+
+
+def test_bad_traffic_and_settings_are_refused(reference):
+    tr, zone, cond, _ = reference
+    idle = Condition("idle", 0.0, cond.simulate, cond.axles)
+    for conditions, kw in (([], {}), ([idle], {}), ([cond], {"tolerance": 0.0}),
+                           ([cond], {"max_simulations": 1}), ([cond], {"horizon_years": -1.0})):
+        with pytest.raises(ValueError):
+            predict_settlement(tr, zone, conditions, **({"horizon_years": YEARS} | kw))
