@@ -55,6 +55,12 @@ class TrackModel:
     exit_sleeper_x: np.ndarray
     type_ii_end: float              # the Type II strip covers [x_a, type_ii_end]
     info: dict = field(default_factory=dict)
+    # every ballast sleeper, entry (nearest the interface first) then exit: what the unilateral
+    # support model (lccopt/vti/unilateral.py) needs to know of each sleeper's support
+    sleeper_x: np.ndarray | None = None
+    sleeper_dof: np.ndarray | None = None
+    support_stiffness: np.ndarray | None = None     # k_b [N/m]
+    support_damping: np.ndarray | None = None       # c_b [N s/m]
 
     @property
     def n_dofs(self) -> int:
@@ -284,7 +290,8 @@ def build_track(scenario: Scenario, design: TrackDesign) -> TrackModel:
         M=Mas.build(), C=Cas.build(), K=Kas.build(), interface=(x_a, x_b), slab_edges=slab_edges,
         entry_sleeper_x=entry_x, entry_sleeper_dof=sleeper_dof[:n_entry],
         entry_support_damping=sl_c, entry_strengthened=strengthened, entry_pad_stiffness=pad_k,
-        exit_sleeper_x=exit_x, type_ii_end=float(type_ii_end), info=info)
+        exit_sleeper_x=exit_x, type_ii_end=float(type_ii_end), info=info,
+        sleeper_x=sleeper_x, sleeper_dof=sleeper_dof, support_stiffness=all_k, support_damping=all_c)
 
 
 @dataclass
