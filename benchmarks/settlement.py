@@ -27,13 +27,13 @@ import time
 
 import numpy as np
 
-from lccopt.case import load_case
+from lccopt.config import load_case
 from lccopt.degradation.iteration import predict_settlement
 from lccopt.degradation.laws import LogarithmicLaw, VarandasLaw
 from lccopt.degradation.loading import entry_zone, vti_condition
 from lccopt.vti.newmark import integrate
 from lccopt.vti.track import build_track
-from lccopt.vti.vehicle import Vehicle
+from lccopt.vti.evaluate import build_vehicle
 
 # One bogie side of the VIRM (configs/traffic.yaml's values): two wheels, no fixed point, so a
 # settled track does not change its static wheel loads (the paper's 3-dof vehicle rests half
@@ -53,8 +53,8 @@ def setup(x=None, vehicle="bogie", speed=None):
     if speed is not None:
         case.data["vehicle"]["speed"] = speed
     x = case.reference.copy() if x is None else np.asarray(x, float)
-    tr = build_track(case, x)
-    veh = Vehicle.from_case(case)
+    tr = build_track(case.scenario(), case.track_design(x))
+    veh = build_vehicle(case.scenario().vehicle)
     dt = case.simulation["time_step"]
     x_start, _, _, x_end = tr.window
     n = int(np.ceil(abs(x_end - x_start) / (veh.speed * dt)))

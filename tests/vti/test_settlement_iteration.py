@@ -6,7 +6,7 @@ tolerance shrinks. Short versions (coarse time step and mesh) of benchmarks/sett
 import numpy as np
 import pytest
 
-from lccopt.case import load_case
+from lccopt.config import load_case
 from lccopt.degradation.iteration import _implicit_block, _Loads, predict_settlement
 from lccopt.degradation.laws import VarandasLaw
 from lccopt.degradation.loading import (Axles, Condition, Loading, SettlementZone, entry_zone,
@@ -15,7 +15,7 @@ from lccopt.degradation.statics import ZoneStatics
 from lccopt.vti.newmark import integrate
 from lccopt.vti.track import build_track
 from lccopt.vti.unilateral import sleeper_supports
-from lccopt.vti.vehicle import Vehicle
+from lccopt.vti.evaluate import build_vehicle
 from tests.vti.test_voids import discrete_track
 
 YEARS = 10.0
@@ -66,8 +66,8 @@ def reference_setup(x=None, per_year=PER_YEAR):
     case = load_case("configs/reference.yaml").with_simulation(
         time_step=1e-3, element_length=0.1, run_in=2.0, run_out=1.0)
     case.data["vehicle"]["model"] = "quarter-car"     # no fixed point (docs/settlement.md)
-    tr = build_track(case, case.reference if x is None else np.asarray(x, float))
-    veh = Vehicle.from_case(case)
+    tr = build_track(case.scenario(), case.track_design(case.reference if x is None else np.asarray(x, float)))
+    veh = build_vehicle(case.scenario().vehicle)
     x0, _, _, x1 = tr.window
     dt = case.simulation["time_step"]
     n = int(np.ceil((x1 - x0) / (veh.speed * dt)))

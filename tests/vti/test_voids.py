@@ -8,12 +8,12 @@ import pytest
 import scipy.sparse as sp
 from scipy.sparse.linalg import spsolve
 
-from lccopt.case import load_case
+from lccopt.config import load_case
 from lccopt.vti.assembly import Assembler, beam_stiffness, hermite_gram
 from lccopt.vti.newmark import contact_vector, integrate
 from lccopt.vti.track import build_track
 from lccopt.vti.unilateral import GRAVITY, rest_state, sleeper_supports
-from lccopt.vti.vehicle import Vehicle
+from lccopt.vti.evaluate import build_vehicle
 
 EI = 210e9 * 2.337e-5
 M_RAIL = 7800 * 6.977e-3
@@ -180,8 +180,8 @@ def test_zero_gaps_on_a_stiff_track_give_the_linear_result():
     """Unilateral supports without voids, none lifting off: the linear model's run to
     round-off (the same Woodbury scheme with no sleeper off the ballast)."""
     case = load_case("configs/reference.yaml").with_simulation(run_in=2.0, run_out=1.0)
-    tr = build_track(case, case.reference)
-    veh = Vehicle.from_case(case)
+    tr = build_track(case.scenario(), case.track_design(case.reference))
+    veh = build_vehicle(case.scenario().vehicle)
     dt = case.simulation["time_step"]
     x_start = tr.window[0]
     steps = int(4.0 / (veh.speed * dt))                  # 4 m on the ballast, before the slab

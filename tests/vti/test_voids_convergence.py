@@ -3,17 +3,17 @@ forces of a vehicle run converge as Δt halves (the contact switching does not s
 
 import numpy as np
 
-from lccopt.case import load_case
+from lccopt.config import load_case
 from lccopt.vti.newmark import integrate
 from lccopt.vti.unilateral import sleeper_supports
-from lccopt.vti.vehicle import Vehicle
+from lccopt.vti.evaluate import build_vehicle
 from tests.vti.test_voids import discrete_track
 
 
 def measures(dt):
     case = load_case("configs/reference.yaml")
     case.data["vehicle"]["model"] = "quarter-car"     # no fixed point: level changes are real
-    veh = Vehicle.from_case(case)
+    veh = build_vehicle(case.scenario().vehicle)
     tr = discrete_track(n_sleepers=50)
     sup = sleeper_supports(tr, np.arange(15, 35))
     gaps = np.zeros(20)
