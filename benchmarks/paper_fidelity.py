@@ -4,6 +4,8 @@
     python benchmarks/paper_fidelity.py --model quarter-car # the old one-suspension reading
     python benchmarks/paper_fidelity.py --strengthened 0.5,1,2   # E_max against the assumed
                                                                   # strengthened-sleeper values
+    python benchmarks/paper_fidelity.py --zone-scan 8.5:13:0.25  # the score against the
+                                                                  # force zone's end
 
 Prints, per design, the model's F_rms, F_max, E_rms, E_max against the paper's (Tables 6, 7)
 with signed errors; the score (mean |ln(model/paper)| over the 8 Table 7 values and the
@@ -182,6 +184,9 @@ def main(argv=None) -> int:
                     help="vehicle model (default: the case's)")
     ap.add_argument("--strengthened", default=None,
                     help="comma-separated factors on the assumed strengthened-sleeper increments")
+    ap.add_argument("--zone-scan", default=None, metavar="START:STOP:STEP",
+                    help="also print the score for force-zone ends from START to STOP m into "
+                         "the ERS")
     args = ap.parse_args(argv)
     case = with_changes(load_case(args.case), args.model)
     print(f"case {args.case}, vehicle model {case.vehicle.get('model', 'paper')}, "
@@ -235,6 +240,14 @@ def main(argv=None) -> int:
     for z in dict.fromkeys((zone, 3.0)):
         print(f"| {z:g} m | " + " | ".join(f"{f / 1e3:.3f}" for f in f_rms_against_strip(case, z))
               + " |")
+    if args.zone_scan:
+        start, stop, step = (float(v) for v in args.zone_scan.split(":"))
+        print("\nScore and the MOO design's F_max against the force zone's end:")
+        print("| zone end, m into the ERS | score | MOO F_max kN |")
+        print("|---|---|---|")
+        for z in np.arange(start, stop + step / 2, step):
+            r = run(with_zone_end(case, "entry_interface", float(z)))
+            print(f"| {z:g} | {score(r):.3f} | {r['MOO (T7)']['F_max'] / 1e3:.2f} |")
     if args.strengthened:
         print("\nE_max [J] against the strengthened-sleeper increments (factor x the case's "
               "assumed mass/support increase over NS90):")

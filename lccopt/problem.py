@@ -88,8 +88,8 @@ class Problem:
     def from_case(cls, case: Case) -> "Problem":
         opt = case.optimisation
         if opt is None:
-            raise CaseError(f"{case.path}:1: optimisation: missing section (objectives and "
-                            f"budget at least); 'lccopt optimise' needs it")
+            raise CaseError(f"{case.path}:1: optimisation: missing section (objectives, budget, "
+                            f"initial_points, ...); 'lccopt optimise' needs it")
         for key in ("objectives", "budget"):
             if opt.get(key) is None:
                 raise CaseError(f"{case.path}:1: optimisation: missing key '{key}' "

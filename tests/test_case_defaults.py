@@ -48,8 +48,8 @@ def test_check_and_simulate_need_no_optimisation_key(tmp_path, run_cli):
         assert r.returncode == 0, r.stderr
         r = run_cli("simulate", p, "--out", tmp_path / "o", "--no-plots", "--force")
         assert r.returncode == 0, r.stderr
-    assert "optimisation: not ready ('lccopt optimise' needs optimisation.objectives and " \
-           "budget)" in run_cli("check", p).stdout
+    assert "  optimisation: none yet (lccopt optimise needs objectives and budget)" \
+        in run_cli("check", p).stdout.splitlines()
     with pytest.raises(CaseError, match="optimisation: missing key 'objectives'"):
         Problem.from_case(load_case(p))
 

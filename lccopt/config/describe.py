@@ -56,8 +56,7 @@ def optimisation_line(case) -> str:
     opt = case.optimisation
     missing = [k for k in ("objectives", "budget") if not (opt or {}).get(k)]
     if missing:
-        return (f"optimisation: not ready ('lccopt optimise' needs optimisation."
-                f"{' and '.join(missing)})")
+        return f"optimisation: none yet (lccopt optimise needs {' and '.join(missing)})"
     worst = opt["asf"]["worst"]
     asf = ""
     if len(opt["objectives"]) > 1 or opt["conditions"] == "each":
