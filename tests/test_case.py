@@ -44,8 +44,8 @@ BAD = [  # (replace this, with this, key path in the message, words in the messa
     ("    kind: continuous", "    kind: integer", "design.railpad_stiffness.kind", "must be one of"),
     ("  gravity: 9.8", "  gravity: [9.8]", "vehicle.gravity", "expected a number"),
     ("  time_step: 5.0e-4", "  time_step: .nan", "simulation.time_step", "finite"),
-    ("    bounds: [0, 120]", "    bounds: [0, 200]", "design.type_ii_strip.bounds",
-     "longer than the 12 m ERS: at most 120"),
+    ("    # bounds: by default", "    bounds: [0, 200]\n    # bounds: by default",
+     "design.type_ii_strip.bounds", "longer than the 12 m ERS: at most 120"),
 ]
 
 

@@ -60,7 +60,8 @@ def test_the_default_worst_values_follow_the_reference_design(tmp_path):
     assert pb.worst is None
     ref = {"F_rms": 56000.0, "F_max": 7557.0, "E_rms": 1.4, "E_max": 0.4125}
     set_ = pb.with_reference(ref)
-    assert set_.worst == pytest.approx((DEFAULT_WORST_FACTOR * 7557.0, DEFAULT_WORST_FACTOR * 0.4125))
+    assert set_.worst == pytest.approx((DEFAULT_WORST_FACTOR * 7557.0,
+                                        DEFAULT_WORST_FACTOR * 0.4125))
     point = set_.reference_point(ref)
     assert point == pytest.approx([0.8 * 7557.0, 0.8 * 0.4125])
     # each objective counts by its change relative to the reference design

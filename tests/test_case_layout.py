@@ -21,9 +21,6 @@ name: one-slab
 track:
   ers:
     slab_lengths: [9.0]
-design:
-  type_ii_strip:
-    bounds: [0, 90]
 """
 OLD_ZONE = "evaluation:\n  force_zone_end: null\n  force_zone_after_interface: 12.0\n"
 
@@ -53,6 +50,8 @@ def test_a_nine_metre_slab_moves_the_zone_end_with_it(tmp_path, run_cli):
     r = run_cli("check", case)
     assert r.returncode == 0, r.stderr
     assert "force to 2 m before the exit interface (x = 107 m)" in r.stdout
+    # and the Type II strip's range with it: the whole ERS, by default
+    assert "x_l∈Z [0, 90] x 0.1 m" in r.stdout
     r = run_cli("simulate", case, "--out", tmp_path / "out", "--no-plots")
     assert r.returncode == 0, r.stderr
     assert "(x = 107 m)" in r.stdout
@@ -77,7 +76,7 @@ def test_an_older_zone_that_ends_in_the_exit_ballast_is_refused_with_the_fix(tmp
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1
     line = lines[0]
-    assert f"{case}:11: evaluation.force_zone_after_interface: 12 m ends 3 m past the 9 m ERS" \
+    assert f"{case}:8: evaluation.force_zone_after_interface: 12 m ends 3 m past the 9 m ERS" \
         in line
     assert "write force_zone_end: {at: exit_interface, offset: -2}" in line
     r = run_cli("simulate", case, "--out", tmp_path / "out")
@@ -145,10 +144,5 @@ def test_the_zone_may_end_anywhere_on_the_ers(tmp_path):
      "design.strengthened_sleepers.bounds", "upper bound 170, but the entry side holds 166"),
 ])
 def test_the_design_space_must_fit_the_layout(tmp_path, extra, key, words):
-    base = ONE_SLAB.replace("design:\n  type_ii_strip:\n    bounds: [0, 90]\n", "")
-    if not extra.startswith("design:\n  type_ii"):
-        base += "design:\n  type_ii_strip:\n    bounds: [0, 90]\n"
-        if extra.startswith("design:"):
-            extra = extra.replace("design:\n", "")
-    msg = error(write(tmp_path, base + extra))
+    msg = error(write(tmp_path, ONE_SLAB + extra))
     assert f" {key}: " in msg and words in msg, msg

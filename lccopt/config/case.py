@@ -28,7 +28,7 @@ from .profiles import (MAX_CASE_PROFILE_POINTS, MAX_PROFILE_BYTES, ProfileError,
 from .reading import (check_file_name, dotted, locate, read_case_text, read_input_bytes,
                       read_with_base, shown)
 from .schema import SAFE_NAME, SCHEMA, check
-from .zones import check_design_space, resolve_zone
+from .zones import check_design_space, derive_strip_bounds, resolve_zone
 
 
 class _Dumper(yaml.SafeDumper):
@@ -287,6 +287,7 @@ def load_case(path: str | Path, overrides=()) -> Case:
                              "digit (it names the run directory)")
     resolve_zone(data, err)
     check_mesh_units(data, err)
+    derive_strip_bounds(data)
     variables = _variables(data["design"], lines, file)
     check_design_space(data, variables, err)
     check_optimisation(data, err, len(variables))

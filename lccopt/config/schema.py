@@ -41,10 +41,11 @@ def _kv(doc_k: str, doc_c: str, unit_k: str, unit_c: str, **bounds) -> Section:
 
 
 def _design_group(doc: str, integer: bool, counted: bool, unit: str = "-",
-                  **bounds) -> Section:
+                  bounds_doc: str = "", **bounds) -> Section:
     fields = {
         "kind": Str("continuous or integer", ("integer",) if integer else ("continuous",)),
-        "bounds": NumList("[lower, upper]", unit, length=2, **bounds),
+        "bounds": NumList("[lower, upper]" + bounds_doc, unit, length=2,
+                          required=not bounds_doc, **bounds),
         "reference": (NumList("reference value of each variable", unit, **bounds) if counted
                       else Num("reference value", unit, integer=integer, **bounds)),
     }
@@ -175,7 +176,9 @@ _DESIGN = Section({
                                    "farthest .. x_sM from the slab edge to the first sleeper",
                                    integer=True, counted=True),
     "type_ii_strip": _design_group("length of Type II strip from the entry slab edge, in 0.1 m "
-                                   "elements (at most the ERS)", integer=True, counted=False),
+                                   "elements (at most the ERS)", integer=True, counted=False,
+                                   bounds_doc=". Default: [0, the ERS in 0.1 m elements], so "
+                                              "that the strip may cover the whole crossing"),
 })
 
 # amplitude_scale <= 10: ten times a standard spectrum is beyond any class of track it

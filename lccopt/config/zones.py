@@ -75,6 +75,15 @@ def _point_text(end: dict) -> str:
     return f"{{at: {end['at']}, offset: {end.get('offset') or 0.0:g}}}"
 
 
+def derive_strip_bounds(data: dict) -> None:
+    """The Type II strip's bounds, when a case does not give them: the whole ERS, in 0.1 m
+    elements (they then follow slab_lengths)."""
+    strip = data["design"]["type_ii_strip"]
+    if strip.get("bounds") is None:
+        x_a, x_b = interfaces(data)
+        strip["bounds"] = [0.0, float(int(round((x_b - x_a) / ELEMENT_UNIT)))]
+
+
 def check_design_space(data: dict, variables, err) -> None:
     """The layout holds every design (the upper bounds of the counts and spans reach
     farthest): the Type II strip within the ERS; enough entry sleepers for the zone, the

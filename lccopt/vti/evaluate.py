@@ -10,8 +10,8 @@ sleeper, and runs towards +x; ``leave``, it starts ``run_in`` beyond the far edg
 (on the exit ballast) and runs towards -x over the whole crossing. The contact force of every
 wheel is measured while that wheel is between the farthest zone sleeper and
 ``zones.force_zone_end`` (a point relative to an interface); the run ends when the last wheel
-is ``run_out`` past the zone so the zone's sleepers have settled. Sleeper energies use mid-step velocities,
-which makes them exactly the dissipation of Newmark's discrete energy balance.
+is ``run_out`` past the zone so the zone's sleepers have settled. Sleeper energies use mid-step
+velocities, which makes them exactly the dissipation of Newmark's discrete energy balance.
 """
 
 from __future__ import annotations
