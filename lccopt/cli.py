@@ -22,7 +22,7 @@ from typing import List, Optional
 import typer
 
 from .errors import CaseError, UsageError, describe_os_error
-from .terminal import PipeGuard, wrap_items
+from .terminal import PipeGuard
 
 EXIT_OK, EXIT_INTERNAL, EXIT_USAGE, EXIT_INTERRUPTED, EXIT_PIPE = 0, 1, 2, 130, 141
 

@@ -4,7 +4,6 @@ refused with the fix (never reinterpreted); the design space must fit the layout
 (force_zone_after_interface) load with their meaning, and their resolved copies unchanged."""
 
 import h5py
-import numpy as np
 import pytest
 
 from lccopt.config import load_case
