@@ -86,7 +86,7 @@ def test_check_accepts_a_good_case(run_cli):
     ("    reference: 8\n", "    reference: 21\n", ": design.strengthened_sleepers.reference: reference x_n = 21 "
                                                   "is outside the bounds [0, 20]"),
     ("  run_in: 2.0", "  run_in: ten", ": simulation.run_in: expected a number, got 'ten'"),
-    ("  speed: 38.88888888888889", "  speed: 38.88888888888889\n  colour: red", ": vehicle.colour: unknown key"),
+    ("  speed: 140 km/h", "  speed: 140 km/h\n  colour: red", ": vehicle.colour: unknown key"),
 ])
 def test_check_rejects_bad_cases_with_one_line(run_cli, tmp_path, old, new, expect):
     text = (CONFIGS / "reference.yaml").read_text()

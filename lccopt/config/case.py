@@ -20,13 +20,15 @@ import yaml
 from ..errors import CaseError
 from ..vti.specs import Scenario, TrackDesign
 from . import build
-from .checks import (check_accuracy, check_design_size, check_design_space, check_layout_fits,
-                     check_mesh_units, check_optimisation, check_profile, simulation_size)
+from . import overrides as set_values
+from .checks import (check_accuracy, check_design_size, check_layout_fits, check_mesh_units,
+                     check_optimisation, check_profile, simulation_size)
 from .profiles import (MAX_CASE_PROFILE_POINTS, MAX_PROFILE_BYTES, ProfileError, ProfileText,
                        parse_rows, rows_text)
 from .reading import (check_file_name, dotted, locate, read_case_text, read_input_bytes,
                       read_with_base, shown)
 from .schema import SAFE_NAME, SCHEMA, check
+from .zones import check_design_space, derive_strip_bounds, resolve_zone
 
 
 class _Dumper(yaml.SafeDumper):
@@ -65,14 +67,16 @@ class Variable:
 class Case:
     """A validated case. ``data`` holds the typed sections (SI units) as nested dicts.
 
-    ``text`` is the case file as written; ``resolved`` is the whole case after ``extends``
-    and defaults, as YAML: what a run directory keeps so that it stands on its own.
+    ``text`` is the case file as written; ``resolved`` is the whole case after ``extends``,
+    ``--set`` values (``overrides``, as given) and defaults, as YAML: what a run directory
+    keeps so that it stands on its own.
     """
     path: Path
     text: str
     data: dict = field(repr=False)
     variables: tuple[Variable, ...] = ()
     conditions: tuple["Condition", ...] = ()
+    overrides: tuple[str, ...] = ()
 
     @cached_property
     def resolved(self) -> str:
@@ -111,6 +115,12 @@ class Case:
         return self.data["optimisation"]
 
     @property
+    def histories(self) -> str:
+        """all, best or none: the time histories an optimisation keeps (default best: the
+        reference design's and the best design's)."""
+        return (self.optimisation or {}).get("histories") or "best"
+
+    @property
     def names(self) -> list[str]:
         return [v.name for v in self.variables]
 
@@ -139,7 +149,7 @@ class Case:
         """A copy with some simulation settings replaced (convergence studies, tests)."""
         data = {**self.data, "simulation": {**self.data["simulation"], **settings}}
         conditions = tuple(c.with_simulation(settings) for c in self.conditions)
-        return Case(self.path, self.text, data, self.variables, conditions)
+        return Case(self.path, self.text, data, self.variables, conditions, self.overrides)
 
     @property
     def condition_mode(self) -> str:
@@ -240,13 +250,16 @@ def _variables(design: dict, lines: dict, file: str) -> tuple[Variable, ...]:
     return tuple(out)
 
 
-def load_case(path: str | Path) -> Case:
+def load_case(path: str | Path, overrides=()) -> Case:
     """Read and validate a case file.
 
     Parameters
     ----------
     path
         the case file (YAML); ``extends:`` and irregularity files are relative to it.
+    overrides
+        ``KEY.PATH=VALUE`` items (``--set``), applied as if a file extending the case had
+        written them (``lccopt.config.overrides``).
 
     Returns
     -------
@@ -262,6 +275,8 @@ def load_case(path: str | Path) -> Case:
     file = str(path)
     text = read_case_text(path)
     raw, lines = read_with_base(path, text)
+    overrides = tuple(overrides)
+    raw = set_values.apply(raw, lines, overrides)
     data = check(raw, SCHEMA, (), lines, file)
 
     def err(at: tuple, msg: str) -> CaseError:
@@ -270,10 +285,12 @@ def load_case(path: str | Path) -> Case:
     if not SAFE_NAME.fullmatch(data["name"]):
         raise err(("name",), "1-64 letters, digits, '.', '-' and '_', starting with a letter or "
                              "digit (it names the run directory)")
+    resolve_zone(data, err)
     check_mesh_units(data, err)
+    derive_strip_bounds(data)
     variables = _variables(data["design"], lines, file)
     check_design_space(data, variables, err)
-    check_optimisation(data, err)
+    check_optimisation(data, err, len(variables))
     rows = _RowCount(err)
     at = ("simulation", "irregularity")
     data["simulation"]["irregularity"] = rows.add(
@@ -282,7 +299,8 @@ def load_case(path: str | Path) -> Case:
     conditions = _conditions(data, path, lines, err, rows)
     sims = [c.data for c in conditions] or [data]
     check_design_size([simulation_size(one) for one in sims], err)
-    return Case(path=path, text=text, data=data, variables=variables, conditions=conditions)
+    return Case(path=path, text=text, data=data, variables=variables, conditions=conditions,
+                overrides=overrides)
 
 
 def _profile_rows(value, path: Path, lines: dict, err, at: tuple):

@@ -526,6 +526,7 @@ class Engine:
         self.strategy.budget = problem.budget
         self.ref_point = (table.reference or {}).get("point")
         if self.ref_point is not None:  # as the replay of the journal set it (restore)
+            self.problem = problem = problem.with_reference(table.reference["objectives"])
             self.strategy.set_aggregate(problem.aggregate(self.ref_point))
         self._ahead: int | None = None   # id asked ahead, waiting for a free worker
         # proposal n sees exactly the results 0 .. n-lag-1 (schedule.py); lag = the workers
@@ -798,6 +799,7 @@ class Engine:
                       at=round(time.time(), 3))  # when it was committed: `lccopt status` rates
         if error is None:
             if o.id == 0 and self.table.reference is None:
+                self.problem = pb = pb.with_reference(objectives)  # worst: the case's or default
                 point = pb.reference_point(objectives)  # CaseError if worst <= reference point
                 self.table.apply(j.append("reference", id=0, x=row["x"], objectives=objectives, point=point,
                                           worst=list(pb.worst) if pb.worst else None, rho=pb.rho,

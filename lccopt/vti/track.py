@@ -84,7 +84,8 @@ def wheel_window(scenario: Scenario, entry_x: np.ndarray) -> tuple[float, float,
     """(x_start, zone_start, zone_end, x_end) of the leading wheel [m].
 
     The evaluation zone begins at the farthest zone sleeper (zone_start) and the force zone
-    ends ``force_zone_after_interface`` into the ERS (zone_end), whichever way the vehicle runs.
+    ends at ``zones.force_zone_end`` (zone_end, a point relative to the entry or the exit
+    interface: it follows the layout), whichever way the vehicle runs.
     ``enter`` (towards +x): the leading wheel starts ``run_in`` before zone_start and the run
     ends when the last wheel is ``run_out`` past zone_end. ``leave`` (towards -x, from the ERS
     onto the designed side): the leading wheel starts ``run_in`` beyond the far (exit) edge of
@@ -97,7 +98,7 @@ def wheel_window(scenario: Scenario, entry_x: np.ndarray) -> tuple[float, float,
     start or the end of a run: they rest on a rigid continuation of the rail."""
     zones, sim, layout = scenario.zones, scenario.settings, scenario.track.layout
     zone_start = float(entry_x[zones.sleepers - 1])
-    zone_end = layout.entry_length + zones.force_zone_after_interface
+    zone_end = scenario.track.position(zones.force_zone_end)
     length = scenario.vehicle.length
     if sim.direction == "leave":
         x_b = layout.entry_length + float(sum(scenario.track.ers.slab_lengths))
