@@ -624,8 +624,8 @@ class Engine:
                 t_wait = time.monotonic()
                 for o in self.executor.wait(0.2):
                     self._record(o)
-                if self.case.conditions:
-                    p.parts(self.table, self.executor.parts_done)
+                if self.case.conditions:   # the designs' conditions, not a re-simulation's
+                    p.parts(self.table, self.executor.parts_done(set(self.table.pending_ids())))
                 if idle:
                     self.t_held += idle * (time.monotonic() - t_wait)
                 if self.stop and not self._stop_logged:
