@@ -109,13 +109,15 @@ def optimise(case, *, workers=None, scheduler=None, runs="runs", force=False, pr
                progress=progress)
 
 
-def resume(run, *, workers=None, scheduler=None, progress=True):
+def resume(run, *, budget=None, workers=None, scheduler=None, progress=True):
     """Carry on an interrupted (or extended) run, as ``lccopt resume`` does.
 
     Parameters
     ----------
     run : str or pathlib.Path
         the run directory.
+    budget : int, optional
+        carry the run on to this many evaluations in all (a finished run too).
     workers, scheduler, progress
         as for :func:`optimise`.
 
@@ -128,4 +130,4 @@ def resume(run, *, workers=None, scheduler=None, progress=True):
 
     from .engine.runner import resume as carry_on
 
-    return carry_on(Path(run), workers=workers, scheduler=scheduler, progress=progress)
+    return carry_on(Path(run), workers=workers, scheduler=scheduler, budget=budget, progress=progress)

@@ -116,12 +116,16 @@ def resume(
     case: Optional[Path] = typer.Option(None, help="the case file to check against (default: the one "
                                         "the run was started from)"),
     allow_changed_case: bool = typer.Option(False, "--allow-changed-case",
-                                            help="resume even if the case file changed"),
+                                            help="resume even if the case file changed (budget, "
+                                                 "timeout and the ASF's worst and rho may)"),
+    budget: Optional[int] = typer.Option(None, help="carry the run on to this many evaluations in "
+                                         "all (a finished run too)"),
 ) -> None:
-    """Carry on an interrupted run where it stopped."""
+    """Carry on an interrupted run where it stopped, or a finished one to a larger budget."""
     from .engine.runner import resume as run_resume
 
-    run_resume(run, workers=workers, scheduler=scheduler, case=case, allow_changed_case=allow_changed_case)
+    run_resume(run, workers=workers, scheduler=scheduler, case=case,
+               allow_changed_case=allow_changed_case, budget=budget)
 
 
 @app.command()
