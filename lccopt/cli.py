@@ -22,7 +22,7 @@ from typing import List, Optional
 import typer
 
 from .errors import CaseError, UsageError, describe_os_error
-from .terminal import PipeGuard
+from .terminal import PipeGuard, wrap_message
 
 EXIT_OK, EXIT_INTERNAL, EXIT_USAGE, EXIT_INTERRUPTED, EXIT_PIPE = 0, 1, 2, 130, 141
 
@@ -221,8 +221,11 @@ def _usage_line(exc: Exception) -> str:
 
 
 def _fail(message: str, code: int) -> int:
-    """Print one line to stderr (if anyone is still reading it) and return the exit code."""
+    """Print the message to stderr (if anyone is still reading it) and return the exit code:
+    one line for a log or a script, wrapped to the width of a terminal for a person."""
     try:
+        if sys.stderr.isatty():
+            message = wrap_message(message)
         typer.echo(message, err=True)
     except OSError:  # stderr closed or a broken pipe: the exit code still tells
         _silence_stdio()

@@ -6,6 +6,7 @@ import math
 import sys
 import time
 
+from ..terminal import wrap_message
 from ..vti.response import objective_display
 
 
@@ -128,11 +129,16 @@ class Progress:
             self._draw(table, parts)
 
     def log(self, message: str) -> None:
-        """A message on its own line (above the live progress line on a terminal)."""
+        """A message on its own line (above the live progress line on a terminal, and wrapped
+        to its width there; one line in a log)."""
+        text = f"lccopt: {message}"
         if self._live is not None:
-            self._live.console.print(f"lccopt: {message}", markup=False, soft_wrap=True)
+            self._live.console.print(wrap_message(text, self._live.console.width), markup=False,
+                                     soft_wrap=True)
             return
-        self.stream.write(f"lccopt: {message}\n")
+        if hasattr(self.stream, "isatty") and self.stream.isatty():
+            text = wrap_message(text)
+        self.stream.write(text + "\n")
         self.stream.flush()
 
     def update(self, table, last: dict | None = None) -> None:
