@@ -17,12 +17,12 @@ import sys
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 from pathlib import Path
-from typing import Optional
+from typing import List, Optional
 
 import typer
 
 from .errors import CaseError, UsageError, describe_os_error
-from .terminal import PipeGuard, wrap_items
+from .terminal import PipeGuard, wrap_message
 
 EXIT_OK, EXIT_INTERNAL, EXIT_USAGE, EXIT_INTERRUPTED, EXIT_PIPE = 0, 1, 2, 130, 141
 
@@ -54,43 +54,40 @@ def _main_options(version: bool = typer.Option(False, "--version", callback=_ver
     """Optimise railway level crossings and their transition zones."""
 
 
+_SET_HELP = ("set a case key as if the case file said so, e.g. --set vehicle.speed='160 km/h' "
+             "(repeatable; recorded in the resolved case)")
+
+
+def _set_option():
+    return typer.Option(None, "--set", metavar="KEY.PATH=VALUE", help=_SET_HELP)
+
+
 @app.command()
-def check(case: Path = typer.Argument(..., help="case file (YAML)")) -> None:
+def check(case: Path = typer.Argument(..., help="case file (YAML)"),
+          set_: Optional[List[str]] = _set_option()) -> None:
     """Validate a case file without simulating."""
     from .config import load_case
+    from .config.describe import case_lines
 
-    c = load_case(case)
-    names = [f"{v.name}{'∈Z' if v.integer else ''} [{v.lower:g}, {v.upper:g}]{' log' if v.log else ''}"
-             for v in c.variables]
-    typer.echo(f"{case}: ok: case '{c.name}', {len(c.variables)} design variables:")
-    typer.echo("\n".join(wrap_items(names, "  ")))
-    if c.conditions:
-        typer.echo(f"  {len(c.conditions)} traffic conditions, combined by '{c.condition_mode}':")
-        for t in c.conditions:
-            typer.echo(f"    {t.name}: {t.vehicle}, {t.speed * 3.6:.0f} km/h, {t.direction}"
-                       + (f", weight {t.weight:g}" if c.condition_mode == "mean" else ""))
-    from .config.checks import simulation_size
-
-    steps, dofs = max(simulation_size(one.data) for one in (c.conditions or [c]))
-    typer.echo(f"  {'the longest simulation' if c.conditions else 'one simulation'}: at most "
-               f"{steps:,} steps of about {dofs:,} track dofs")
+    typer.echo("\n".join(case_lines(load_case(case, set_ or ()), case)))
 
 
 @app.command()
 def simulate(
     case: Path = typer.Argument(..., help="case file (YAML)"),
     design: Optional[str] = typer.Option(None, help="design x in the case's order, comma-separated: "
-                                         "pad stiffness x_r1..x_rN in MN/m, then x_n, the spans x_s1.. in "
-                                         "0.1 m elements, x_l in 0.1 m elements; e.g. 214,155,50,5,6,7,3,0 "
+                                         "pad stiffness x_r1..x_rN in MN/m, then x_n, the spans x_s1.. and "
+                                         "the strip x_l in m (0.1 m steps); e.g. 214,155,50,5,0.6,0.7,0.3,0 "
                                          "(default: the case's reference design)"),
     out: Optional[Path] = typer.Option(None, help="output directory (default: runs/<case name>-simulate)"),
     no_plots: bool = typer.Option(False, "--no-plots", help="skip the PNG plots"),
     force: bool = typer.Option(False, "--force", help="replace a simulation already in the output directory"),
+    set_: Optional[List[str]] = _set_option(),
 ) -> None:
     """Simulate one design: print F_rms, F_max (kN), E_rms, E_max (J); write HDF5 and plots."""
     from .simulate_command import run_simulate
 
-    run_simulate(case, design, out, not no_plots, force)
+    run_simulate(case, design, out, not no_plots, force, set_ or ())
 
 
 @app.command()
@@ -101,11 +98,14 @@ def optimise(
     runs: Path = typer.Option(Path("runs"), help="directory that holds run directories"),
     force: bool = typer.Option(False, "--force", help="replace an existing lccopt run directory of the "
                                "same name inside --runs"),
+    set_: Optional[List[str]] = _set_option(),
 ) -> None:
     """Run the surrogate optimisation of a case into runs/<case name>/."""
+    from .config import load_case
     from .engine.runner import optimise as run_optimise
 
-    run_optimise(case, workers=workers, scheduler=scheduler, runs=runs, force=force)
+    run_optimise(load_case(case, set_) if set_ else case, workers=workers, scheduler=scheduler,
+                 runs=runs, force=force)
 
 
 @app.command()
@@ -116,12 +116,16 @@ def resume(
     case: Optional[Path] = typer.Option(None, help="the case file to check against (default: the one "
                                         "the run was started from)"),
     allow_changed_case: bool = typer.Option(False, "--allow-changed-case",
-                                            help="resume even if the case file changed"),
+                                            help="resume even if the case file changed (budget, "
+                                                 "timeout and the ASF's worst and rho may)"),
+    budget: Optional[int] = typer.Option(None, help="carry the run on to this many evaluations in "
+                                         "all (a finished run too)"),
 ) -> None:
-    """Carry on an interrupted run where it stopped."""
+    """Carry on an interrupted run where it stopped, or a finished one to a larger budget."""
     from .engine.runner import resume as run_resume
 
-    run_resume(run, workers=workers, scheduler=scheduler, case=case, allow_changed_case=allow_changed_case)
+    run_resume(run, workers=workers, scheduler=scheduler, case=case,
+               allow_changed_case=allow_changed_case, budget=budget)
 
 
 @app.command()
@@ -217,8 +221,11 @@ def _usage_line(exc: Exception) -> str:
 
 
 def _fail(message: str, code: int) -> int:
-    """Print one line to stderr (if anyone is still reading it) and return the exit code."""
+    """Print the message to stderr (if anyone is still reading it) and return the exit code:
+    one line for a log or a script, wrapped to the width of a terminal for a person."""
     try:
+        if sys.stderr.isatty():
+            message = wrap_message(message)
         typer.echo(message, err=True)
     except OSError:  # stderr closed or a broken pipe: the exit code still tells
         _silence_stdio()

@@ -16,6 +16,7 @@ import typer
 
 from . import machine
 from .config import design_items, load_case, parse_design
+from .config.describe import condition_lines, vehicle_line, zone_line
 from .store import write_evaluation
 from .terminal import wrap_items
 from .vti.response import OBJECTIVE_DOC, Evaluation, objective_display
@@ -28,10 +29,10 @@ def _echo_design(case, case_path: Path, x) -> None:
 
 
 def run_simulate(case_path: Path, design: str | None, out: Path | None, plots: bool,
-                 force: bool = False) -> Evaluation:
+                 force: bool = False, overrides=()) -> Evaluation:
     from .errors import UsageError
 
-    case = load_case(case_path)
+    case = load_case(case_path, overrides)
     try:
         x = case.reference if design is None else parse_design(design, case)
     except ValueError as exc:
@@ -49,7 +50,8 @@ def run_simulate(case_path: Path, design: str | None, out: Path | None, plots: b
     _check_finite(ev.objectives, case, x)
     info = ev.info
     _echo_design(case, case_path, x)
-    typer.echo(f"static wheel load {info['static_wheel_load'] / 1e3:.2f} kN (on a rigid rail)")
+    typer.echo(f"vehicle: {vehicle_line(case.vehicle)}")
+    typer.echo(zone_line(case))
     typer.echo(f"Hertz spring linearised at P = {info['hertz_load'] / 1e3:.1f} kN: "
                f"k_w = {info['contact_stiffness'] / 1e9:.3f} GN/m")
     typer.echo(f"{info['n_dofs']} track dofs, {info['n_steps']} steps of "
@@ -82,6 +84,8 @@ def _simulate_conditions(case, case_path: Path, x, out: Path, plots: bool, evalu
 
     names = [c.name for c in case.conditions]
     _echo_design(case, case_path, x)
+    typer.echo("\n".join(line[2:] for line in condition_lines(case)))
+    typer.echo(zone_line(case))
     keys = list(OBJECTIVE_DOC)
     head = "".join(f"{k + ' [' + objective_display(k)[1] + ']':>12}" for k in keys)
     typer.echo(f"{'condition':<22}{head}{'time':>7}")

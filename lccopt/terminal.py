@@ -19,6 +19,17 @@ def wrap_items(items: list[str], head: str, width: int = WIDTH) -> list[str]:
     return lines + [line]
 
 
+def wrap_message(text: str, width: int | None = None) -> str:
+    """TEXT in lines of the terminal's width (at most WIDTH if it cannot be told), continuation
+    lines indented by two spaces; words (a file path, a key) are never split."""
+    import shutil
+    import textwrap
+
+    width = width or shutil.get_terminal_size((WIDTH, 24)).columns
+    return "\n".join(textwrap.wrap(text, width=max(40, width), subsequent_indent="  ",
+                                   break_long_words=False, break_on_hyphens=False))
+
+
 class PipeGuard:
     """A text stream that survives its reader going away (``lccopt ... | head``).
 

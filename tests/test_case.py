@@ -31,19 +31,21 @@ def line_of(text, needle):
 
 
 BAD = [  # (replace this, with this, key path in the message, words in the message)
-    ("  speed: 38.88888888888889", "  sped: 38.88888888888889", "vehicle.sped", "unknown key"),
-    ("  speed: 38.88888888888889", "  speed: fast", "vehicle.speed", "expected a number"),
-    ("  speed: 38.88888888888889", "  speed: -5.0", "vehicle.speed", "must be > 0"),
+    ("  speed: 140 km/h", "  sped: 140 km/h", "vehicle.sped", "unknown key"),
+    ("  speed: 140 km/h", "  speed: fast", "vehicle.speed", "expected a number"),
+    ("  speed: 140 km/h", "  speed: -5.0", "vehicle.speed", "must be > 0"),
     ("    reference: 8\n", "    reference: 25\n", "design.strengthened_sleepers.reference", "outside the bounds"),
     ("    bounds: [3, 7]", "    bounds: [3, 7.5]", "design.sleeper_spans.bounds", "whole-number bounds"),
     ("    reference: [6, 6, 4]", "    reference: [6, 6]", "design.sleeper_spans.reference", "expected 3 values"),
-    ("    bounds: [0, 20]", "    bounds: [0, 200]", "design", "sleepers"),
-    ("  sleepers: 20", "  sleepers: 400", "design", "sleepers"),
+    ("    bounds: [0, 20]", "    bounds: [0, 200]", "design.strengthened_sleepers.bounds",
+     "the entry side holds 166 sleepers"),
+    ("  sleepers: 20", "  sleepers: 400", "evaluation.sleepers", "entry side holds 166"),
     ("  element_length: 0.05", "  element_length: 0.03", "simulation.element_length", "divide 0.1"),
     ("    kind: continuous", "    kind: integer", "design.railpad_stiffness.kind", "must be one of"),
     ("  gravity: 9.8", "  gravity: [9.8]", "vehicle.gravity", "expected a number"),
     ("  time_step: 5.0e-4", "  time_step: .nan", "simulation.time_step", "finite"),
-    ("    bounds: [0, 120]", "    bounds: [0, 200]", "design", "longer than the ERS"),
+    ("    # bounds: by default", "    bounds: [0, 200]\n    # bounds: by default",
+     "design.type_ii_strip.bounds", "longer than the 12 m ERS: at most 120"),
 ]
 
 
@@ -90,7 +92,7 @@ def test_extends_overrides_and_reports_the_right_file(tmp_path):
     child.write_text("extends: reference.yaml\nname: child\nsimulation:\n  run_inn: 12.0\n")
     with pytest.raises(CaseError, match=r"child\.yaml:4: simulation\.run_inn: unknown key"):
         load_case(child)
-    (tmp_path / "reference.yaml").write_text(REFERENCE.replace("  speed: 38.88888888888889", "  speed: x"))
+    (tmp_path / "reference.yaml").write_text(REFERENCE.replace("  speed: 140 km/h", "  speed: x"))
     child.write_text("extends: reference.yaml\nname: child\n")
     with pytest.raises(CaseError, match=r"reference\.yaml:\d+: vehicle\.speed"):
         load_case(child)
@@ -98,11 +100,13 @@ def test_extends_overrides_and_reports_the_right_file(tmp_path):
 
 def test_design_vector_checks():
     case = load_case(CONFIGS / "reference.yaml")
-    x = parse_design("214,155,50,5,6,7,3,0", case)          # pads in MN/m, as on screen
+    x = parse_design("214,155,50,5,0.6,0.7,0.3,0", case)   # as on screen: MN/m, m
     assert np.array_equal(x, [214e6, 155e6, 50e6, 5, 6, 7, 3, 0])
-    for bad, words in [("214,155", "has 8 values"), ("214,155,50,5.5,6,7,3,0", "whole number"),
-                       ("1,155,50,5,6,7,3,0", "outside"), ("214e6,155,50,5,6,7,3,0", "outside"),
-                       ("a,b", "comma-separated")]:
+    for bad, words in [("214,155", "has 8 values"), ("214,155,50,5.5,0.6,0.7,0.3,0", "whole number"),
+                       ("214,155,50,5,0.65,0.7,0.3,0", "x_s1 = 0.65 m is not a multiple of 0.1 m"),
+                       ("214,155,50,5,6,7,3,0", "x_s1 = 6 m is outside"),
+                       ("1,155,50,5,0.6,0.7,0.3,0", "outside"),
+                       ("214e6,155,50,5,0.6,0.7,0.3,0", "outside"), ("a,b", "comma-separated")]:
         with pytest.raises(ValueError, match=words):
             parse_design(bad, case)
 
@@ -149,8 +153,9 @@ def test_a_case_without_scale_resolves_as_before(tmp_path):
 @pytest.mark.parametrize("extra, where, key, words", [
     ("    scale: cubic\n", "pads", "design.railpad_stiffness.scale", "must be one of"),
     ("    scale: log\n", "integer", "design.strengthened_sleepers.scale", "unknown key"),
-    ("    scale: log\n    bounds: [0.0, 1200.0e6]\n", "pads-bounds", "design.railpad_stiffness.scale",
-     "positive bounds"),
+    # a pad of 0 N/m is refused by the bounds before a log scale could be
+    ("    bounds: [0.0, 1200.0e6]\n    scale: log\n", "pads-bounds",
+     "design.railpad_stiffness.bounds[0]", "must be >= 10 MN/m"),
 ])
 def test_bad_scale_names_file_line_and_key(tmp_path, extra, where, key, words):
     if where == "integer":

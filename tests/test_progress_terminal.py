@@ -12,7 +12,7 @@ import subprocess
 import termios
 import time
 
-from tests.conftest import lccopt_command, write_case
+from tests.conftest import REFERENCE, lccopt_command, subprocess_env, write_case
 
 ANSI = re.compile(r"\x1b\[[0-9;?]*[A-Za-z]")
 
@@ -20,8 +20,8 @@ ANSI = re.compile(r"\x1b\[[0-9;?]*[A-Za-z]")
 def run_in_terminal(args, cwd, columns=80, timeout=300) -> str:
     master, slave = pty.openpty()
     fcntl.ioctl(slave, termios.TIOCSWINSZ, struct.pack("HHHH", 24, columns, 0, 0))
-    env = {k: v for k, v in os.environ.items() if k not in ("COLUMNS", "LINES")}
-    env.update(TERM="xterm-256color", MPLBACKEND="Agg")
+    env = subprocess_env({k: v for k, v in os.environ.items() if k not in ("COLUMNS", "LINES")},
+                         TERM="xterm-256color")
     proc = subprocess.Popen(lccopt_command() + [str(a) for a in args], cwd=cwd, env=env,
                             stdin=slave, stdout=slave, stderr=slave, close_fds=True)
     os.close(slave)
@@ -73,3 +73,39 @@ def test_a_traffic_run_moves_per_condition_from_the_first_simulation(tmp_path):
     assert counts and counts[0] == 0, text                # drawn before the first result
     assert {1, 2} <= set(counts), counts                   # the reference design's conditions one by one
     assert counts[-1] == 18 and counts == sorted(counts), counts
+
+
+def _terminal_lines(args, cwd, env=None) -> tuple[int, list[str]]:
+    """(exit status, screen lines) of `lccopt ARGS` on an 80-column terminal."""
+    master, slave = pty.openpty()
+    fcntl.ioctl(slave, termios.TIOCSWINSZ, struct.pack("HHHH", 24, 80, 0, 0))
+    e = subprocess_env({k: v for k, v in os.environ.items() if k not in ("COLUMNS", "LINES")},
+                       TERM="xterm-256color", **(env or {}))
+    proc = subprocess.Popen(lccopt_command() + [str(a) for a in args], cwd=cwd, env=e,
+                            stdin=slave, stdout=slave, stderr=slave, close_fds=True)
+    os.close(slave)
+    chunks = []
+    while True:
+        try:
+            data = os.read(master, 65536)
+        except OSError:
+            break
+        if not data:
+            break
+        chunks.append(data)
+    proc.wait(timeout=60)
+    os.close(master)
+    text = ANSI.sub("", b"".join(chunks).decode("utf-8", errors="replace"))
+    return proc.returncode, [seg for line in text.split("\n") for seg in line.split("\r") if seg.strip()]
+
+
+def test_error_messages_fit_an_80_column_terminal(tmp_path):
+    long_name = "a-case-file-with-a-rather-long-name-for-my-crossing.yaml"   # a 56-character word
+    (tmp_path / long_name).write_text("extends: " + str(REFERENCE) + "\nname: t\nvehicle: {sped: 30}\n")
+    for args in (["optimse", "x.yaml"], ["check", long_name], ["optimise", "x.yaml", "--wrokers", "2"],
+                 ["resume", "no-such-run-directory-here"]):
+        code, lines = _terminal_lines(args, tmp_path)
+        assert code == 2, lines
+        assert lines[0].startswith("lccopt"), lines
+        assert all(len(line) <= 80 for line in lines), lines
+        assert all(line.startswith("  ") for line in lines[1:]), lines   # one message, wrapped

@@ -14,6 +14,7 @@ from ..vti.specs import (ERS, Compound, EvaluationZones, Layout, Rail, Scenario,
                          SimulationSettings, Slab, SpringDamper, StrengthenedSleeper,
                          TrackDesign, TrackSpec, VehicleSpec)
 from .profiles import profile_array
+from .zones import force_zone_end
 
 _VEHICLE_KEYS = ("speed", "carbody_mass", "bogie_mass", "wheelset_mass", "primary_stiffness",
                  "primary_damping", "secondary_stiffness", "secondary_damping", "hertz_constant",
@@ -66,9 +67,10 @@ def settings(simulation: dict) -> SimulationSettings:
 
 
 def zones(evaluation: dict) -> EvaluationZones:
-    """The ``evaluation:`` section."""
+    """The ``evaluation:`` section (the force zone's end in either form, as a point relative
+    to the layout)."""
     return EvaluationZones(sleepers=evaluation["sleepers"],
-                           force_zone_after_interface=evaluation["force_zone_after_interface"])
+                           force_zone_end=force_zone_end(evaluation))
 
 
 def spectrum_profile(spec: dict, length: float) -> np.ndarray:

@@ -18,15 +18,17 @@ import numpy as np
 import yaml
 
 from ..errors import CaseError
-from ..vti.specs import Scenario, TrackDesign
+from ..vti.specs import ELEMENT_UNIT, Scenario, TrackDesign
 from . import build
-from .checks import (check_accuracy, check_design_size, check_design_space, check_layout_fits,
-                     check_mesh_units, check_optimisation, check_profile, simulation_size)
+from . import overrides as set_values
+from .checks import (check_accuracy, check_design_size, check_layout_fits, check_mesh_units,
+                     check_optimisation, check_profile, simulation_size)
 from .profiles import (MAX_CASE_PROFILE_POINTS, MAX_PROFILE_BYTES, ProfileError, ProfileText,
                        parse_rows, rows_text)
 from .reading import (check_file_name, dotted, locate, read_case_text, read_input_bytes,
                       read_with_base, shown)
 from .schema import SAFE_NAME, SCHEMA, check
+from .zones import check_design_space, derive_strip_bounds, resolve_zone
 
 
 class _Dumper(yaml.SafeDumper):
@@ -52,11 +54,16 @@ class Variable:
 
     @property
     def display(self) -> tuple[str, float]:
-        """(unit, scale) shown to people: pad stiffness in MN/m, counts as they are."""
-        return ("MN/m", 1e-6) if self.unit == "N/m" else ("", 1.0)
+        """(unit, scale) shown to people: pad stiffness in MN/m, spans and the strip (counted
+        in 0.1 m elements) in m, counts as they are."""
+        if self.unit == "N/m":
+            return "MN/m", 1e-6
+        if self.unit == "elements":
+            return "m", ELEMENT_UNIT
+        return "", 1.0
 
     def show(self, value: float) -> str:
-        """``x_r1=214 MN/m``: the value in the units people use."""
+        """``x_r1=214 MN/m``, ``x_s3=0.3 m``: the value in the units people use."""
         unit, scale = self.display
         return f"{self.name}={value * scale:.6g}" + (f" {unit}" if unit else "")
 
@@ -65,14 +72,16 @@ class Variable:
 class Case:
     """A validated case. ``data`` holds the typed sections (SI units) as nested dicts.
 
-    ``text`` is the case file as written; ``resolved`` is the whole case after ``extends``
-    and defaults, as YAML: what a run directory keeps so that it stands on its own.
+    ``text`` is the case file as written; ``resolved`` is the whole case after ``extends``,
+    ``--set`` values (``overrides``, as given) and defaults, as YAML: what a run directory
+    keeps so that it stands on its own.
     """
     path: Path
     text: str
     data: dict = field(repr=False)
     variables: tuple[Variable, ...] = ()
     conditions: tuple["Condition", ...] = ()
+    overrides: tuple[str, ...] = ()
 
     @cached_property
     def resolved(self) -> str:
@@ -111,6 +120,12 @@ class Case:
         return self.data["optimisation"]
 
     @property
+    def histories(self) -> str:
+        """all, best or none: the time histories an optimisation keeps (default best: the
+        reference design's and the best design's)."""
+        return (self.optimisation or {}).get("histories") or "best"
+
+    @property
     def names(self) -> list[str]:
         return [v.name for v in self.variables]
 
@@ -139,7 +154,7 @@ class Case:
         """A copy with some simulation settings replaced (convergence studies, tests)."""
         data = {**self.data, "simulation": {**self.data["simulation"], **settings}}
         conditions = tuple(c.with_simulation(settings) for c in self.conditions)
-        return Case(self.path, self.text, data, self.variables, conditions)
+        return Case(self.path, self.text, data, self.variables, conditions, self.overrides)
 
     @property
     def condition_mode(self) -> str:
@@ -240,13 +255,16 @@ def _variables(design: dict, lines: dict, file: str) -> tuple[Variable, ...]:
     return tuple(out)
 
 
-def load_case(path: str | Path) -> Case:
+def load_case(path: str | Path, overrides=()) -> Case:
     """Read and validate a case file.
 
     Parameters
     ----------
     path
         the case file (YAML); ``extends:`` and irregularity files are relative to it.
+    overrides
+        ``KEY.PATH=VALUE`` items (``--set``), applied as if a file extending the case had
+        written them (``lccopt.config.overrides``).
 
     Returns
     -------
@@ -262,6 +280,8 @@ def load_case(path: str | Path) -> Case:
     file = str(path)
     text = read_case_text(path)
     raw, lines = read_with_base(path, text)
+    overrides = tuple(overrides)
+    raw = set_values.apply(raw, lines, overrides)
     data = check(raw, SCHEMA, (), lines, file)
 
     def err(at: tuple, msg: str) -> CaseError:
@@ -270,10 +290,12 @@ def load_case(path: str | Path) -> Case:
     if not SAFE_NAME.fullmatch(data["name"]):
         raise err(("name",), "1-64 letters, digits, '.', '-' and '_', starting with a letter or "
                              "digit (it names the run directory)")
+    resolve_zone(data, err)
     check_mesh_units(data, err)
+    derive_strip_bounds(data)
     variables = _variables(data["design"], lines, file)
     check_design_space(data, variables, err)
-    check_optimisation(data, err)
+    check_optimisation(data, err, len(variables))
     rows = _RowCount(err)
     at = ("simulation", "irregularity")
     data["simulation"]["irregularity"] = rows.add(
@@ -282,7 +304,8 @@ def load_case(path: str | Path) -> Case:
     conditions = _conditions(data, path, lines, err, rows)
     sims = [c.data for c in conditions] or [data]
     check_design_size([simulation_size(one) for one in sims], err)
-    return Case(path=path, text=text, data=data, variables=variables, conditions=conditions)
+    return Case(path=path, text=text, data=data, variables=variables, conditions=conditions,
+                overrides=overrides)
 
 
 def _profile_rows(value, path: Path, lines: dict, err, at: tuple):
@@ -385,20 +408,29 @@ def _conditions(data: dict, path: Path, lines: dict, err,
 
 
 def parse_design(text: str, case: Case) -> np.ndarray:
-    """Parse ``--design 214,155,50,5,6,7,3,0`` (pads in MN/m, the rest as counted) into a
-    checked design vector in SI units (raises ValueError)."""
+    """Parse ``--design 214,155,50,5,0.6,0.7,0.3,0`` (in the units shown: pads in MN/m, spans
+    and the strip in m, counts as they are) into a checked design vector in SI units
+    (raises ValueError)."""
     try:
         x = [float(t) for t in text.replace(" ", "").split(",") if t]
     except ValueError:
         raise ValueError(f"expected comma-separated numbers, got {text!r}") from None
     if len(x) == len(case.variables):
+        model = []
         for xi, v in zip(x, case.variables):
             unit, scale = v.display
             u = f" {unit}" if unit else ""
-            if not np.isfinite(xi) or not v.lower * scale <= xi <= v.upper * scale:
+            q = xi / scale if np.isfinite(xi) else np.nan
+            if v.integer and scale != 1.0 and np.isfinite(q):   # a length counted in 0.1 m elements
+                if abs(q - round(q)) > 1e-6:
+                    raise ValueError(f"{v.name} = {xi:g}{u} is not a multiple of {scale:g}{u}")
+                q = float(round(q))
+            tol = 1e-9 * max(abs(v.lower), abs(v.upper), 1.0)
+            if not np.isfinite(q) or not v.lower - tol <= q <= v.upper + tol:
                 raise ValueError(f"{v.name} = {xi:g}{u} is outside "
                                  f"[{v.lower * scale:g}, {v.upper * scale:g}]{u}")
-        x = [xi / v.display[1] for xi, v in zip(x, case.variables)]
+            model.append(min(max(q, v.lower), v.upper))
+        x = model
     return case.check_design(x)
 
 

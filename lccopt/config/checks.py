@@ -14,6 +14,8 @@ from ..vti.irregularity import ELEMENTS_PER_SHORTEST_WAVE, STEPS_PER_SHORTEST_WA
 from ..vti.specs import ELEMENT_UNIT
 from .build import spectrum_profile, track_length, vehicle_spec
 from .profiles import MAX_DIP, cover_problem, profile_array
+from .schema import DEFAULT_INITIAL_POINTS
+from .zones import zone_end_x
 
 STEPS_PER_CONTACT_PERIOD = 5  # Newmark (average acceleration) shortens nothing, but lengthens the
 # period by (w dt)^2/12: 13 % at 5 steps per period of the stiffest mode that carries the
@@ -80,9 +82,9 @@ def check_accuracy(data: dict, err) -> None:
     step = v["speed"] * dt
     if step > sim["element_length"] * (1 + 1e-9):
         raise err(("simulation", "time_step"),
-                  f"{dt:g} s moves the wheel {step:.3g} m per step, more than one element "
-                  f"({sim['element_length']:g} m): time_step <= "
-                  f"{sim['element_length'] / v['speed']:.3g} s")
+                  f"{dt:g} s moves the wheel {step:.3g} m per step at {v['speed'] * 3.6:.4g} "
+                  f"km/h (vehicle.speed), more than one element ({sim['element_length']:g} m): "
+                  f"time_step <= {sim['element_length'] / v['speed']:.3g} s")
     check_vehicle_fits(data, err)
     check_size(data, err)
     irr = sim.get("irregularity")
@@ -137,7 +139,7 @@ def run_extent(data: dict) -> tuple[float, float, float]:
     v, sim = data["vehicle"], data["simulation"]
     length = vehicle_spec(v).length
     layout = data["track"]["layout"]
-    zone_end = layout["entry_length"] + data["evaluation"]["force_zone_after_interface"]
+    zone_end = zone_end_x(data)
     spans = data["design"]["sleeper_spans"]
     n_zone, n_near = data["evaluation"]["sleepers"], spans["count"]
     far_span = spans["bounds"][1] * ELEMENT_UNIT   # the zone reaches farthest at the upper bounds
@@ -232,37 +234,36 @@ def check_layout_fits(data: dict, x: np.ndarray, variables) -> None:
                          f"{layout['entry_length']:g} m entry track with 5 m to spare")
 
 
-def check_design_space(data: dict, variables, err) -> None:
-    """The layout fits at the designs that reach farthest (upper bounds of the counts)."""
-    farthest = np.array([v.upper if v.group in ("sleeper_spans", "type_ii_strip",
-                                                "strengthened_sleepers")
-                         else v.reference for v in variables])
-    try:
-        check_layout_fits(data, farthest, variables)
-    except ValueError as exc:
-        raise err(("design",), f"at the upper bounds: {exc}") from None
+def default_initial_points(budget: int, n_variables: int) -> int:
+    """The initial design's size when a case does not give it: 20, the paper's for its 8
+    variables (well above the d + 1 points a cubic RBF with a linear tail needs), 2 (d + 1) for
+    more than 9 variables; never above the budget."""
+    return min(int(budget), max(DEFAULT_INITIAL_POINTS, 2 * (n_variables + 1)))
 
 
-def check_optimisation(data: dict, err) -> None:
-    """Initial design within the budget, one worst value per objective of the ASF."""
+def check_optimisation(data: dict, err, n_variables: int) -> None:
+    """Initial design within the budget (its default filled in), one worst value per
+    objective of the ASF where they are given (the engine derives them otherwise)."""
     opt = data["optimisation"]
     if opt is None:
         return
-    if opt["initial_points"] > opt["budget"]:
+    budget = opt["budget"]
+    if opt["initial_points"] is None and budget is not None:
+        opt["initial_points"] = default_initial_points(budget, n_variables)
+    if budget is not None and opt["initial_points"] is not None \
+            and opt["initial_points"] > budget:
         raise err(("optimisation", "initial_points"),
-                  f"{opt['initial_points']} initial points exceed the budget of {opt['budget']}")
+                  f"{opt['initial_points']} initial points exceed the budget of {budget}")
     worst = opt["asf"]["worst"]
+    if worst is None or not opt["objectives"]:
+        return
     n_obj = len(opt["objectives"])
     n_each = len(data["conditions"] or []) if opt["conditions"] == "each" else 1
-    if n_obj * n_each > 1:
-        if worst is None:
-            raise err(("optimisation", "asf"),
-                      "missing key 'worst' (needed for two or more objectives)")
-        if len(worst) not in (n_obj, n_obj * n_each):
-            also = (f" or {n_obj * n_each} (one per objective and condition)"
-                    if n_each > 1 else "")
-            raise err(("optimisation", "asf", "worst"),
-                      f"expected {n_obj} values (one per objective){also}, got {len(worst)}")
+    if len(worst) not in (n_obj, n_obj * n_each):
+        also = (f" or {n_obj * n_each} (one per objective and condition)"
+                if n_each > 1 else "")
+        raise err(("optimisation", "asf", "worst"),
+                  f"expected {n_obj} values (one per objective){also}, got {len(worst)}")
 
 
 def check_design_size(sizes: list[tuple[int, int]], err) -> None:

@@ -1,137 +1,53 @@
-"""The case schema: a small language of value specs, the schema itself and its validator.
+"""The case schema: every key of a case file, once, with its doc, unit, bounds and default.
 
-``SCHEMA`` declares every key of a case file once (its doc, unit, bounds and default) and
-drives :func:`check`, which turns the raw mapping into typed values (floats in SI units,
-ints, lists) or raises a :class:`~lccopt.errors.CaseError` of one line naming the file, the
-line and the key. docs/ and the README's case reference document the same keys.
+``SCHEMA`` is written in the spec language of ``lccopt.config.spec`` and drives
+:func:`lccopt.config.validate.check`, which turns the raw mapping into typed values (floats in
+SI units, ints, lists) or raises a :class:`~lccopt.errors.CaseError` of one line naming the
+file, the line and the key. docs/case-reference.md is generated from it
+(``python -m lccopt.config.reference``).
+
+Bounds that no real crossing or vehicle comes near (a speed above 250 km/h, a railpad softer
+than 10 MN/m, a steel rail of 210 Pa) say why (``why``): they catch a value written in the
+wrong unit, and the message proposes the unit that fits.
 """
 
 from __future__ import annotations
 
-import re
-from dataclasses import dataclass
-from typing import Any
-
-import numpy as np
-
-from ..errors import CaseError
 from ..vti.irregularity import SPECTRA
-from ..vti.specs import VEHICLE_TYPES
-from .profiles import ProfileError, ProfileText, pairs_rows, parse_rows, rows_text
-from .reading import dotted, locate
-
-MAX_MAGNITUDE = 1e13        # no quantity of a case comes near it (Young's modulus of steel: 2.1e11)
-# A name is one path component of the run directory: never ".", "..", empty or hidden.
-SAFE_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,63}")
-_FLOAT_RE = re.compile(
-    r"""^[-+]?(?:[0-9][0-9_]*)?(?:\.[0-9_]*)?(?:[eE][-+]?[0-9]+)?$""", re.X
-)
-
-@dataclass(frozen=True)
-class Num:
-    """A number with optional bounds (``gt``: strictly greater)."""
-    doc: str
-    unit: str = "-"
-    integer: bool = False
-    ge: float | None = None
-    gt: float | None = None
-    le: float | None = None
-    default: Any = None
-    required: bool = True
-
-
-@dataclass(frozen=True)
-class Str:
-    """Text, one of ``choices`` when given."""
-    doc: str
-    choices: tuple | None = None
-    default: Any = None
-    required: bool = True
-
-
-@dataclass(frozen=True)
-class NumList:
-    """A list of numbers (``length`` fixed when given)."""
-    doc: str
-    unit: str = "-"
-    length: int | None = None
-    min_length: int = 1
-    max_length: int = 50
-    le: float | None = None
-    gt: float | None = None
-    ge: float | None = None
-    default: Any = None
-    required: bool = True
-
-
-@dataclass(frozen=True)
-class Section:
-    """A mapping of fixed keys, each with its own spec (``fields``)."""
-    fields: dict
-    doc: str = ""
-    required: bool = True
-
-
-@dataclass(frozen=True)
-class _Collection:
-    """Several values of one spec (``item``), at most ``max_items``."""
-    item: Any
-    doc: str = ""
-    max_items: int = 50
-    required: bool = False
-    default: Any = None
-
-
-class Named(_Collection):
-    """A mapping of user-chosen names (``SAFE_NAME``) to values of one spec (``vehicles:``)."""
-
-
-class Items(_Collection):
-    """A list of values of one spec (``conditions:``)."""
-
-
-@dataclass(frozen=True)
-class TextOrSection:
-    """Text (e.g. a file name) or a mapping, checked against the one of ``sections``
-    (``{key: Section}``) whose key it holds."""
-    doc: str
-    sections: dict
-    default: Any = None
-    required: bool = True
-
-
-@dataclass(frozen=True)
-class Rows:
-    """The rows of a rail profile: text, one ``position, dip`` per line, or a list of
-    [position, dip] pairs (lccopt.config.profiles); checked and kept as canonical text."""
-    doc: str
-    default: Any = None
-    required: bool = True
-
-
-@dataclass(frozen=True)
-class StrList:
-    """A list of distinct names from ``choices`` (one name alone is a list of one)."""
-    doc: str
-    choices: tuple
-    default: Any = None
-    required: bool = True
-
+from ..vti.specs import VEHICLE_TYPES, ZONE_POINTS
+from .spec import (Items, Named, Num, NumList, Rows, Section, Str, StrList,  # noqa: F401
+                   TextOrSection)
+from .validate import MAX_MAGNITUDE, SAFE_NAME, check  # noqa: F401  (the schema's validator)
 
 OBJECTIVES = ("F_rms", "F_max", "E_rms", "E_max")
 CONDITION_MODES = ("worst", "mean", "each")
+HISTORIES = ("all", "best", "none")
+
+# [m/s] Most of Europe allows no level crossing on a line faster than 160 km/h (Germany's
+# EBO section 11, for one); Britain has some on 125 mph (201 km/h) lines. 250 km/h leaves a
+# margin above all of them and catches a speed in km/h written as m/s (140 -> 504 km/h).
+MAX_SPEED = 250 / 3.6
+_SPEED_WHY = "no level crossing's line speed is higher"
+_SPEED = dict(unit="m/s", shown="km/h", gt=0, le=MAX_SPEED, why=_SPEED_WHY)
+_MASS_WHY = "a mass per wheel is some 100 kg to 15 t"
+_PAD_WHY = "railpads are 20-2000 MN/m"
+_SEAT_WHY = "ballast support per rail seat is some 10-200 MN/m"
 
 
-def _kv(doc_k: str, doc_c: str, unit_k: str, unit_c: str) -> Section:
-    return Section({"stiffness": Num(doc_k, unit_k, gt=0), "damping": Num(doc_c, unit_c, ge=0)})
+def _kv(doc_k: str, doc_c: str, unit_k: str, unit_c: str, **bounds) -> Section:
+    bounds = bounds or {"gt": 0}
+    return Section({"stiffness": Num(doc_k, unit_k, **bounds),
+                    "damping": Num(doc_c, unit_c, ge=0)})
 
 
-def _design_group(doc: str, integer: bool, counted: bool) -> Section:
+def _design_group(doc: str, integer: bool, counted: bool, unit: str = "-",
+                  bounds_doc: str = "", **bounds) -> Section:
     fields = {
         "kind": Str("continuous or integer", ("integer",) if integer else ("continuous",)),
-        "bounds": NumList("[lower, upper]", length=2),
-        "reference": (NumList("reference value of each variable") if counted
-                      else Num("reference value", integer=integer)),
+        "bounds": NumList("[lower, upper]" + bounds_doc, unit, length=2,
+                          required=not bounds_doc, **bounds),
+        "reference": (NumList("reference value of each variable", unit, **bounds) if counted
+                      else Num("reference value", unit, integer=integer, **bounds)),
     }
     if counted:
         fields["count"] = Num("number of variables in the group", integer=True, ge=1, le=50)
@@ -152,16 +68,24 @@ _VEHICLE = Section({
                  "suspensions, the second wheelset a fixed point); quarter-car: one primary "
                  "suspension per wheel", ("paper", "quarter-car"), default="paper",
                  required=False),
-    "speed": Num("running speed", "m/s", gt=0, le=150.0),
-    "carbody_mass": Num("carbody mass carried by one wheel", "kg", gt=0),
-    "bogie_mass": Num("bogie mass carried by one wheel", "kg", gt=0),
-    "wheelset_mass": Num("wheelset mass carried by one wheel", "kg", gt=0),
-    "primary_stiffness": Num("primary suspension stiffness per wheel", "N/m", gt=0),
+    "speed": Num("running speed; a bare number is in m/s (write 140 km/h for km/h)", **_SPEED),
+    "carbody_mass": Num("carbody mass carried by one wheel (a 4-axle car: 1/8 of the carbody)",
+                        "kg", ge=10, why=_MASS_WHY),
+    "bogie_mass": Num("bogie mass carried by one wheel (1/4 of a two-axle bogie)", "kg", ge=10,
+                      why=_MASS_WHY),
+    "wheelset_mass": Num("unsprung mass on one wheel: half a wheelset for bogie and half-car "
+                         "(each wheel is one end of its axle); the paper's three-dof reading "
+                         "puts the whole wheelset on its one wheel", "kg", ge=10, why=_MASS_WHY),
+    "primary_stiffness": Num("primary suspension stiffness per wheel (per axle box)", "N/m",
+                             ge=1e4, shown="kN/m", why="suspensions are 0.1-10 MN/m per wheel"),
     "primary_damping": Num("primary suspension damping per wheel", "N s/m", ge=0),
-    "secondary_stiffness": Num("secondary suspension stiffness per wheel", "N/m", gt=0),
+    "secondary_stiffness": Num("secondary suspension stiffness per wheel (half the spring of "
+                               "one bogie side)", "N/m", ge=1e4, shown="kN/m",
+                               why="suspensions are 0.1-10 MN/m per wheel"),
     "secondary_damping": Num("secondary suspension damping per wheel", "N s/m", ge=0),
     "hertz_constant": Num("Hertz contact constant G", "m/N^(2/3)", gt=0),
-    "hertz_load": Num("wheel load P used to linearise the Hertz spring", "N", gt=0),
+    "hertz_load": Num("wheel load P used to linearise the Hertz spring", "N", ge=1e3, le=1e6,
+                      shown="kN", why="wheel loads are some 20-200 kN"),
     "gravity": Num("gravitational acceleration", "m/s^2", gt=0, default=9.81, required=False),
     # bogie and half-car (per-wheel values above as for three-dof; lccopt/vti/vehicle.py)
     "wheelbase": Num("bogie and half-car: distance between the two wheelsets of a bogie", "m",
@@ -178,67 +102,83 @@ _VEHICLE = Section({
 
 _TRACK = Section({
     "rail": Section({
-        "youngs_modulus": Num("rail Young's modulus", "Pa", gt=0),
-        "second_moment": Num("rail second moment of area", "m^4", gt=0),
-        "area": Num("rail cross-section area", "m^2", gt=0),
-        "density": Num("rail density", "kg/m^3", gt=0),
+        "youngs_modulus": Num("rail Young's modulus", "Pa", ge=1e9, shown="GPa",
+                              why="steel is 210 GPa"),
+        "second_moment": Num("rail second moment of area", "m^4", gt=0, le=1e-3,
+                             why="rails are some 1000-5000 cm^4"),
+        "area": Num("rail cross-section area", "m^2", gt=0, le=0.1,
+                    why="rails are some 50-100 cm^2"),
+        "density": Num("rail density", "kg/m^3", ge=100, why="steel is 7850 kg/m^3"),
     }),
     "layout": Section({
         "entry_length": Num("ballast track before the level crossing", "m", gt=0, le=2000.0),
         "exit_length": Num("ballast track after the level crossing", "m", gt=0, le=2000.0),
-        "sleeper_spacing": Num("standard sleeper spacing", "m", gt=0),
-        "exit_first_span": Num("slab edge to first sleeper on the exit side", "m", gt=0),
+        "sleeper_spacing": Num("standard sleeper spacing", "m", gt=0, le=2.0,
+                               why="sleepers are some 0.6 m apart"),
+        "exit_first_span": Num("slab edge to first sleeper on the exit side", "m", gt=0,
+                               le=2.0, why="a sleeper span is some 0.3-0.7 m"),
     }),
     "railpad": _kv("railpad stiffness per rail seat", "railpad damping per rail seat",
-                   "N/m", "N s/m"),
-    "sleeper": Section({"mass": Num("sleeper mass per rail", "kg", gt=0)}),
+                   "N/m", "N s/m", ge=1e7, le=1e10, shown="MN/m", why=_PAD_WHY),
+    "sleeper": Section({"mass": Num("sleeper mass per rail (half the sleeper)", "kg", ge=10,
+                                    why="a sleeper is some 100-400 kg")}),
     "support": _kv("ballast/subgrade stiffness per rail seat",
-                   "ballast/subgrade damping per rail seat", "N/m", "N s/m"),
+                   "ballast/subgrade damping per rail seat", "N/m", "N s/m", ge=1e6,
+                   shown="MN/m", why=_SEAT_WHY),
     "strengthened_sleeper": Section({
-        "mass": Num("strengthened sleeper mass per rail", "kg", gt=0),
+        "mass": Num("strengthened sleeper mass per rail", "kg", ge=10,
+                    why="a sleeper is some 100-400 kg"),
         "support_stiffness": Num("ballast/subgrade stiffness under it per rail seat", "N/m",
-                                 gt=0),
+                                 ge=1e6, shown="MN/m", why=_SEAT_WHY),
         "support_damping": Num("ballast/subgrade damping under it per rail seat", "N s/m",
                                ge=0),
     }),
     "ers": Section({
-        "slab_lengths": NumList("lengths of the slabs, in running order (not joined)", "m",
-                                gt=0, le=1000.0),
+        "slab_lengths": NumList("lengths of the slabs, in running order (not joined); the "
+                                "ERS is their sum", "m", gt=0, le=1000.0),
         "compound": Section({
             "stiffness": Num("elastic compound + standard strip stiffness per metre of rail",
-                             "N/m^2", gt=0),
+                             "N/m^2", ge=1e5, shown="MN/m^2",
+                             why="fastenings are some 5-200 MN/m per metre"),
             "damping_ratio": Num("compound damping ratio", ge=0, le=1),
         }),
         "type_ii_compound": Section({
             "stiffness": Num("compound stiffness with the Type II strip per metre of rail",
-                             "N/m^2", gt=0),
+                             "N/m^2", ge=1e5, shown="MN/m^2",
+                             why="fastenings are some 5-200 MN/m per metre"),
             "damping_ratio": Num("compound damping ratio with the Type II strip", ge=0, le=1),
         }),
         "share_per_rail": Num("share of the whole-track slab and foundation given to one rail",
                               gt=0, le=1),
         "slab": Section({
-            "youngs_modulus": Num("slab Young's modulus", "Pa", gt=0),
-            "density": Num("slab density", "kg/m^3", gt=0),
-            "width_bottom": Num("slab width at the bottom (whole slab)", "m", gt=0),
-            "width_top": Num("slab width at the top (whole slab)", "m", gt=0),
-            "height": Num("slab height", "m", gt=0),
+            "youngs_modulus": Num("slab Young's modulus", "Pa", ge=1e9, shown="GPa",
+                                  why="concrete is some 20-50 GPa"),
+            "density": Num("slab density", "kg/m^3", ge=100, why="concrete is 2400 kg/m^3"),
+            "width_bottom": Num("slab width at the bottom (whole slab)", "m", gt=0, le=20.0),
+            "width_top": Num("slab width at the top (whole slab)", "m", gt=0, le=20.0),
+            "height": Num("slab height", "m", gt=0, le=5.0),
         }),
         "foundation": _kv("foundation stiffness per metre of slab (whole slab)",
                           "foundation damping per metre of slab (whole slab)", "N/m^2",
-                          "N s/m^2"),
+                          "N s/m^2", ge=1e5, shown="MN/m^2",
+                          why="foundations are some 10-5000 MN/m per metre"),
     }),
 })
 
 _DESIGN = Section({
     "railpad_stiffness": _design_group("stiffness of the pads next to the interface, x_r1 "
-                                       "farthest .. x_rN nearest", integer=False, counted=True),
+                                       "farthest .. x_rN nearest", integer=False, counted=True,
+                                       unit="N/m", ge=1e7, le=1e10, shown="MN/m",
+                                       why=_PAD_WHY),
     "strengthened_sleepers": _design_group("number of strengthened sleepers next to the "
                                            "interface", integer=True, counted=False),
     "sleeper_spans": _design_group("spans next to the interface in 0.1 m elements, x_s1 "
                                    "farthest .. x_sM from the slab edge to the first sleeper",
                                    integer=True, counted=True),
     "type_ii_strip": _design_group("length of Type II strip from the entry slab edge, in 0.1 m "
-                                   "elements", integer=True, counted=False),
+                                   "elements (at most the ERS)", integer=True, counted=False,
+                                   bounds_doc=". Default: [0, the ERS in 0.1 m elements], so "
+                                              "that the strip may cover the whole crossing"),
 })
 
 # amplitude_scale <= 10: ten times a standard spectrum is beyond any class of track it
@@ -276,42 +216,73 @@ _SIMULATION = Section({
     "irregularity": _IRREGULARITY,
 })
 
+# Where the force zone ends (lccopt.config.zones): 2 m before the ERS's far edge unless a
+# case says otherwise. Why 2 m: configs/reference.yaml, evaluation.
+DEFAULT_FORCE_ZONE_END = {"at": "exit_interface", "offset": -2.0}
+_EVALUATION = Section({
+    "sleepers": Num("sleepers of the evaluation zone: the entry sleepers next to the "
+                    "interface whose ballast energies give E_rms and E_max; the zone starts "
+                    "at the farthest", integer=True, ge=1),
+    "force_zone_end": Section({
+        "at": Str("a named point of the layout: entry_interface (where the designed ballast "
+                  "meets the ERS) or exit_interface (the ERS's far edge)", ZONE_POINTS),
+        "offset": Num("distance from that point towards the exit side (negative: towards the "
+                      "entry side)", "m", ge=-1000.0, le=1000.0, default=0.0,
+                      required=False),
+    }, "where the force zone (F_rms, F_max) ends; it starts at the farthest zone sleeper. "
+       "Default: {at: exit_interface, offset: -2.0}, 2 m before the ERS's far edge, so that "
+       "the zone follows the layout", required=False, keep_absent=True),
+    "force_zone_after_interface": Num(
+        "older form of force_zone_end: a length from the entry interface, the same as "
+        "{at: entry_interface, offset: this}; it does not follow slab_lengths", "m", ge=0,
+        required=False, keep_absent=True),
+})
+
+DEFAULT_INITIAL_POINTS = 20
 _OPTIMISATION = Section({
-    "objectives": StrList("objectives to minimise; two or more are scalarised by the ASF",
-                          OBJECTIVES),
-    "budget": Num("evaluations in all, failures included", integer=True, ge=2, le=100_000),
-    "initial_points": Num("initial design size, reference design included", integer=True, ge=2,
-                          le=10_000),
+    "objectives": StrList("objectives to minimise; two or more are scalarised by the ASF "
+                          "(required by lccopt optimise)", OBJECTIVES, required=False),
+    "budget": Num("evaluations in all, failures included (required by lccopt optimise)",
+                  integer=True, ge=2, le=100_000, required=False),
+    "initial_points": Num("initial design size, reference design included. Default: 20 (the "
+                          "paper's, for 8 variables), 2 (d + 1) for d > 9 variables, never "
+                          "above the budget", integer=True, ge=2, le=10_000, required=False),
     "seed": Num("random seed", integer=True, ge=0, default=0, required=False),
     "timeout": Num("per-evaluation timeout", "s", gt=0, default=600.0, required=False),
     "conditions": Str("how the objectives of several traffic conditions combine: worst (max "
                       "over conditions), mean (weighted mean) or each (every condition's "
                       "objective is an objective of its own, named like F_max@name)",
                       CONDITION_MODES, default="worst", required=False),
+    "histories": Str("time histories an optimisation keeps in evals/: all (every design's), "
+                     "best (the reference design's and the best design's; the other files "
+                     "hold the design, objectives and facts) or none. Default: best",
+                     HISTORIES, default="best", required=False, keep_absent=True),
     "asf": Section({
         "rho": Num("augmentation coefficient of the Chebyshev ASF", ge=0, default=0.05,
                    required=False),
         "improvement": Num("reference point = reference design improved by this fraction",
                            ge=0, le=1, default=0.2, required=False),
-        "worst": NumList("worst obtainable value of each objective (kappa_i = 1/(worst_i - "
-                         "ref_i))", gt=0, max_length=len(OBJECTIVES) * 50, required=False),
+        "worst": NumList("worst obtainable value of each objective, in N (F_*) or J (E_*): "
+                         "kappa_i = 1/(worst_i - ref_i). Default: 1.5 x the reference "
+                         "design's value, set once evaluation #0 is in", gt=0,
+                         max_length=len(OBJECTIVES) * 50, required=False),
     }, required=False),
-}, required=False)
+}, "what lccopt optimise needs; check and simulate never do", required=False,
+   none_if_absent=True)
 
 # Traffic conditions: named vehicles take every key of `vehicle:` (the speed is the
 # condition's), and each condition runs one simulation of every design.
 _VEHICLES = Named(
     Section({**_VEHICLE.fields,
-             "speed": Num("default speed of the vehicle's conditions", "m/s", gt=0, le=150.0,
-                          required=False)}, "a vehicle, with the keys of the vehicle section"),
+             "speed": Num("default speed of the vehicle's conditions", required=False,
+                          **_SPEED)}, "a vehicle, with the keys of the vehicle section"),
     "named vehicles for the conditions (each with the keys of the vehicle section)")
 _CONDITIONS = Items(Section({
     "name": Str("condition name (letters, digits, '.', '-', '_'); objectives of it are named "
                 "like F_max@name"),
     "vehicle": Str("a name from vehicles:, or case for the case's vehicle section",
                    default="case", required=False),
-    "speed": Num("running speed (default: the vehicle's)", "m/s", gt=0, le=150.0,
-                 required=False),
+    "speed": Num("running speed (default: the vehicle's)", required=False, **_SPEED),
     "direction": Str("enter: from the designed ballast side into the ERS; leave: from the ERS "
                      "onto the designed side", ("enter", "leave"), default="enter",
                      required=False),
@@ -327,170 +298,9 @@ SCHEMA = Section({
     "vehicle": _VEHICLE,
     "track": _TRACK,
     "design": _DESIGN,
-    "evaluation": Section({
-        "sleepers": Num("sleepers of the evaluation zone (next to the interface)", integer=True,
-                        ge=1),
-        "force_zone_after_interface": Num("the force zone ends this far into the ERS", "m",
-                                          ge=0),
-    }),
+    "evaluation": _EVALUATION,
     "simulation": _SIMULATION,
     "optimisation": _OPTIMISATION,
     "vehicles": _VEHICLES,
     "conditions": _CONDITIONS,
 })
-
-
-def check(value: Any, spec: Any, path: tuple, lines: dict, file: str) -> Any:
-    """Validate one value against its spec; return the typed value."""
-    def fail(msg: str, at: tuple = path) -> CaseError:
-        return CaseError(f"{locate(lines, at, file)}: {dotted(at) or '<top>'}: {msg}")
-
-    def sub(v: Any, s: Any, key) -> Any:
-        return check(v, s, path + (key,), lines, file)
-
-    if isinstance(spec, Section):
-        return _section(value, spec, sub, fail, lambda k: lines.get(path + (k,), file + ":1"),
-                        path)
-    if isinstance(spec, (Named, Items)):
-        return _collection(value, spec, sub, fail, path)
-    if isinstance(spec, TextOrSection):
-        if isinstance(value, dict):
-            keys = [k for k in spec.sections if k in value]
-            if len(keys) != 1:
-                raise fail(f"expected a mapping with one of the keys "
-                           f"{' or '.join(repr(k) for k in spec.sections)}")
-            return check(value, spec.sections[keys[0]], path, lines, file)
-        if not isinstance(value, str):
-            raise fail(f"expected a file name or a mapping, got {value!r:.60}")
-        return value
-    if isinstance(spec, Rows):
-        return _rows(value, fail)
-    if isinstance(spec, Num):
-        return _number(value, spec, fail)
-    if isinstance(spec, Str):
-        if value is None and not spec.required:
-            return None
-        if not isinstance(value, str):
-            raise fail(f"expected text, got {value!r}")
-        if spec.choices and value not in spec.choices:
-            raise fail(f"must be one of {', '.join(spec.choices)}, got '{value}'")
-        return value
-    if isinstance(spec, NumList):
-        return _numbers(value, spec, fail, path)
-    if isinstance(spec, StrList):
-        return _names(value, spec, fail)
-    raise TypeError(spec)
-
-
-def _section(value: Any, spec: Section, sub, fail, line_of, path: tuple) -> dict:
-    """A section: no unknown key, every required key, defaults for the others."""
-    if not isinstance(value, dict):
-        raise fail(f"expected a section (mapping), got {type(value).__name__}")
-    unknown = [k for k in value if k not in spec.fields]
-    if unknown:
-        k = unknown[0]
-        raise CaseError(f"{line_of(k)}: {dotted(path + (k,))}: unknown key (expected one of: "
-                        f"{', '.join(spec.fields)})")
-    out = {}
-    for key, field_spec in spec.fields.items():
-        if value.get(key) is None:  # absent, or written as null
-            if getattr(field_spec, "required", True):
-                raise fail(f"missing key '{key}'")
-            optional_only = isinstance(field_spec, Section) and not any(
-                getattr(f, "required", True) for f in field_spec.fields.values())
-            out[key] = (sub({}, field_spec, key) if optional_only
-                        else getattr(field_spec, "default", None))
-            continue
-        out[key] = sub(value[key], field_spec, key)
-    return out
-
-
-def _collection(value: Any, spec: _Collection, sub, fail, path: tuple):
-    """Named (a mapping of names) or Items (a list), each value of ``spec.item``."""
-    if isinstance(spec, Named):
-        if not isinstance(value, dict) or not value:
-            raise fail("expected a mapping of names to sections")
-    elif not isinstance(value, list) or not value:
-        raise fail("expected a list")
-    if len(value) > spec.max_items:
-        raise fail(f"{len(value)} entries; at most {spec.max_items}")
-    if isinstance(spec, Items):
-        return [sub(v, spec.item, i) for i, v in enumerate(value)]
-    for k in value:
-        if not isinstance(k, str) or not SAFE_NAME.fullmatch(k):
-            raise fail(f"{str(k)[:40]!r} is not a name (1-64 letters, digits, '.', '-' "
-                       f"and '_')", path + (k,))
-    return {k: sub(v, spec.item, k) for k, v in value.items()}
-
-
-def _numbers(value: Any, spec: NumList, fail, path: tuple) -> list:
-    if not isinstance(value, list):
-        raise fail(f"expected a list of numbers, got {value!r:.60}")
-    if spec.length is not None and len(value) != spec.length:
-        raise fail(f"expected {spec.length} values, got {len(value)}")
-    if len(value) < spec.min_length:
-        raise fail(f"expected at least {spec.min_length} value(s)")
-    if len(value) > spec.max_length:
-        raise fail(f"{len(value)} values; at most {spec.max_length}")
-    item = Num(spec.doc, spec.unit, gt=spec.gt, ge=spec.ge, le=spec.le)
-    return [_number(v, item, lambda m, i=i: fail(m, path + (i,))) for i, v in enumerate(value)]
-
-
-def _names(value: Any, spec: StrList, fail) -> list:
-    if isinstance(value, str):
-        value = [value]
-    if not isinstance(value, list) or not value:
-        raise fail("expected a list of names")
-    for v in value:
-        if v not in spec.choices:
-            raise fail(f"unknown name {v!r} (expected some of {', '.join(spec.choices)})")
-    if len(set(value)) != len(value):
-        raise fail("a name is listed twice")
-    return list(value)
-
-
-def _rows(value: Any, fail) -> ProfileText:
-    """A profile's rows (text or pairs), checked, as canonical text."""
-    try:
-        if isinstance(value, str):
-            rows = parse_rows(value)
-        elif isinstance(value, list):
-            rows = pairs_rows(value)
-        else:
-            raise fail(f"expected rows 'position, dip' (text) or [position, dip] pairs, got "
-                       f"{value!r:.60}")
-    except ProfileError as exc:
-        where = "line" if isinstance(value, str) else "pair"
-        raise fail(f"{where} {exc.line}: {exc}") from None
-    return rows_text(rows)
-
-
-def _number(value: Any, spec: Num, fail) -> float | int:
-    """A number checked against ``spec``: an int for an integer spec, else a float."""
-    if isinstance(value, int) and not isinstance(value, bool) and abs(value) > MAX_MAGNITUDE:
-        raise fail(f"{str(value)[:12]}... ({len(str(abs(value)))} digits) is not a plausible value")
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        if isinstance(value, str) and _FLOAT_RE.match(value.strip()) and value.strip():
-            value = float(value)  # e.g. "1_120e6"
-        else:
-            raise fail(f"expected a number, got {value!r}")
-    if not np.isfinite(value):
-        raise fail(f"must be finite, got {value!r}")
-    if abs(value) > MAX_MAGNITUDE:
-        raise fail(f"{value:g} is not a plausible value (|value| <= {MAX_MAGNITUDE:g} in SI units)")
-    if spec.integer:
-        if float(value) != int(value):
-            raise fail(f"must be a whole number, got {value!r}")
-        value = int(value)
-    else:
-        value = float(value)
-    unit = f" {spec.unit}" if spec.unit != "-" else ""
-    if spec.gt is not None and not value > spec.gt:
-        raise fail(f"must be > {spec.gt:g}{unit}, got {value:g}")
-    if spec.ge is not None and not value >= spec.ge:
-        raise fail(f"must be >= {spec.ge:g}{unit}, got {value:g}")
-    if spec.le is not None and not value <= spec.le:
-        raise fail(f"must be <= {spec.le:g}{unit}, got {value:g}")
-    return value
-
-

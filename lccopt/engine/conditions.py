@@ -70,10 +70,9 @@ class ConditionPool:
     def running(self) -> int:
         return len(self._tasks)
 
-    @property
-    def parts_done(self) -> int:
-        """Conditions finished of the designs still in flight."""
-        return sum(len(self._parts[i]) for i in self._tasks)
+    def parts_done(self, ids) -> int:
+        """Conditions finished of the designs ``ids`` still in flight."""
+        return sum(len(self._parts[i]) for i in self._tasks if i in ids)
 
     def free(self) -> int:
         return max(0, self.slots - len(self._tasks)) if not self._queue else 0

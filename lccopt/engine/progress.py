@@ -6,6 +6,7 @@ import math
 import sys
 import time
 
+from ..terminal import wrap_message
 from ..vti.response import objective_display
 
 
@@ -78,6 +79,7 @@ class Progress:
         self.stream = stream or sys.stderr
         self.budget = budget
         self.per_design = 1     # simulations per design (traffic conditions): the bar counts them
+        self._best_shown = None  # the best design last written to a log
         self.enabled = enabled
         self.tty = enabled and hasattr(self.stream, "isatty") and self.stream.isatty()
         self.t0 = time.monotonic()
@@ -127,11 +129,16 @@ class Progress:
             self._draw(table, parts)
 
     def log(self, message: str) -> None:
-        """A message on its own line (above the live progress line on a terminal)."""
+        """A message on its own line (above the live progress line on a terminal, and wrapped
+        to its width there; one line in a log)."""
+        text = f"lccopt: {message}"
         if self._live is not None:
-            self._live.console.print(f"lccopt: {message}", markup=False, soft_wrap=True)
+            self._live.console.print(wrap_message(text, self._live.console.width), markup=False,
+                                     soft_wrap=True)
             return
-        self.stream.write(f"lccopt: {message}\n")
+        if hasattr(self.stream, "isatty") and self.stream.isatty():
+            text = wrap_message(text)
+        self.stream.write(text + "\n")
         self.stream.flush()
 
     def update(self, table, last: dict | None = None) -> None:
@@ -146,15 +153,21 @@ class Progress:
                 self._start(done)
             self._draw(table, 0)
             return
+        # a log: one line per result, and the best design on a line of its own when it changes
+        # (each fits 80 columns)
         elapsed = time.monotonic() - self.t0
         new = done - self.done0
-        left = f"  left ~{hms((self.budget - done) * elapsed / new)}" if new > 0 else ""
+        left = f", ~{hms((self.budget - done) * elapsed / new)} left" if new > 0 else ""
         width = len(str(self.budget))
-        head = f"[{done:>{width}}/{self.budget}] {hms(elapsed)}{left}  {best_text(table)}"
+        what = ""
         if last is not None:
-            what = (f"#{last['id']} {last['phase']} ok" if last["status"] == "ok"
-                    else f"#{last['id']} {last['phase']} FAILED: {last['reason']}")
-            self.stream.write(f"lccopt: {head}{tail}  | {what}\n")
+            what = (f" #{last['id']} {last['phase']} ok" if last["status"] == "ok"
+                    else f" #{last['id']} {last['phase']} FAILED: {last['reason']}")
+        self.stream.write(f"lccopt: [{done:>{width}}/{self.budget}]{what}, {hms(elapsed)}{left}{tail}\n")
+        best = table.best()
+        if best is not None and best["id"] != self._best_shown:
+            self._best_shown = best["id"]
+            self.stream.write(f"lccopt:   {best_text(table)}\n")
         self.stream.flush()
 
     def close(self) -> None:

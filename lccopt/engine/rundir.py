@@ -98,6 +98,8 @@ class RunDir:
                 "created": now_iso(), "versions": versions(), "evaluator": evaluator,
                 # how each design variable is shown (name, unit, factor from SI): status reads it
                 "variables": [[v.name, *v.display] for v in case.variables],
+                # the --set items the case was loaded with: resume loads it the same way
+                "overrides": list(getattr(case, "overrides", ())),
             }
             (tmp / "case.yaml").write_text(resolved, encoding="utf-8")
             (tmp / "case.source.yaml").write_text(case.text, encoding="utf-8")

@@ -179,7 +179,7 @@ def _start_executor(case, spec, workers, scheduler, problem, log=None):
 
 
 def resume(run, workers: int | None = None, scheduler=None, case=None, allow_changed_case: bool = False,
-           *, evaluator=None, progress: bool = True, stream=None) -> Path:
+           budget: int | None = None, *, evaluator=None, progress: bool = True, stream=None) -> Path:
     """Carry on the run in directory RUN; see the module docstring."""
     _check_options(workers, scheduler)
     out = Progress(0, stream, progress)
@@ -201,7 +201,7 @@ def resume(run, workers: int | None = None, scheduler=None, case=None, allow_cha
         journal, events, torn = Journal.open(rd.journal_path)
         if torn:
             out.log("dropped a torn last line of the journal (the run was killed while writing it)")
-        case_obj = _resume_case(rd, meta, case, allow_changed_case, out)
+        case_obj = _resume_case(rd, meta, case, allow_changed_case, out, budget)
         problem = Problem.from_case(case_obj)
         if events and events[0].get("objectives") not in (None, list(problem.objectives)):
             raise _usage_error(f"the case's objectives {list(problem.objectives)} differ from the run's "
@@ -216,7 +216,8 @@ def resume(run, workers: int | None = None, scheduler=None, case=None, allow_cha
                                 budget=problem.budget, case_file=str(case_obj.path), **extra)
             events.append(ev)
             rd.write_case(case_obj.resolved)
-            meta.update(case_sha256=sha256_text(case_obj.resolved), case_file=str(Path(case_obj.path).resolve()))
+            meta.update(case_sha256=sha256_text(case_obj.resolved), case_file=str(Path(case_obj.path).resolve()),
+                        overrides=list(getattr(case_obj, "overrides", ())))
             rd.write_meta(meta)
         strategy, table = restore(problem, events, rd.load_state())
         # never the evaluator run.json names: a run directory from elsewhere must not choose
@@ -283,8 +284,10 @@ def _check_options(workers, scheduler) -> None:
                            "how many evaluations run at once)")
 
 
-def _resume_case(rd: RunDir, meta: dict, case, allow_changed: bool, out: Progress) -> Case:
-    """The case to carry on with: the original file (must be unchanged) or the run's copy."""
+def _resume_case(rd: RunDir, meta: dict, case, allow_changed: bool, out: Progress,
+                 budget: int | None = None) -> Case:
+    """The case to carry on with: the original file with the run's --set overrides (must
+    resolve as the run's case did) or the run's copy; ``budget``: a new budget on top."""
     if case is None:
         original = Path(meta.get("case_file", ""))
         if meta.get("case_file") and original.is_file():
@@ -292,13 +295,19 @@ def _resume_case(rd: RunDir, meta: dict, case, allow_changed: bool, out: Progres
         else:
             out.log(f"the case file {original} is gone; using the run's copy {rd.case_path}")
             case = rd.case_path
-    case_obj = case if isinstance(case, Case) else load_case(case)
+    overrides = [o for o in meta.get("overrides") or [] if isinstance(o, str)]
+    case_obj = case if isinstance(case, Case) else load_case(case, overrides)
+    if budget is not None and sha256_text(case_obj.resolved) == meta.get("case_sha256"):
+        # the same case with another budget: the one change --budget asks for
+        case_obj = load_case(case_obj.path, [*overrides, f"optimisation.budget={int(budget)}"])
+        allow_changed = True
     if sha256_text(case_obj.resolved) != meta.get("case_sha256"):
         if not allow_changed:
             raise _usage_error(
-                f"the case file {case_obj.path} changed since the run started (the resolved case "
-                f"differs from {rd.case_path}); restore it, resume with --case {rd.case_path} (the "
-                f"run's copy), or with --allow-changed-case to use the changed case")
+                f"the case file {case_obj.path} or a file it reads (extends, irregularity) changed "
+                f"since the run started (the resolved case differs from {rd.case_path}); restore it, "
+                f"resume with --case {rd.case_path} (the run's copy), or with --allow-changed-case "
+                f"to use the changed case")
         old_case = load_case(rd.case_path)
         old, new = Problem.from_case(old_case), Problem.from_case(case_obj)
         if not old.same_space(new):
@@ -308,7 +317,8 @@ def _resume_case(rd: RunDir, meta: dict, case, allow_changed: bool, out: Progres
         if refused:
             raise _usage_error(f"{case_obj.path}: {refused[0]} changed since the run started; only "
                                f"budget, timeout, asf.worst and asf.rho may: start a new run")
-        out.log(f"the case file {case_obj.path} changed since the run started: carrying on with it "
+        out.log(f"carrying on to a budget of {budget} (--budget)" if budget is not None else
+                f"the case file {case_obj.path} changed since the run started: carrying on with it "
                 f"(--allow-changed-case)")
     return case_obj
 
@@ -534,6 +544,7 @@ class Engine:
         self.strategy.budget = problem.budget
         self.ref_point = (table.reference or {}).get("point")
         if self.ref_point is not None:  # as the replay of the journal set it (restore)
+            self.problem = problem = problem.with_reference(table.reference["objectives"])
             self.strategy.set_aggregate(problem.aggregate(self.ref_point))
         self._ahead: int | None = None   # id asked ahead, waiting for a free worker
         # proposal n sees exactly the results 0 .. n-lag-1 (schedule.py); lag = the workers
@@ -636,8 +647,8 @@ class Engine:
                 for o in self.executor.wait(0.2):
                     self._record(o)
                 self.journal.flush()  # the results' lines survive a kill -9 from here on
-                if self.case.conditions and not self._restoring:  # a design simulated again
-                    p.parts(self.table, self.executor.parts_done)      # spends no budget: not shown
+                if self.case.conditions:   # the designs' conditions, not a re-simulation's
+                    p.parts(self.table, self.executor.parts_done(set(self.table.pending_ids())))
                 if idle:
                     self.t_held += idle * (time.monotonic() - t_wait)
                 if self.stop and not self._stop_logged:
@@ -821,6 +832,7 @@ class Engine:
                       at=round(time.time(), 3))  # when it was committed: `lccopt status` rates
         if error is None:
             if o.id == 0 and self.table.reference is None:
+                self.problem = pb = pb.with_reference(objectives)  # worst: the case's or default
                 point = pb.reference_point(objectives)  # CaseError if worst <= reference point
                 self.table.apply(j.append("reference", sync=False, id=0, x=row["x"], objectives=objectives, point=point,
                                           worst=list(pb.worst) if pb.worst else None, rho=pb.rho,

@@ -9,9 +9,9 @@ leading wheel starts ``run_in`` before the evaluation zone, which begins at the 
 sleeper, and runs towards +x; ``leave``, it starts ``run_in`` beyond the far edge of the ERS
 (on the exit ballast) and runs towards -x over the whole crossing. The contact force of every
 wheel is measured while that wheel is between the farthest zone sleeper and
-``force_zone_after_interface`` into the ERS; the run ends when the last wheel is ``run_out``
-past the zone so the zone's sleepers have settled. Sleeper energies use mid-step velocities,
-which makes them exactly the dissipation of Newmark's discrete energy balance.
+``zones.force_zone_end`` (a point relative to an interface); the run ends when the last wheel
+is ``run_out`` past the zone so the zone's sleepers have settled. Sleeper energies use mid-step
+velocities, which makes them exactly the dissipation of Newmark's discrete energy balance.
 """
 
 from __future__ import annotations

@@ -102,6 +102,10 @@ class History:
     wheel_position: np.ndarray | None = None          # (steps+1, wheels), front first
     wheel_force: np.ndarray | None = None             # (steps+1, wheels)
     wheel_rail_displacement: np.ndarray | None = None  # (steps+1, wheels)
+    # unilateral sleeper supports (lccopt/vti/unilateral.py), else None
+    support_force: np.ndarray | None = None    # (steps+1, supports) ballast force [N]
+    support_contact: np.ndarray | None = None  # (steps+1, supports) 1 in contact, 0 over a void
+    info: dict | None = None                   # active-set statistics of the unilateral supports
 
     def __post_init__(self):
         if self.wheel_position is None:   # one wheel
@@ -114,7 +118,7 @@ def integrate(track: TrackLike, dt: float, speed: float, x_start: float, n_steps
               vehicle=None, load: float = 0.0, irregularity: Callable[[float], float] | None = None,
               record_dofs: np.ndarray | None = None, initial: tuple | None = None,
               vehicle_offset: np.ndarray | None = None,
-              on_step: Callable | None = None, general: bool = False) -> History:
+              on_step: Callable | None = None, general: bool = False, supports=None) -> History:
     """Run ``n_steps`` Newmark steps from static equilibrium with the wheel at ``x_start``.
 
     vehicle: a :class:`~lccopt.vti.vehicle.Vehicle` (coupled through its Hertz spring), or
@@ -128,7 +132,18 @@ def integrate(track: TrackLike, dt: float, speed: float, x_start: float, n_steps
     speed may be negative (the vehicle runs towards -x). A vehicle with several wheels
     (``vehicle.wheel_offsets`` behind the leading wheel, which starts at x_start) runs through
     :func:`integrate_wheels`, as does a one-wheel vehicle with ``general=True`` (tests).
+    supports: :class:`~lccopt.vti.unilateral.SleeperSupports`, sleepers whose ballast support
+    acts only in contact (voids); the run goes through
+    :func:`~lccopt.vti.unilateral.integrate_unilateral`. None: every support is linear.
     """
+    if supports is not None:
+        from .unilateral import integrate_unilateral   # it builds on this module
+
+        if initial is not None or vehicle_offset is not None:
+            raise ValueError("unilateral supports start from static equilibrium only")
+        return integrate_unilateral(track, dt, speed, x_start, n_steps, supports=supports,
+                                    vehicle=vehicle, load=load, irregularity=irregularity,
+                                    record_dofs=record_dofs, on_step=on_step)
     if vehicle is not None and (general or len(vehicle.wheel_dofs) > 1):
         return integrate_wheels(track, dt, speed, x_start, n_steps, vehicle=vehicle,
                                 irregularity=irregularity, record_dofs=record_dofs,

@@ -8,7 +8,8 @@ files or optimisation.
   one wheel (``lccopt.vti.vehicle`` explains the reading);
 * :class:`TrackSpec`: rail, layout, ballast track, strengthened sleepers and the ERS;
 * :class:`SimulationSettings`: time step, mesh, run-in and run-out, direction;
-* :class:`EvaluationZones`: where the objectives are measured;
+* :class:`EvaluationZones`: where the objectives are measured (the force zone's end as a
+  :class:`LayoutPoint`, relative to a named point of the layout);
 * :class:`TrackDesign`: one design of the entry side next to the interface (the design vector
   split into its groups);
 * :class:`Scenario`: one simulation's inputs but the design (vehicle, track, settings, zones
@@ -24,6 +25,8 @@ import numpy as np
 # [m] sleeper spans and the Type II strip are counted in 0.1 m elements (paper, Table 4)
 ELEMENT_UNIT = 0.1
 VEHICLE_TYPES = ("three-dof", "bogie", "half-car")
+# named points of the layout that lengths are measured from (TrackSpec.position)
+ZONE_POINTS = ("entry_interface", "exit_interface")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -131,6 +134,17 @@ class TrackSpec:
         """Length of the modelled track [m] (the same for every design)."""
         return float(self.layout.entry_length + self.ers.length + self.layout.exit_length)
 
+    def position(self, point: "LayoutPoint") -> float:
+        """x [m] of a point given relative to a named point of the layout (``ZONE_POINTS``):
+        the entry interface (the slab edge the designed ballast meets) or the exit interface
+        (the ERS's far edge), plus the point's offset towards the exit side."""
+        named = {"entry_interface": self.layout.entry_length,
+                 "exit_interface": self.layout.entry_length + self.ers.length}
+        if point.at not in named:
+            raise ValueError(f"unknown point of the layout {point.at!r} (expected one of "
+                             f"{', '.join(ZONE_POINTS)})")
+        return float(named[point.at] + point.offset)
+
 
 @dataclass(frozen=True, kw_only=True)
 class SimulationSettings:
@@ -142,10 +156,18 @@ class SimulationSettings:
     direction: str = "enter"    # enter (towards +x, into the ERS) or leave (towards -x)
 
 
+@dataclass(frozen=True)
+class LayoutPoint:
+    """A point of the track given relative to a named point of the layout, so that it
+    follows the layout (another slab length moves it with the ERS's far edge)."""
+    at: str                 # one of ZONE_POINTS
+    offset: float = 0.0     # [m] towards the exit side (+x); negative: towards the entry side
+
+
 @dataclass(frozen=True, kw_only=True)
 class EvaluationZones:
     sleepers: int                       # zone sleepers next to the interface
-    force_zone_after_interface: float   # the force zone ends this far into the ERS [m]
+    force_zone_end: LayoutPoint         # where the force zone ends (TrackSpec.position)
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)

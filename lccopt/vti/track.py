@@ -55,6 +55,12 @@ class TrackModel:
     exit_sleeper_x: np.ndarray
     type_ii_end: float              # the Type II strip covers [x_a, type_ii_end]
     info: dict = field(default_factory=dict)
+    # every ballast sleeper, entry (nearest the interface first) then exit: what the unilateral
+    # support model (lccopt/vti/unilateral.py) needs to know of each sleeper's support
+    sleeper_x: np.ndarray | None = None
+    sleeper_dof: np.ndarray | None = None
+    support_stiffness: np.ndarray | None = None     # k_b [N/m]
+    support_damping: np.ndarray | None = None       # c_b [N s/m]
 
     @property
     def n_dofs(self) -> int:
@@ -78,7 +84,8 @@ def wheel_window(scenario: Scenario, entry_x: np.ndarray) -> tuple[float, float,
     """(x_start, zone_start, zone_end, x_end) of the leading wheel [m].
 
     The evaluation zone begins at the farthest zone sleeper (zone_start) and the force zone
-    ends ``force_zone_after_interface`` into the ERS (zone_end), whichever way the vehicle runs.
+    ends at ``zones.force_zone_end`` (zone_end, a point relative to the entry or the exit
+    interface: it follows the layout), whichever way the vehicle runs.
     ``enter`` (towards +x): the leading wheel starts ``run_in`` before zone_start and the run
     ends when the last wheel is ``run_out`` past zone_end. ``leave`` (towards -x, from the ERS
     onto the designed side): the leading wheel starts ``run_in`` beyond the far (exit) edge of
@@ -91,7 +98,7 @@ def wheel_window(scenario: Scenario, entry_x: np.ndarray) -> tuple[float, float,
     start or the end of a run: they rest on a rigid continuation of the rail."""
     zones, sim, layout = scenario.zones, scenario.settings, scenario.track.layout
     zone_start = float(entry_x[zones.sleepers - 1])
-    zone_end = layout.entry_length + zones.force_zone_after_interface
+    zone_end = scenario.track.position(zones.force_zone_end)
     length = scenario.vehicle.length
     if sim.direction == "leave":
         x_b = layout.entry_length + float(sum(scenario.track.ers.slab_lengths))
@@ -284,7 +291,8 @@ def build_track(scenario: Scenario, design: TrackDesign) -> TrackModel:
         M=Mas.build(), C=Cas.build(), K=Kas.build(), interface=(x_a, x_b), slab_edges=slab_edges,
         entry_sleeper_x=entry_x, entry_sleeper_dof=sleeper_dof[:n_entry],
         entry_support_damping=sl_c, entry_strengthened=strengthened, entry_pad_stiffness=pad_k,
-        exit_sleeper_x=exit_x, type_ii_end=float(type_ii_end), info=info)
+        exit_sleeper_x=exit_x, type_ii_end=float(type_ii_end), info=info,
+        sleeper_x=sleeper_x, sleeper_dof=sleeper_dof, support_stiffness=all_k, support_damping=all_c)
 
 
 @dataclass

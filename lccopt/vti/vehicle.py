@@ -7,10 +7,11 @@ distance s ahead of a body's centre moves z + s θ.
 paper's vehicle). A :class:`~lccopt.vti.specs.VehicleSpec` gives every mass and suspension
 value as the share of one wheel:
 ``carbody_mass`` = m_c / 8 and ``bogie_mass`` = m_b / 4 for a 4-axle car (one bogie side carries
-two wheels), ``wheelset_mass`` = the *whole* wheelset mass on each modelled wheel (the paper's
-3-dof reading, Eq. A.1 with m_w = 1819 kg), ``primary_*`` per axle box = per wheel and
-``secondary_*`` per wheel (half the spring of one bogie side). The multi-axle vehicles are
-built from the same per-wheel values, so that they are the 3-dof vehicle made whole:
+two wheels), ``wheelset_mass`` = the unsprung mass on the wheel (half a wheelset for the
+multi-axle vehicles, each wheel being one end of its axle; the paper's 3-dof reading puts the
+whole wheelset on its one wheel, Eq. A.1 with m_w = 1819 kg), ``primary_*`` per axle box = per
+wheel and ``secondary_*`` per wheel (half the spring of one bogie side). The multi-axle
+vehicles are built from the same per-wheel values:
 
 * ``bogie``: one bogie side with its two wheels, both on the modelled rail; bogie bounce and
   pitch, and the carbody share resting on that bogie side (bounce only: 2 x carbody_mass =
@@ -23,8 +24,9 @@ built from the same per-wheel values, so that they are the 3-dof vehicle made wh
 
 Unlike the ``paper`` 3-dof model, no wheelset is a fixed point: every wheel of a bogie is
 modelled, so the static wheel load of the multi-axle vehicles is the whole share
-(m_w + bogie_mass + carbody_mass) g per wheel (96 kN for the VIRM values), where the paper's
-bogie puts half of the weight above the wheel on its unmodelled second wheelset (57 kN).
+(wheelset_mass + bogie_mass + carbody_mass) g per wheel (87.2 kN for the VIRM, its real wheel
+load), where the paper's bogie puts half of the weight above the wheel on its unmodelled
+second wheelset (57 kN).
 
 Wheels are numbered from the front; ``wheel_offsets`` are their distances behind the
 leading wheel [m].

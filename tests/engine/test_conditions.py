@@ -56,7 +56,7 @@ def test_conditions_are_read_with_their_vehicle_speed_direction_and_weight(tmp_p
     ("  - {name: ../x}\n", "conditions[0].name", "letters, digits"),
     ("  - {name: a, direction: sideways}\n", "conditions[0].direction", "must be one of enter, leave"),
     ("  - {name: a, weight: 0}\n", "conditions[0].weight", "must be > 0"),
-    ("  - {name: a, speed: 1000}\n", "conditions[0].speed", "must be <= 150"),
+    ("  - {name: a, speed: 1000}\n", "conditions[0].speed", "must be <= 250 km/h"),
     ("  []\n", "conditions", "expected a list"),
 ])
 def test_a_bad_condition_is_one_line_naming_file_line_and_key(tmp_path, conditions, key, words):

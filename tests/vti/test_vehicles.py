@@ -196,7 +196,7 @@ def test_leave_window_crosses_the_whole_ers_and_ends_with_the_last_wheel_past_th
     track = build_track(case.scenario(), case.track_design(case.reference))
     x_start, zone_start, zone_end, x_end = track.window
     sim, length = case.simulation, 19.0 + 2.5
-    assert zone_end == pytest.approx(100.0 + 12.0)                    # the far edge of the ERS
+    assert zone_end == pytest.approx(100.0 + 12.0 - 2.0)              # 2 m before the far edge
     assert zone_start == pytest.approx(track.entry_sleeper_x[19])
     assert x_start == pytest.approx(112.0 + sim["run_in"])            # 100 m + 12 m of ERS
     assert x_start + length > track.node_x[-1]                          # trailing wheels off the rail

@@ -1,0 +1,95 @@
+"""A validated case in lines a person reads: what ``lccopt check`` prints, and the vehicle
+line ``lccopt simulate`` prints for each simulation.
+
+Engineering units throughout (km/h, kN, MN/m, m): the resolved speed and the vehicle's static
+wheel load are shown so that a value in the wrong unit, or a per-wheel reading that does not
+add up to the real vehicle, shows before anything is simulated.
+"""
+
+from __future__ import annotations
+
+from ..terminal import wrap_items
+from ..vti.vehicle import build_vehicle
+from .build import vehicle_spec
+from .checks import simulation_size
+from .zones import force_zone_end, zone_end_x
+
+
+def vehicle_facts(vehicle: dict) -> tuple[str, float, float]:
+    """(type, speed [km/h], static wheel load [kN]) of a vehicle section."""
+    v = vehicle_spec(vehicle)
+    kind = v.type + (f" ({v.model})" if v.type == "three-dof" else "")
+    return kind, v.speed * 3.6, build_vehicle(v).static_wheel_load / 1e3
+
+
+def vehicle_line(vehicle: dict) -> str:
+    """``half-car, 140 km/h, static wheel load 87.22 kN per wheel``."""
+    kind, speed, load = vehicle_facts(vehicle)
+    return f"{kind}, {speed:.4g} km/h, static wheel load {load:.2f} kN per wheel"
+
+
+def variable_items(case) -> list[str]:
+    """``x_r1 [50, 1200] MN/m log``, ``x_s1∈Z [3, 7] x 0.1 m``, ... for each design variable."""
+    out = []
+    for v in case.variables:
+        unit, scale = v.display
+        steps = v.integer and scale != 1.0          # a length counted in 0.1 m elements
+        out.append(f"{v.name}{'∈Z' if v.integer and not steps else ''} [{v.lower * scale:g}, "
+                   f"{v.upper * scale:g}]{f' {unit}' if unit else ''}"
+                   f"{f' in {scale:g} m steps' if steps else ''}{' log' if v.log else ''}")
+    return out
+
+
+def zone_line(case) -> str:
+    """Where the objectives are measured."""
+    point = force_zone_end(case.evaluation)
+    side = "after" if point.offset >= 0 else "before"
+    where = point.at.replace("_", " ")
+    at = (f"{abs(point.offset):g} m {side} the {where}" if point.offset else f"the {where}")
+    return (f"zone: {case.evaluation['sleepers']} sleepers; force to {at} "
+            f"(x = {zone_end_x(case.data):g} m)")
+
+
+def optimisation_line(case) -> str:
+    """The optimisation in one line, or what ``lccopt optimise`` still needs."""
+    opt = case.optimisation
+    missing = [k for k in ("objectives", "budget") if not (opt or {}).get(k)]
+    if missing:
+        return f"optimisation: none yet (lccopt optimise needs {' and '.join(missing)})"
+    worst = opt["asf"]["worst"]
+    asf = ""
+    if len(opt["objectives"]) > 1 or opt["conditions"] == "each":
+        asf = ("\n  asf.worst: as given" if worst else
+               "\n  asf.worst: 1.5 x the reference design's objectives (the default)")
+    return (f"optimisation: {', '.join(opt['objectives'])}; budget {opt['budget']}, "
+            f"{opt['initial_points']} initial points; histories: {case.histories}{asf}")
+
+
+def condition_lines(case) -> list[str]:
+    """The traffic conditions: vehicle (type, static wheel load), speed, direction."""
+    lines = [f"  {len(case.conditions)} traffic conditions, combined by "
+             f"'{case.condition_mode}' (vehicle: type, static wheel load):"]
+    for c in case.conditions:
+        kind, speed, load = vehicle_facts(c.data["vehicle"])
+        weight = f", weight {c.weight:g}" if case.condition_mode == "mean" else ""
+        lines.append(f"    {c.name}: {c.vehicle} ({kind}, {load:.1f} kN), {speed:.4g} km/h, "
+                     f"{c.direction}{weight}")
+    return lines
+
+
+def case_lines(case, file) -> list[str]:
+    """What ``lccopt check`` prints for a valid case."""
+    lines = [f"{file}: ok: case '{case.name}', {len(case.variables)} design variables:"]
+    lines += wrap_items(variable_items(case), "  ")
+    if case.conditions:
+        lines += condition_lines(case)
+    else:
+        lines.append(f"  vehicle: {vehicle_line(case.vehicle)}")
+    lines.append(f"  {zone_line(case)}")
+    steps, dofs = max(simulation_size(one.data) for one in (case.conditions or [case]))
+    lines.append(f"  {'the longest simulation' if case.conditions else 'one simulation'}: at "
+                 f"most {steps:,} steps of about {dofs:,} track dofs")
+    lines += [f"  {line}" for line in optimisation_line(case).split("\n")]
+    if case.overrides:
+        lines += wrap_items([f"--set {o}" for o in case.overrides], "  with ")
+    return lines

@@ -1,0 +1,125 @@
+"""The language the case schema is written in: one small spec class per kind of value.
+
+``lccopt.config.schema`` declares every key of a case file with these (its doc, unit, bounds
+and default); ``lccopt.config.validate`` checks a raw mapping against them, and
+``lccopt.config.reference`` writes the case-file reference (docs/case-reference.md) from them.
+
+Common fields: ``doc`` (one line for the reference and messages), ``required``, ``default``
+(the value an absent key takes) and ``keep_absent``: an absent key stays absent in the
+validated case, so that its resolved copy (what a run keeps and fingerprints) reads as it did
+before the key existed; code reads such a key with ``.get`` and its documented default.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+
+@dataclass(frozen=True)
+class Num:
+    """A number with optional bounds (``gt``: strictly greater), in SI ``unit`` (``-``: none).
+
+    ``shown``: the unit messages and the reference show it in (``km/h`` for a speed); ``why``:
+    the reason for the bounds, said when a value falls outside them."""
+    doc: str
+    unit: str = "-"
+    integer: bool = False
+    ge: float | None = None
+    gt: float | None = None
+    le: float | None = None
+    default: Any = None
+    required: bool = True
+    shown: str | None = None
+    why: str = ""
+    keep_absent: bool = False
+
+
+@dataclass(frozen=True)
+class Str:
+    """Text, one of ``choices`` when given."""
+    doc: str
+    choices: tuple | None = None
+    default: Any = None
+    required: bool = True
+    keep_absent: bool = False
+
+
+@dataclass(frozen=True)
+class NumList:
+    """A list of numbers (``length`` fixed when given), each in SI ``unit``."""
+    doc: str
+    unit: str = "-"
+    length: int | None = None
+    min_length: int = 1
+    max_length: int = 50
+    le: float | None = None
+    gt: float | None = None
+    ge: float | None = None
+    default: Any = None
+    required: bool = True
+    shown: str | None = None
+    why: str = ""
+    keep_absent: bool = False
+
+
+@dataclass(frozen=True)
+class Section:
+    """A mapping of fixed keys, each with its own spec (``fields``). An absent optional
+    section whose keys are all optional is built from their defaults, unless
+    ``none_if_absent`` (then it is None: ``optimisation:`` of a case that only simulates)."""
+    fields: dict
+    doc: str = ""
+    required: bool = True
+    keep_absent: bool = False
+    none_if_absent: bool = False
+
+
+@dataclass(frozen=True)
+class _Collection:
+    """Several values of one spec (``item``), at most ``max_items``."""
+    item: Any
+    doc: str = ""
+    max_items: int = 50
+    required: bool = False
+    default: Any = None
+    keep_absent: bool = False
+
+
+class Named(_Collection):
+    """A mapping of user-chosen names (``SAFE_NAME``) to values of one spec (``vehicles:``)."""
+
+
+class Items(_Collection):
+    """A list of values of one spec (``conditions:``)."""
+
+
+@dataclass(frozen=True)
+class TextOrSection:
+    """Text (e.g. a file name) or a mapping, checked against the one of ``sections``
+    (``{key: Section}``) whose key it holds."""
+    doc: str
+    sections: dict
+    default: Any = None
+    required: bool = True
+    keep_absent: bool = False
+
+
+@dataclass(frozen=True)
+class Rows:
+    """The rows of a rail profile: text, one ``position, dip`` per line, or a list of
+    [position, dip] pairs (lccopt.config.profiles); checked and kept as canonical text."""
+    doc: str
+    default: Any = None
+    required: bool = True
+    keep_absent: bool = False
+
+
+@dataclass(frozen=True)
+class StrList:
+    """A list of distinct names from ``choices`` (one name alone is a list of one)."""
+    doc: str
+    choices: tuple
+    default: Any = None
+    required: bool = True
+    keep_absent: bool = False

@@ -1,0 +1,253 @@
+"""Validating a raw case mapping against its schema (``lccopt.config.spec`` classes).
+
+:func:`check` turns the raw mapping into typed values (floats in SI units, ints, lists) or
+raises a :class:`~lccopt.errors.CaseError` of one line naming the file, the line and the key
+(``--set`` instead of ``file:line`` for a value given on the command line). Quantities may be
+written with a unit (``lccopt.config.units``); a bare number out of its bounds that one of the
+key's other units would bring within them gets a hint ("did you mean `speed: 140 km/h`?").
+"""
+
+from __future__ import annotations
+
+import difflib
+import re
+from typing import Any
+
+import numpy as np
+
+from ..errors import CaseError
+from . import units
+from .profiles import ProfileError, ProfileText, pairs_rows, parse_rows, rows_text
+from .reading import dotted, locate
+from .spec import (Items, Named, Num, NumList, Rows, Section, Str, StrList, TextOrSection,
+                   _Collection)
+
+MAX_MAGNITUDE = 1e13        # no quantity of a case comes near it (Young's modulus of steel: 2.1e11)
+# A name is one path component of the run directory: never ".", "..", empty or hidden.
+SAFE_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,63}")
+_FLOAT_RE = re.compile(
+    r"""^[-+]?(?:[0-9][0-9_]*)?(?:\.[0-9_]*)?(?:[eE][-+]?[0-9]+)?$""", re.X
+)
+
+
+def check(value: Any, spec: Any, path: tuple, lines: dict, file: str) -> Any:
+    """Validate one value against its spec; return the typed value."""
+    def fail(msg: str, at: tuple = path) -> CaseError:
+        return CaseError(f"{locate(lines, at, file)}: {dotted(at) or '<top>'}: {msg}")
+
+    def sub(v: Any, s: Any, key) -> Any:
+        return check(v, s, path + (key,), lines, file)
+
+    if isinstance(spec, Section):
+        return _section(value, spec, sub, fail, lambda k: lines.get(path + (k,), file + ":1"),
+                        path)
+    if isinstance(spec, (Named, Items)):
+        return _collection(value, spec, sub, fail, path)
+    if isinstance(spec, TextOrSection):
+        if isinstance(value, dict):
+            keys = [k for k in spec.sections if k in value]
+            if len(keys) != 1:
+                raise fail(f"expected a mapping with one of the keys "
+                           f"{' or '.join(repr(k) for k in spec.sections)}")
+            return check(value, spec.sections[keys[0]], path, lines, file)
+        if not isinstance(value, str):
+            raise fail(f"expected a file name or a mapping, got {value!r:.60}")
+        return value
+    if isinstance(spec, Rows):
+        return _rows(value, fail)
+    if isinstance(spec, Num):
+        return _number(value, spec, fail, _key_name(path))
+    if isinstance(spec, Str):
+        if value is None and not spec.required:
+            return None
+        if not isinstance(value, str):
+            raise fail(f"expected text, got {value!r}")
+        if spec.choices and value not in spec.choices:
+            raise fail(f"must be one of {', '.join(spec.choices)}, got '{value}'"
+                       + _did_you_mean(value, spec.choices))
+        return value
+    if isinstance(spec, NumList):
+        return _numbers(value, spec, fail, path)
+    if isinstance(spec, StrList):
+        return _names(value, spec, fail)
+    raise TypeError(spec)
+
+
+def _key_name(path: tuple) -> str:
+    """The last key of a path (the one a user writes): ``speed``, ``bounds``."""
+    named = [p for p in path if isinstance(p, str)]
+    return named[-1] if named else ""
+
+
+def _did_you_mean(word: str, choices) -> str:
+    """`` (did you mean 'speed'?)`` for the closest of ``choices``, else ''."""
+    close = difflib.get_close_matches(str(word), list(choices), n=1, cutoff=0.6)
+    return f" (did you mean '{close[0]}'?)" if close else ""
+
+
+def unknown_key(key: str, known, path: tuple) -> str:
+    """The message for an unknown key: the closest known key, else the keys if they are few,
+    else where they are documented."""
+    close = difflib.get_close_matches(str(key), list(known), n=1, cutoff=0.6)
+    if close:
+        return f"unknown key (did you mean '{close[0]}'?)"
+    if len(known) <= 5:
+        return f"unknown key (expected one of: {', '.join(known)})"
+    where = dotted(tuple(p for p in path if isinstance(p, str))) or "the top level"
+    return f"unknown key (the keys of {where}: docs/case-reference.md)"
+
+
+def _section(value: Any, spec: Section, sub, fail, line_of, path: tuple) -> dict:
+    """A section: no unknown key, every required key, defaults for the others."""
+    if not isinstance(value, dict):
+        raise fail(f"expected a section (mapping), got {type(value).__name__}")
+    for k in value:
+        if k not in spec.fields:
+            raise CaseError(f"{line_of(k)}: {dotted(path + (k,))}: "
+                            f"{unknown_key(k, spec.fields, path)}")
+    out = {}
+    for key, field_spec in spec.fields.items():
+        if value.get(key) is None:  # absent, or written as null
+            if getattr(field_spec, "required", True):
+                raise fail(f"missing key '{key}'")
+            if getattr(field_spec, "keep_absent", False):
+                continue
+            optional_only = isinstance(field_spec, Section) \
+                and not field_spec.none_if_absent and not any(
+                getattr(f, "required", True) for f in field_spec.fields.values())
+            out[key] = (sub({}, field_spec, key) if optional_only
+                        else getattr(field_spec, "default", None))
+            continue
+        out[key] = sub(value[key], field_spec, key)
+    return out
+
+
+def _collection(value: Any, spec: _Collection, sub, fail, path: tuple):
+    """Named (a mapping of names) or Items (a list), each value of ``spec.item``."""
+    if isinstance(spec, Named):
+        if not isinstance(value, dict) or not value:
+            raise fail("expected a mapping of names to sections")
+    elif not isinstance(value, list) or not value:
+        raise fail("expected a list")
+    if len(value) > spec.max_items:
+        raise fail(f"{len(value)} entries; at most {spec.max_items}")
+    if isinstance(spec, Items):
+        return [sub(v, spec.item, i) for i, v in enumerate(value)]
+    for k in value:
+        if not isinstance(k, str) or not SAFE_NAME.fullmatch(k):
+            raise fail(f"{str(k)[:40]!r} is not a name (1-64 letters, digits, '.', '-' "
+                       f"and '_')", path + (k,))
+    return {k: sub(v, spec.item, k) for k, v in value.items()}
+
+
+def _numbers(value: Any, spec: NumList, fail, path: tuple) -> list:
+    if not isinstance(value, list):
+        raise fail(f"expected a list of numbers, got {value!r:.60}")
+    if spec.length is not None and len(value) != spec.length:
+        raise fail(f"expected {spec.length} values, got {len(value)}")
+    if len(value) < spec.min_length:
+        raise fail(f"expected at least {spec.min_length} value(s)")
+    if len(value) > spec.max_length:
+        raise fail(f"{len(value)} values; at most {spec.max_length}")
+    item = Num(spec.doc, spec.unit, gt=spec.gt, ge=spec.ge, le=spec.le, shown=spec.shown,
+               why=spec.why)
+    key = _key_name(path)
+    return [_number(v, item, lambda m, i=i: fail(m, path + (i,)), key)
+            for i, v in enumerate(value)]
+
+
+def _names(value: Any, spec: StrList, fail) -> list:
+    if isinstance(value, str):
+        value = [value]
+    if not isinstance(value, list) or not value:
+        raise fail("expected a list of names")
+    for v in value:
+        if v not in spec.choices:
+            raise fail(f"unknown name {v!r} (expected some of {', '.join(spec.choices)})"
+                       + _did_you_mean(v, spec.choices))
+    if len(set(value)) != len(value):
+        raise fail("a name is listed twice")
+    return list(value)
+
+
+def _rows(value: Any, fail) -> ProfileText:
+    """A profile's rows (text or pairs), checked, as canonical text."""
+    try:
+        if isinstance(value, str):
+            rows = parse_rows(value)
+        elif isinstance(value, list):
+            rows = pairs_rows(value)
+        else:
+            raise fail(f"expected rows 'position, dip' (text) or [position, dip] pairs, got "
+                       f"{value!r:.60}")
+    except ProfileError as exc:
+        where = "line" if isinstance(value, str) else "pair"
+        raise fail(f"{where} {exc.line}: {exc}") from None
+    return rows_text(rows)
+
+
+def _number(value: Any, spec: Num, fail, key: str = "") -> float | int:
+    """A number checked against ``spec``: an int for an integer spec, else a float (in SI
+    units: a quantity written with a unit is converted)."""
+    if isinstance(value, int) and not isinstance(value, bool) and abs(value) > MAX_MAGNITUDE:
+        raise fail(f"{str(value)[:12]}... ({len(str(abs(value)))} digits) is not a plausible value")
+    written_unit = None
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        if isinstance(value, str) and _FLOAT_RE.match(value.strip()) and value.strip():
+            value = float(value)  # e.g. "1_120e6"
+        elif isinstance(value, str) and units.split(value) is not None:
+            number, written_unit = units.split(value)
+            try:
+                value = units.to_si(number, written_unit, spec.unit)
+            except units.UnitError as exc:
+                raise fail(str(exc)) from None
+        else:
+            raise fail(f"expected a number, got {value!r:.60}")
+    if not np.isfinite(value):
+        raise fail(f"must be finite, got {value!r}")
+    if abs(value) > MAX_MAGNITUDE:
+        raise fail(f"{value:g} is not a plausible value (|value| <= {MAX_MAGNITUDE:g} in SI units)")
+    if spec.integer:
+        if float(value) != int(value):
+            raise fail(f"must be a whole number, got {value!r}")
+        value = int(value)
+    else:
+        value = float(value)
+    problem = _bound_problem(value, spec)
+    if problem:
+        raise fail(_bound_message(value, spec, problem, written_unit, key))
+    return value
+
+
+def _bound_problem(value: float, spec: Num) -> tuple[str, float] | None:
+    """The first bound ``value`` breaks, as (relation, bound), or None."""
+    for rel, bound, ok in ((">", spec.gt, lambda v, b: v > b), (">=", spec.ge, lambda v, b: v >= b),
+                           ("<=", spec.le, lambda v, b: v <= b)):
+        if bound is not None and not ok(value, bound):
+            return rel, bound
+    return None
+
+
+def _bound_message(value: float, spec: Num, problem: tuple[str, float], written: str | None,
+                   key: str) -> str:
+    """``must be <= 250 km/h (why), got 504 km/h``; for a bare number that another unit of
+    the key brings within the bounds: ``140 m/s is 504 km/h, above 250 km/h (why): did you
+    mean `speed: 140 km/h`?``."""
+    rel, bound = problem
+    shown = spec.shown or spec.unit
+    def show(v: float) -> str:
+        if shown == "-":
+            return f"{v:g}"
+        return f"{units.from_si(v, shown, spec.unit):.4g} {shown}"
+
+    why = f" ({spec.why})" if spec.why else ""
+    if written is None and spec.unit != "-":
+        for unit in units.other_units(spec.unit):
+            candidate = units.to_si(value, unit, spec.unit)
+            if _bound_problem(candidate, spec) is None:
+                said = f"{value:g} {spec.unit}"
+                also = f" is {show(value)}," if shown != spec.unit else ""
+                side = "above" if rel == "<=" else "below"
+                return (f"{said}{also} {side} {show(bound)}{why}: did you mean "
+                        f"`{key}: {value:g} {unit}`?")
+    return f"must be {rel} {show(bound)}{why}, got {show(value)}"
