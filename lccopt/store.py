@@ -117,6 +117,12 @@ def read_conditions(path: str | Path) -> dict[str, Evaluation]:
 
 # -- one evaluation in an HDF5 group --------------------------------------------------------------
 
+# Time histories (thousands of values) are compressed; a per-sleeper array (20-166 values) is
+# stored as it is: a chunk and a zlib state of its own would cost more CPU than it saves bytes.
+GZIP = {"compression": "gzip", "compression_opts": 4, "shuffle": True}
+COMPRESS_FROM = 1024  # values
+
+
 def _write_design(f, x, names) -> None:
     d = f.create_dataset("design", data=np.asarray(x, dtype=float))
     d.attrs["names"] = list(names)
@@ -127,8 +133,9 @@ def _write_group(g, evaluation: Evaluation, attrs: dict | None = None) -> None:
     _write_objectives(g.create_group("objectives"), evaluation.objectives)
     hist = g.create_group("histories")
     for k, v in evaluation.histories.items():
-        ds = hist.create_dataset(k, data=np.asarray(v), compression="gzip", compression_opts=4,
-                                 shuffle=True)
+        v = np.asarray(v)
+        packed = GZIP if v.size >= COMPRESS_FROM else {}
+        ds = hist.create_dataset(k, data=v, **packed)
         if k in HISTORY_DOC:
             ds.attrs["description"] = HISTORY_DOC[k]
     _set_attrs(g.create_group("info"), {**evaluation.info, **(attrs or {})})
