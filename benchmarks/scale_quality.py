@@ -195,9 +195,9 @@ def report(paths: list[str]) -> None:
     for r in rows:
         key = (r["suite"], r["problem"], int(r["workers"]), int(r["batch"]))
         by.setdefault(key, {})[int(r["seed"])] = float(r["regret"])
-    configs = sorted({(k[2], k[3]) for k in by})
     for suite in sorted({k[0] for k in by}):
         probs = sorted({k[1] for k in by if k[0] == suite})
+        configs = sorted({(k[2], k[3]) for k in by if k[0] == suite})
         print(f"\n{suite}: median regret over seeds; against 1:1, then (blocks) against k:1, "
               f"paired by seed: better / worse seeds, median paired difference")
         print("| problem | " + " | ".join(f"{k}:{q}" for k, q in configs) + " |")

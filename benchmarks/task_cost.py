@@ -8,7 +8,10 @@ evaluation file without time histories (as a run stores all but the reference an
 design); the CPU of the worker processes and of the forked children they reaped, from
 /proc, per task. Then, in this process, the 14 part files of one design written and merged
 (lccopt/store.py merge_condition_files, what the engine does per traffic design): CPU per
-part and per merge, and the files' sizes.
+part and per merge, and the files' sizes. Last, where a task's CPU goes: this process forks
+children as a local worker does (its imports done first, lccopt/engine/worker.py PRELOAD)
+that exit at once, run the evaluation, or run it and write its file; the children's CPU and
+page faults from wait4, against the same evaluation and file in this (warm) process.
 """
 
 from __future__ import annotations
@@ -96,6 +99,42 @@ def merge_cost(case, where: str, designs: int = 20, conditions: int = 14) -> Non
           f"({sizes[0]} bytes), merge {1e3 * merge / designs:.1f} ms per design ({sizes[1]} bytes)")
 
 
+def fork_cost(case, where: str, n: int = 200) -> None:
+    import importlib
+
+    from lccopt.engine.worker import PRELOAD, run_task
+
+    for module in PRELOAD:
+        importlib.import_module(module)
+    evaluator = load_evaluator(STANDIN)
+    x = list((case.lower + case.upper) / 2)
+
+    def task(i: int, write: bool) -> Task:
+        return Task(i, x, out_path=os.path.join(where, f"f{i:06d}.h5") if write else None,
+                    histories=False)
+
+    run_task(case, task(0, True), evaluator, "warm-up")
+    for what in ("fork and exit", "fork, evaluate", "fork, evaluate, write the file"):
+        cpu, faults = [], []
+        for i in range(n):
+            pid = os.fork()
+            if pid == 0:
+                if what != "fork and exit":
+                    run_task(case, task(i, what.endswith("file")), evaluator, "child")
+                os._exit(0)
+            _, _, usage = os.wait4(pid, 0)
+            cpu.append(usage.ru_utime + usage.ru_stime)
+            faults.append(usage.ru_minflt)
+        print(f"{what}: {1e3 * np.mean(cpu):.2f} ms of CPU, {np.median(faults):.0f} page faults "
+              f"per child")
+    for write in (False, True):
+        t0 = time.process_time()
+        for i in range(n):
+            run_task(case, task(i, write), evaluator, "warm")
+        print(f"in this process, evaluate{', write the file' if write else ''}: "
+              f"{1e3 * (time.process_time() - t0) / n:.2f} ms of CPU")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--workers", type=int, default=4)
@@ -105,6 +144,7 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as where:
         pool_cost(case, args.workers, args.tasks, where)
         merge_cost(case, where)
+        fork_cost(case, where)
 
 
 if __name__ == "__main__":

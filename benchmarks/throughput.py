@@ -197,6 +197,7 @@ def run_once(case: Path, budget: int, initial: int, workers: int, root: Path, ar
 
     cpu = lambda who: (lambda u: u.ru_utime + u.ru_stime)(resource.getrusage(who))  # noqa: E731
     own0, kids0 = cpu(resource.RUSAGE_SELF), cpu(resource.RUSAGE_CHILDREN)
+    load0 = os.getloadavg()[0]  # the machine's other work: on shared cores it sets the figures
     t0 = time.perf_counter()
     with contextlib.ExitStack() as stack:
         sampler = stack.enter_context(CpuSampler())
@@ -241,6 +242,7 @@ def run_once(case: Path, budget: int, initial: int, workers: int, root: Path, ar
             "cpu_engine": 1e3 * own / len(done), "cpu_workers": 1e3 * kids / len(done),
             "mcpu_engine": 1e3 * m_own / m_n, "mcpu_workers": 1e3 * m_kids / m_n,
             "held": session.get("held_time", float("nan")) / (workers * wall),
+            "load": (load0, os.getloadavg()[0]),
             "batch": next((e.get("batch", 1) for e in events if e["event"] == "schedule"), 1)}
 
 
@@ -254,7 +256,8 @@ def throughput(args) -> None:
                 runs[(w, c)].append(r)
                 print(f"workers {w}, conditions {c}: {r['evaluations']} designs in {r['wall']:.1f} s "
                       f"(+{r['startup']:.1f} s start-up and summary), evaluations {r['sim_mean']:.3f} s "
-                      f"mean per design, {r['thr']:.1f}/s, busy {r['busy']:.2f}, held {r['held']:.3f}",
+                      f"mean per design, {r['thr']:.1f}/s, busy {r['busy']:.2f}, held {r['held']:.3f}, "
+                      f"load average {r['load'][0]:.1f} -> {r['load'][1]:.1f}",
                       flush=True)
     rows = []
     for w, c in keys:
