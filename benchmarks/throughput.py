@@ -151,18 +151,19 @@ def dask_cluster(n: int, env: dict):
         sfile = Path(tmp) / "scheduler.json"
         penv = {**os.environ, **env, "PYTHONPATH": str(REPO)}
         common = ["--no-dashboard"]
-        sched = subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_scheduler", "--port", "0",
-                                  "--scheduler-file", str(sfile), *common], env=penv, cwd=REPO,
-                                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        sched = subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_scheduler",
+                                  "--port", "0", "--scheduler-file", str(sfile), *common],
+                                 env=penv, cwd=REPO, stdout=subprocess.DEVNULL,
+                                 stderr=subprocess.DEVNULL)
         workers = None
         try:
             while not sfile.exists():
                 time.sleep(0.1)
             time.sleep(0.2)
             address = json.loads(sfile.read_text())["address"]
-            workers = subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_worker", address,
-                                        "--nworkers", str(n), "--nthreads", "1", "--memory-limit", "0",
-                                        *common], env=penv, cwd=REPO,
+            workers = subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_worker",
+                                        address, "--nworkers", str(n), "--nthreads", "1",
+                                        "--memory-limit", "0", *common], env=penv, cwd=REPO,
                                        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
             with Client(address, set_as_default=False) as c:
                 c.wait_for_workers(n, timeout=600)
@@ -254,23 +255,23 @@ def throughput(args) -> None:
             for w, c in keys:
                 r = run_once(args.case, args.budget, args.initial, w, Path(tmp), args, f"-{k}", c)
                 runs[(w, c)].append(r)
-                print(f"workers {w}, conditions {c}: {r['evaluations']} designs in {r['wall']:.1f} s "
-                      f"(+{r['startup']:.1f} s start-up and summary), evaluations {r['sim_mean']:.3f} s "
-                      f"mean per design, {r['thr']:.1f}/s, busy {r['busy']:.2f}, held {r['held']:.3f}, "
-                      f"load average {r['load'][0]:.1f} -> {r['load'][1]:.1f}",
-                      flush=True)
+                print(f"workers {w}, conditions {c}: {r['evaluations']} designs in "
+                      f"{r['wall']:.1f} s (+{r['startup']:.1f} s start-up and summary), "
+                      f"evaluations {r['sim_mean']:.3f} s mean per design, {r['thr']:.1f}/s, "
+                      f"busy {r['busy']:.2f}, held {r['held']:.3f}, "
+                      f"load average {r['load'][0]:.1f} -> {r['load'][1]:.1f}", flush=True)
     rows = []
     for w, c in keys:
         rs = runs[(w, c)]
         rows.append({"workers": w, "conditions": rs[0]["conditions"], **{
             k: float(np.median([r[k] for r in rs]))
-            for k in ("thr", "busy", "held", "optimiser", "bookkeeping", "wall", "evaluations", "batch",
-                      "cpu_engine", "cpu_workers", "mcpu_engine", "mcpu_workers")}})
+            for k in ("thr", "busy", "held", "optimiser", "bookkeeping", "wall", "evaluations",
+                      "batch", "cpu_engine", "cpu_workers", "mcpu_engine", "mcpu_workers")}})
     how = (f"stand-in evaluations of {args.standin} s" if args.standin
            else "cheap simulation" if args.cheap else "simulator")
+    stretch = f"marginal from evaluation {args.start}" if args.start else "whole loop"
     print(f"\ncase {args.case.name} ({how}, {'Dask' if args.dask else 'local pool'}), budget "
-          f"{args.budget} ({args.initial} initial), {'marginal from evaluation ' + str(args.start) if args.start else 'whole loop'}"
-          f", median of {args.repeat}")
+          f"{args.budget} ({args.initial} initial), {stretch}, median of {args.repeat}")
     print("| conditions | workers | batch | designs/s | simulations/s | efficiency | busy | held | "
           "optimiser [s] | bookkeeping [s] | overhead [% wall] | CPU engine [ms/design] | "
           "CPU workers [ms/design] | marginal CPU engine / workers [ms/design] | cores needed |")
@@ -284,8 +285,9 @@ def throughput(args) -> None:
         over = 100.0 * (r["optimiser"] + r["bookkeeping"]) / r["wall"]
         print(f"| {r['conditions']} | {r['workers']} | {r['batch']:.0f} | {r['thr']:.2f} | "
               f"{r['thr'] * r['conditions']:.1f} | {eff:.2f} | {r['busy']:.2f} | {r['held']:.3f} | "
-              f"{r['optimiser']:.2f} | {r['bookkeeping']:.2f} | {over:.1f} | {r['cpu_engine']:.1f} | "
-              f"{r['cpu_workers']:.1f} | {r['mcpu_engine']:.1f} / {r['mcpu_workers']:.1f} | "
+              f"{r['optimiser']:.2f} | {r['bookkeeping']:.2f} | {over:.1f} | "
+              f"{r['cpu_engine']:.1f} | {r['cpu_workers']:.1f} | "
+              f"{r['mcpu_engine']:.1f} / {r['mcpu_workers']:.1f} | "
               f"{need(r, args):.2f} |")
 
 
@@ -343,7 +345,8 @@ def main() -> None:
     ap.add_argument("--budget", type=int, default=40)
     ap.add_argument("--initial", type=int, default=10)
     ap.add_argument("--workers", type=int, nargs="+", default=[1, 2])
-    ap.add_argument("--cheap", action="store_true", help="coarse simulation settings (as the tests)")
+    ap.add_argument("--cheap", action="store_true",
+                    help="coarse simulation settings (as the tests)")
     ap.add_argument("--standin", type=float, default=0.0,
                     help="the stand-in evaluator of this duration [s] instead of the simulator")
     ap.add_argument("--dask", action="store_true", help="a Dask scheduler and worker processes")

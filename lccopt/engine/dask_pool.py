@@ -73,7 +73,8 @@ def _check_scheduler_address(address: str) -> None:
     try:
         scheme, location = parse_address(address, strict=False)
         if scheme not in _SCHEMES:
-            raise ValueError(f"unknown scheme '{scheme}://' (expected one of {', '.join(_SCHEMES)})")
+            raise ValueError(f"unknown scheme '{scheme}://' "
+                             f"(expected one of {', '.join(_SCHEMES)})")
         parse_host_port(location)
     except (ValueError, TypeError) as exc:
         raise ExecutorError(f"--scheduler {address[:60]!r}: {exc}; expected e.g. "
@@ -106,7 +107,8 @@ class DaskExecutor:
             _check_scheduler_address(self.address)
         try:
             if isinstance(self.address, str):
-                self.client = Client(self.address, timeout=f"{CONNECT_TIMEOUT}s", set_as_default=False)
+                self.client = Client(self.address, timeout=f"{CONNECT_TIMEOUT}s",
+                                     set_as_default=False)
             else:  # a Cluster object (tests, notebooks)
                 self.client = Client(self.address, set_as_default=False)
         except Exception as exc:  # noqa: BLE001
@@ -123,7 +125,8 @@ class DaskExecutor:
             except Exception:  # noqa: BLE001 - distributed raises its own TimeoutError
                 self.close()
                 raise ExecutorError(f"no Dask worker joined the scheduler at {self.address} in "
-                                    f"{WORKERS_TIMEOUT // 60} min; start workers, then run again") from None
+                                    f"{WORKERS_TIMEOUT // 60} min; start workers, then run "
+                                    f"again") from None
             n = self._n_threads(force=True)
         self.description = f"Dask scheduler {self.client.scheduler.address} ({n} worker threads)"
 
@@ -161,7 +164,8 @@ class DaskExecutor:
             time.sleep(timeout)
             return []
         now = time.monotonic()
-        limit = min([timeout] + [max(0.0, t0 + self.timeout - now) for _, t0 in self._futures.values()])
+        limit = min([timeout] + [max(0.0, t0 + self.timeout - now)
+                                 for _, t0 in self._futures.values()])
         finished = []
         try:
             finished.append(self._done.get(timeout=max(0.01, limit)))
@@ -187,8 +191,9 @@ class DaskExecutor:
         for fut in [f for f, (_, t0) in self._futures.items() if now - t0 > self.timeout]:
             task, t0 = self._futures.pop(fut)
             fut.cancel()
-            out.append(Outcome.of(task, error=f"timed out after {self.timeout:g} s (Dask task cancelled)",
-                                  wall_time=now - t0, worker="dask"))
+            out.append(Outcome.of(task, wall_time=now - t0, worker="dask",
+                                  error=f"timed out after {self.timeout:g} s "
+                                        f"(Dask task cancelled)"))
         return out
 
     def kill_running(self) -> None:

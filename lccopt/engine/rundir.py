@@ -400,7 +400,7 @@ def write_results(path: Path, table: Table, *, case, problem, meta: dict) -> Non
             col = e.create_dataset(k, data=np.array([float(r["objectives"].get(k, math.nan))
                                                      for r in rows], dtype=float))
             col.attrs["unit"] = "N" if k.startswith("F") else "J"
-        if problem.conditions:  # every condition's objectives (issue 10)
+        if problem.conditions:  # every condition's objectives
             a["conditions"] = list(problem.conditions)
             a["condition_weights"] = np.array(problem.weights, dtype=float)
             a["condition_mode"] = problem.condition_mode

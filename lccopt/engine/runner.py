@@ -834,7 +834,8 @@ class Engine:
             if o.id == 0 and self.table.reference is None:
                 self.problem = pb = pb.with_reference(objectives)  # worst: the case's or default
                 point = pb.reference_point(objectives)  # CaseError if worst <= reference point
-                self.table.apply(j.append("reference", sync=False, id=0, x=row["x"], objectives=objectives, point=point,
+                self.table.apply(j.append("reference", sync=False, id=0, x=row["x"],
+                                          objectives=objectives, point=point,
                                           worst=list(pb.worst) if pb.worst else None, rho=pb.rho,
                                           improvement=pb.improvement))
                 self.ref_point = point

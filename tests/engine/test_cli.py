@@ -87,9 +87,11 @@ def test_kill_9_at_random_moments_then_resume_equals_an_uninterrupted_run(tmp_pa
         p = cli(*args, env=env)
         # A random moment once the run is under way, counted in evaluations so that the kill
         # lands mid-run on a fast machine as on a slow one, then a random fraction of one more.
-        _wait_for(lambda: (run / "journal.jsonl").exists() or p.poll() is not None, what="the run to start")
+        _wait_for(lambda: (run / "journal.jsonl").exists() or p.poll() is not None,
+                  what="the run to start")
         target = _n_done(run) + rng.randint(1, 3)
-        _wait_for(lambda: _n_done(run) >= target or p.poll() is not None, what="evaluations to finish")
+        _wait_for(lambda: _n_done(run) >= target or p.poll() is not None,
+                  what="evaluations to finish")
         time.sleep(rng.uniform(0.0, 0.15))
         workers = _children(p.pid)
         if p.poll() is None:
@@ -116,7 +118,8 @@ def test_kill_9_mid_block_then_resume_equals_an_uninterrupted_run(tmp_path):
     equals the uninterrupted one."""
     env = {"LCCOPT_EVALUATOR": FAKE, "LCCOPT_FAKE_DELAY": "0.05", "LCCOPT_FAKE_SPREAD": "0.9"}
     case = write_case(tmp_path, "k9b", budget=36, initial=6, seed=5)
-    first = cli_run("optimise", case, "--workers", "4", "--runs", tmp_path / "uninterrupted", env=env)
+    first = cli_run("optimise", case, "--workers", "4", "--runs", tmp_path / "uninterrupted",
+                    env=env)
     assert first.returncode == 0, first.stderr
     reference = read_table(tmp_path / "uninterrupted" / "k9b")
     runs = tmp_path / "runs"
@@ -127,9 +130,11 @@ def test_kill_9_mid_block_then_resume_equals_an_uninterrupted_run(tmp_path):
         args = ["resume", run, "--workers", "4"] if run.exists() else \
             ["optimise", case, "--workers", "4", "--runs", runs]
         p = cli(*args, env=env)
-        _wait_for(lambda: (run / "journal.jsonl").exists() or p.poll() is not None, what="the run to start")
+        _wait_for(lambda: (run / "journal.jsonl").exists() or p.poll() is not None,
+                  what="the run to start")
         target = _n_done(run) + rng.randint(2, 6)
-        _wait_for(lambda: _n_done(run) >= target or p.poll() is not None, what="evaluations to finish")
+        _wait_for(lambda: _n_done(run) >= target or p.poll() is not None,
+                  what="evaluations to finish")
         time.sleep(rng.uniform(0.0, 0.05))
         workers = _children(p.pid)
         if p.poll() is None:

@@ -93,9 +93,10 @@ def test_a_real_scheduler_with_eight_worker_processes_runs_an_optimisation(tmp_p
 
     env = {**os.environ, "PYTHONPATH": str(REPO), "LCCOPT_FAKE_DELAY": "0.05"}
     sfile = tmp_path / "scheduler.json"
-    procs = [subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_scheduler", "--port", "0",
-                               "--no-dashboard", "--scheduler-file", str(sfile)], env=env, cwd=tmp_path,
-                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)]
+    procs = [subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_scheduler",
+                               "--port", "0", "--no-dashboard", "--scheduler-file", str(sfile)],
+                              env=env, cwd=tmp_path, stdout=subprocess.DEVNULL,
+                              stderr=subprocess.DEVNULL)]
     try:
         deadline = time.monotonic() + 60
         while not sfile.exists() and time.monotonic() < deadline:

@@ -339,7 +339,8 @@ def test_one_ask_fits_once_for_several_points_and_spreads_them():
     c.set_batch(8)
     first = c.ask(1)
     rest = Strategy.from_state(json.loads(fingerprint(c))).ask(7)
-    assert c.n_ahead == 7 and [q.x.tobytes() for q in first + rest] == [q.x.tobytes() for q in batch]
+    assert c.n_ahead == 7
+    assert [q.x.tobytes() for q in first + rest] == [q.x.tobytes() for q in batch]
 
 
 # -- log scales ------------------------------------------------------------------------------------
