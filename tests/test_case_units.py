@@ -140,7 +140,7 @@ def test_traffic_conditions_show_each_vehicle_and_speed(run_cli):
 
 @pytest.mark.parametrize("body, fix", [
     ("design:\n  sleeper_spans: {bounds: [0.3, 0.7]}\n", "[3, 7] for 0.3-0.7 m"),
-    ("design:\n  type_ii_strip: {reference: 0.5}\n", "5 for 0.5 m"),
+    ("design:\n  sleeper_spans: {reference: [6, 6, 0.4]}\n", "4 for 0.4 m"),
 ])
 def test_spans_written_in_metres_are_refused_with_the_elements_they_meant(tmp_path, body, fix):
     """Spans and the strip count 0.1 m elements: a length in m is refused with its count."""
