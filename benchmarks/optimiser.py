@@ -408,7 +408,6 @@ def main(argv=None) -> int:
     methods = [m for m in (args.methods or METHODS) if not (args.no_pysot and m == "pysot")]
     seeds = _seeds(args.seeds)
     budgets = sorted(set(args.budgets))
-    n = max(budgets)
     for name in args.problems:
         problems.get(name)  # unknown names fail now
     if args.variant != "default" and args.resume:

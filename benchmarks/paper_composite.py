@@ -37,11 +37,10 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
-from paper_seeds import seeds_arg  # noqa: E402
-
 from lccopt.config import load_case  # noqa: E402
 from lccopt.optim.strategy import Strategy  # noqa: E402
 from lccopt.problem import Problem, evaluate, sleeper_energy_spread  # noqa: E402
+from paper_seeds import seeds_arg  # noqa: E402
 
 
 def high_minus_low(F) -> np.ndarray:

@@ -41,13 +41,12 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
 import optimiser as bench  # noqa: E402  (the method runners of the broad benchmark)
-from paper_seeds import seeds_arg  # noqa: E402
-
 from benchmarks.problems import TestFunction as BenchProblem  # noqa: E402
 from benchmarks.runs_table import commit  # noqa: E402
 from lccopt.config import load_case  # noqa: E402
 from lccopt.optim.space import DesignSpace  # noqa: E402
 from lccopt.problem import Problem, evaluate  # noqa: E402
+from paper_seeds import seeds_arg  # noqa: E402
 
 OBJECTIVE = {"single-F_max": "F_max", "single-E_max": "E_max"}
 

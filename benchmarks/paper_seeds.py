@@ -147,7 +147,7 @@ def main() -> None:
             print(f"  known from elsewhere (--known): {known[case]:.5g}")
     if args.out:
         write_rows(args.out, runs, rows, seeds, args.commit)
-    print(f"\n| case | reference | best known | median seed | worst seed | median regret | worst regret |")
+    print("\n| case | reference | best known | median seed | worst seed | median regret | worst regret |")
     print("|---|---|---|---|---|---|---|")
     for case, f_ref, f_best, med, worst, mreg, wreg, _, _ in rows:
         print(f"| {case} | {f_ref:.5g} | {f_best:.5g} | {med:.5g} | {worst:.5g} | {mreg:.3f} | {wreg:.3f} |")

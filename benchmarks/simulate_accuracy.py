@@ -14,20 +14,20 @@ The figures: benchmarks/RESULTS-simulator.md.
 
 from __future__ import annotations
 
-import os
-
-for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
-    os.environ.setdefault(var, "1")
-
 import argparse
+import os
 import sys
 import time
 from pathlib import Path
 
-import numpy as np
+# One core: set before numpy loads BLAS, so the imports below follow it (noqa: E402).
+for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(var, "1")
 
-from lccopt.config import Case, load_case
-from lccopt.problem import evaluate
+import numpy as np  # noqa: E402
+
+from lccopt.config import Case, load_case  # noqa: E402
+from lccopt.problem import evaluate  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from convergence import DESIGNS  # noqa: E402

@@ -21,30 +21,29 @@ The figures and their history: benchmarks/RESULTS-simulator.md.
 
 from __future__ import annotations
 
-import os
-
-for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
-    os.environ.setdefault(var, "1")   # one core: set before numpy loads BLAS
-
 import argparse
 import copy
+import os
 import statistics
 import time
 
-import numpy as np
-import scipy.sparse as sp
-from scipy.sparse.linalg import splu
+# One core: set before numpy loads BLAS, so the imports below follow it (noqa: E402).
+for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(var, "1")
 
-from scipy.linalg import blas, lapack
+import numpy as np  # noqa: E402
+import scipy.sparse as sp  # noqa: E402
+from scipy.linalg import blas, lapack  # noqa: E402
+from scipy.sparse.linalg import splu  # noqa: E402
 
-import legacy_newmark
-from legacy_newmark import REFERENCE_SETTINGS, evaluate_legacy
-from lccopt.config import load_case
-from lccopt.problem import evaluate
-from lccopt.vti.assembly import to_upper_banded
-from lccopt.vti.newmark import contact_vector, forward_columns, integrate
-from lccopt.vti.track import build_track
-from lccopt.vti.vehicle import build_vehicle
+import legacy_newmark  # noqa: E402
+from lccopt.config import load_case  # noqa: E402
+from lccopt.problem import evaluate  # noqa: E402
+from lccopt.vti.assembly import to_upper_banded  # noqa: E402
+from lccopt.vti.newmark import contact_vector, forward_columns, integrate  # noqa: E402
+from lccopt.vti.track import build_track  # noqa: E402
+from lccopt.vti.vehicle import build_vehicle  # noqa: E402
+from legacy_newmark import REFERENCE_SETTINGS, evaluate_legacy  # noqa: E402
 
 
 def naive_steps(track, veh, dt, x_start, steps):

@@ -64,11 +64,11 @@ def main() -> None:
         cells = [f"{table[k][0][i]['F_max'] / 1e3:.1f} kN, {table[k][0][i]['E_max']:.2f} J" for k in labels]
         print(f"| {n} | " + " | ".join(cells) + " |")
     cells = [f"**{table[k][1]['F_max'] / 1e3:.1f} kN, {table[k][1]['E_max']:.2f} J**" for k in labels]
-    print(f"| worst case | " + " | ".join(cells) + " |")
+    print("| worst case | " + " | ".join(cells) + " |")
     ref = table["reference"][1]
     cells = [f"{(table[k][1]['F_max'] / ref['F_max'] - 1) * 100:+.0f} %, "
              f"{(table[k][1]['E_max'] / ref['E_max'] - 1) * 100:+.0f} %" for k in labels]
-    print(f"| worst case vs reference | " + " | ".join(cells) + " |")
+    print("| worst case vs reference | " + " | ".join(cells) + " |")
 
 
 if __name__ == "__main__":

@@ -9,20 +9,21 @@ from __future__ import annotations
 import enum
 import os
 import sys
+from pathlib import Path
+from typing import List, Optional
 
 # One BLAS thread in the lccopt process, set before numpy loads OpenBLAS: the engine's
 # optimiser runs while the worker simulations use the cores, and multi-threaded BLAS then
 # spins against them (measured: ask/tell 2.5x slower, parallel efficiency 0.94 -> 0.87).
-# The simulations' banded solves are sequential anyway. An explicit setting wins.
+# The simulations' banded solves are sequential anyway. An explicit setting wins. The imports
+# below it may load numpy, so they follow it (noqa: E402).
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
-from pathlib import Path
-from typing import List, Optional
 
-import typer
+import typer  # noqa: E402
 
-from .errors import CaseError, UsageError, describe_os_error
-from .terminal import PipeGuard, wrap_message
+from .errors import CaseError, UsageError, describe_os_error  # noqa: E402
+from .terminal import PipeGuard, wrap_message  # noqa: E402
 
 EXIT_OK, EXIT_INTERNAL, EXIT_USAGE, EXIT_INTERRUPTED, EXIT_PIPE = 0, 1, 2, 130, 141
 

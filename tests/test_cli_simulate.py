@@ -5,7 +5,6 @@ import numpy as np
 import pytest
 
 from lccopt import machine
-
 from tests.conftest import CONFIGS
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
@@ -13,7 +12,9 @@ PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 
 @pytest.fixture(scope="module")
 def reference_run(tmp_path_factory):
-    import subprocess, os
+    import os
+    import subprocess
+
     from tests.conftest import lccopt_command
     out = tmp_path_factory.mktemp("sim")
     proc = subprocess.run(lccopt_command() + ["simulate", str(CONFIGS / "reference.yaml"), "--out", str(out)],

@@ -137,7 +137,7 @@ def integrate(track: TrackLike, dt: float, speed: float, x_start: float, n_steps
     :func:`~lccopt.vti.unilateral.integrate_unilateral`. None: every support is linear.
     """
     if supports is not None:
-        from .unilateral import integrate_unilateral   # it builds on this module
+        from .unilateral import integrate_unilateral  # it builds on this module
 
         if initial is not None or vehicle_offset is not None:
             raise ValueError("unilateral supports start from static equilibrium only")

@@ -23,7 +23,9 @@ def test_interpolates_data_exactly():
 def test_linear_function_reproduced_everywhere():
     rng = np.random.default_rng(1)
     X = rng.random((15, 3))
-    lin = lambda Z: 2.0 - Z @ np.array([1.0, -3.0, 0.5])
+    def lin(Z):
+        return 2.0 - Z @ np.array([1.0, -3.0, 0.5])
+
     s = CubicRBF().fit(X, lin(X))
     Xq = rng.random((50, 3)) * 2 - 0.5  # also outside the data's box
     np.testing.assert_allclose(s(Xq), lin(Xq), atol=1e-9)

@@ -9,13 +9,19 @@ import pytest
 from lccopt.config import load_case
 from lccopt.degradation.iteration import _implicit_block, _Loads, predict_settlement
 from lccopt.degradation.laws import VarandasLaw
-from lccopt.degradation.loading import (Axles, Condition, Loading, SettlementZone, entry_zone,
-                                        vti_condition)
+from lccopt.degradation.loading import (
+    Axles,
+    Condition,
+    Loading,
+    SettlementZone,
+    entry_zone,
+    vti_condition,
+)
 from lccopt.degradation.statics import ZoneStatics
+from lccopt.vti.evaluate import build_vehicle
 from lccopt.vti.newmark import integrate
 from lccopt.vti.track import build_track
 from lccopt.vti.unilateral import sleeper_supports
-from lccopt.vti.evaluate import build_vehicle
 from tests.vti.test_voids import discrete_track
 
 YEARS = 10.0

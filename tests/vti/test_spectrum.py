@@ -49,7 +49,9 @@ def test_sinusoidal_irregularity_drives_the_force_at_v_over_lambda_with_the_clos
     beam = WinklerBeam.build(20.0, 0.1, EI, M_RAIL, 1e15)
     xs = np.arange(0.0, 20.0 + 1e-9, lam / 100)
     rs = r0 * np.sin(2 * np.pi * xs / lam)
-    r_of = lambda p: float(np.interp(p, xs, rs))
+    def r_of(p):
+        return float(np.interp(p, xs, rs))
+
     dt, periods = 1e-4, 20
     steps = int(round(periods * 2 * np.pi / omega / dt))          # 5000 steps, 10 m
     h = integrate(beam, dt, v, 6.0, steps, vehicle=veh, irregularity=r_of)

@@ -62,8 +62,12 @@ def test_moving_load_at_half_critical_speed_matches_fryba():
     # start from the steady state in the moving frame s = x - x0 (THEORY.md's advice)
     x = beam.node_x
     h = 1e-5
-    w = lambda s: fryba(s, beta, alpha)
-    dw = lambda s: (w(s + h) - w(s - h)) / (2 * h)
+    def w(s):
+        return fryba(s, beta, alpha)
+
+    def dw(s):
+        return (w(s + h) - w(s - h)) / (2 * h)
+
     n = beam.K.shape[0]
     u0, v0 = np.zeros(n), np.zeros(n)
     free_w, free_th = beam.rail_w >= 0, beam.rail_th >= 0

@@ -113,7 +113,9 @@ def test_woodbury_update_agrees_with_a_direct_solve_of_the_coupled_system(kind, 
     veh = vehicle(kind, speed=abs(speed))
     xs = np.linspace(90.0, 110.0, 401)
     dip = 0.15e-3 * (1 - np.cos(2 * np.pi * (xs - 90.0) / 1.3))
-    r_of = lambda p: float(np.interp(p, xs, dip, left=0.0, right=0.0))
+    def r_of(p):
+        return float(np.interp(p, xs, dip, left=0.0, right=0.0))
+
     dt, steps = 5e-4, 60
     x_start = 99.0 if speed > 0 else 96.0
     h = integrate(track, dt, speed, x_start, steps, vehicle=veh, irregularity=r_of)

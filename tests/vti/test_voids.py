@@ -10,10 +10,10 @@ from scipy.sparse.linalg import spsolve
 
 from lccopt.config import load_case
 from lccopt.vti.assembly import Assembler, beam_stiffness, hermite_gram
+from lccopt.vti.evaluate import build_vehicle
 from lccopt.vti.newmark import contact_vector, integrate
 from lccopt.vti.track import build_track
 from lccopt.vti.unilateral import GRAVITY, rest_state, sleeper_supports
-from lccopt.vti.evaluate import build_vehicle
 
 EI = 210e9 * 2.337e-5
 M_RAIL = 7800 * 6.977e-3

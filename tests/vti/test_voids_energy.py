@@ -14,7 +14,6 @@ switch: it shrinks with Δt (halving Δt divides it by 2.8 here).
 """
 
 import numpy as np
-import pytest
 
 from lccopt.vti.newmark import integrate
 from lccopt.vti.unilateral import sleeper_supports
