@@ -47,7 +47,8 @@ def discrete_track(n_sleepers=60, spacing=0.6, element=0.1, k_pad=1120e6, c_pad=
     sx = (np.arange(n_sleepers) + 1) * spacing
     snode = np.rint(sx / element).astype(int)
     # dofs along the track: w, th per node, the sleeper after its node's rail dofs
-    keys = [(i, 0) for i in range(n_el + 1)] + [(i, 1) for i in range(n_el + 1)] + [(i, 2) for i in snode]
+    keys = ([(i, 0) for i in range(n_el + 1)] + [(i, 1) for i in range(n_el + 1)]
+            + [(i, 2) for i in snode])
     order = sorted(range(len(keys)), key=lambda j: keys[j])
     full = np.empty(len(keys), int)
     full[order] = np.arange(len(keys))
