@@ -19,5 +19,5 @@ def test_ruff_check_finds_nothing():
         capture_output=True,
         text=True,
     )
-    report = result.stdout + result.stderr
-    assert result.returncode == 0, f"ruff check found problems:\n{report}"
+    exit_code, report = result.returncode, result.stdout + result.stderr
+    assert exit_code == 0, f"ruff check found problems:\n{report}"
