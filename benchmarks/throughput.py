@@ -1,9 +1,9 @@
 """Throughput of the run engine against the number of workers, and the time of a proposal.
 
-    python benchmarks/throughput.py                       # quickstart case, 40 evaluations, 1 and 2 workers
+    python benchmarks/throughput.py       # quickstart case, 40 evaluations, 1 and 2 workers
     python benchmarks/throughput.py --budget 60 --workers 1 2 4
     python benchmarks/throughput.py --cheap --workers 2 --repeat 3   # the tests' coarse simulation
-    python benchmarks/throughput.py --conditions 1 2 6 --workers 1 2  # traffic conditions per design
+    python benchmarks/throughput.py --conditions 1 2 6 --workers 1 2  # traffic conditions
 
 Scale on any machine, with the stand-in evaluator (benchmarks/standin.py: it sleeps, so 128
 workers need no 128 cores):
@@ -51,16 +51,16 @@ import os
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")  # as the lccopt command does (lccopt/cli.py)
 
-import argparse
-import contextlib
-import json
-import subprocess
-import sys
-import tempfile
-import time
-from pathlib import Path
+import argparse  # noqa: E402
+import contextlib  # noqa: E402
+import json  # noqa: E402
+import subprocess  # noqa: E402
+import sys  # noqa: E402
+import tempfile  # noqa: E402
+import time  # noqa: E402
+from pathlib import Path  # noqa: E402
 
-import numpy as np
+import numpy as np  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
 STANDIN = "benchmarks.standin:evaluate"
@@ -81,7 +81,8 @@ def conditions_yaml(n: int) -> str:
         return ""
     speeds = np.linspace(80.0, 160.0, n) / 3.6
     return "conditions:\n" + "".join(
-        f"  - {{name: c{i}, speed: {float(v)!r}, direction: {'enter' if i % 2 == 0 else 'leave'}}}\n"
+        f"  - {{name: c{i}, speed: {float(v)!r}, "
+        f"direction: {'enter' if i % 2 == 0 else 'leave'}}}\n"
         for i, v in enumerate(speeds))
 
 

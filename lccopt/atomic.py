@@ -42,8 +42,8 @@ def atomic_path(path, durable: bool = True):
     if os.path.lexists(path) and not os.path.islink(path) and not os.path.isfile(path):
         from .safeio import UnsafeFile, kind_of
 
-        raise UnsafeFile(path, f"{kind_of(os.lstat(path).st_mode)} where lccopt writes a file of its "
-                               f"own: remove it")
+        raise UnsafeFile(path, f"{kind_of(os.lstat(path).st_mode)} where lccopt writes a file "
+                               f"of its own: remove it")
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name + ".", suffix=".tmp")
     os.close(fd)
     normal_mode(tmp)

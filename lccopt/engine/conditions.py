@@ -32,8 +32,12 @@ import numpy as np
 
 from .. import machine
 from ..errors import describe_os_error, environment_errno
-from ..store import (merge_condition_files, read_evaluation, write_condition_evaluations,
-                     write_evaluation)
+from ..store import (
+    merge_condition_files,
+    read_evaluation,
+    write_condition_evaluations,
+    write_evaluation,
+)
 from .worker import Outcome, Task
 
 
@@ -157,7 +161,8 @@ class ConditionPool:
                                             for k, v in parts[c].info.items()
                                             if k in ("wall_time", "contact_loss_steps")}}
         # the conditions' machines, one entry each where they agree (a Dask cluster may differ)
-        entries = {k: ",".join(sorted({str(o.machine[k]) for o in parts.values() if k in o.machine}))
+        entries = {k: ",".join(sorted({str(o.machine[k]) for o in parts.values()
+                                       if k in o.machine}))
                    for k in machine.ENTRIES}
         entries = {k: v for k, v in entries.items() if v}
         out = Outcome(task.id, objectives=objectives, info=info, wall_time=wall, worker=workers,

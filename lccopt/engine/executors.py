@@ -154,9 +154,10 @@ class LocalPool:
         env = {**os.environ, **SINGLE_THREAD_ENV}
         here = str(Path(__file__).resolve().parents[2])  # lccopt importable even if not installed
         env["PYTHONPATH"] = os.pathsep.join([here] + [p for p in [env.get("PYTHONPATH")] if p])
-        cmd = [sys.executable, "-c", _WORKER_MAIN, str(child_sock.fileno()), str(os.getpid()), str(s.index)]
-        proc = subprocess.Popen(cmd, pass_fds=[child_sock.fileno()], env=env, stdin=subprocess.DEVNULL,
-                                preexec_fn=_ignore_stop_signals)
+        cmd = [sys.executable, "-c", _WORKER_MAIN, str(child_sock.fileno()), str(os.getpid()),
+               str(s.index)]
+        proc = subprocess.Popen(cmd, pass_fds=[child_sock.fileno()], env=env,
+                                stdin=subprocess.DEVNULL, preexec_fn=_ignore_stop_signals)
         child_sock.close()
         s.proc, s.ready, s.task = proc, False, None
         s.conn = mpc.Connection(parent_sock.detach())
@@ -266,15 +267,16 @@ class LocalPool:
         for s in self._slots:
             if s.proc is None:
                 continue
-            if s.conn in ready or (s.pidfd is not None and s.pidfd in ready) or s.proc.poll() is not None:
+            if (s.conn in ready or (s.pidfd is not None and s.pidfd in ready)
+                    or s.proc.poll() is not None):
                 self._drain(s, out)
         now = time.monotonic()
         for s in self._slots:
             if s.task is not None and now - s.started > self.timeout:
                 task = s.task
                 self._kill(s)
-                out.append(Outcome.of(task, error=f"timed out after {self.timeout:g} s (worker killed)",
-                                   wall_time=now - s.started, worker=f"local-{s.index}"))
+                out.append(Outcome.of(task, wall_time=now - s.started, worker=f"local-{s.index}",
+                                      error=f"timed out after {self.timeout:g} s (worker killed)"))
                 s.task = None
                 self._spawn(s)
         return out

@@ -98,8 +98,14 @@ class Progress:
 
     def _start(self, done: int) -> None:
         from rich.console import Console
-        from rich.progress import (BarColumn, MofNCompleteColumn, Progress as RichProgress,
-                                   TextColumn, TimeElapsedColumn, TimeRemainingColumn)
+        from rich.progress import (
+            BarColumn,
+            MofNCompleteColumn,
+            TextColumn,
+            TimeElapsedColumn,
+            TimeRemainingColumn,
+        )
+        from rich.progress import Progress as RichProgress
         from rich.table import Column
 
         console = Console(file=self.stream, highlight=False)
@@ -108,7 +114,8 @@ class Progress:
             BarColumn(bar_width=BAR), MofNCompleteColumn(table_column=fixed),
             TimeElapsedColumn(table_column=fixed), TextColumn("ETA", table_column=fixed),
             TimeRemainingColumn(table_column=fixed),
-            TextColumn("{task.description}", table_column=Column(no_wrap=True, overflow="ellipsis")),
+            TextColumn("{task.description}",
+                       table_column=Column(no_wrap=True, overflow="ellipsis")),
             console=console, transient=False, auto_refresh=False)
         # what the columns before the description take: bar, n/budget, two times, "ETA", gaps
         total = self.budget * self.per_design
@@ -163,7 +170,8 @@ class Progress:
         if last is not None:
             what = (f" #{last['id']} {last['phase']} ok" if last["status"] == "ok"
                     else f" #{last['id']} {last['phase']} FAILED: {last['reason']}")
-        self.stream.write(f"lccopt: [{done:>{width}}/{self.budget}]{what}, {hms(elapsed)}{left}{tail}\n")
+        self.stream.write(f"lccopt: [{done:>{width}}/{self.budget}]{what}, "
+                          f"{hms(elapsed)}{left}{tail}\n")
         best = table.best()
         if best is not None and best["id"] != self._best_shown:
             self._best_shown = best["id"]

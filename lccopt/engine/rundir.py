@@ -31,8 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from ..atomic import atomic_path, atomic_write_bytes, fsync_dir, normal_mode
-from ..safeio import (UnsafeFile, check_owned_dir, is_regular_file, kind_of, open_owned,
-                      read_owned)
+from ..safeio import UnsafeFile, check_owned_dir, is_regular_file, kind_of, open_owned, read_owned
 
 RESULTS_FORMAT = "lccopt-results"
 RESULTS_VERSION = 1
@@ -106,7 +105,8 @@ class RunDir:
             (tmp / "run.json").write_text(json.dumps(meta, indent=2) + "\n", encoding="utf-8")
             (tmp / "lock").touch()
             with open(tmp / "journal.jsonl", "wb") as fh:
-                line = {"seq": 0, "event": "run", "time": now_iso(), "case_sha256": meta["case_sha256"],
+                line = {"seq": 0, "event": "run", "time": now_iso(),
+                        "case_sha256": meta["case_sha256"],
                         "budget": problem.budget, "objectives": list(problem.objectives),
                         "seed": problem.seed, "versions": meta["versions"],
                         # what the surrogate fits (Problem.surrogate: the objectives, the
@@ -126,7 +126,8 @@ class RunDir:
         except OSError as exc:
             shutil.rmtree(tmp, ignore_errors=True)
             if exc.errno in (errno.EEXIST, errno.ENOTEMPTY):
-                raise RunError(f"{path} already exists (another run was started at the same time?)") from None
+                raise RunError(f"{path} already exists (another run was started at the same "
+                               f"time?)") from None
             raise
         fsync_dir(path.parent)
         return cls(path)
@@ -151,8 +152,8 @@ class RunDir:
         for name in self.OWNED_FILES:
             p = self.path / name
             if os.path.lexists(p) and not is_regular_file(p):
-                raise RunError(f"{p}: {kind_of(os.lstat(p).st_mode)}, where lccopt keeps a file of its own; "
-                               f"lccopt never reads or writes through it: remove it")
+                raise RunError(f"{p}: {kind_of(os.lstat(p).st_mode)}, where lccopt keeps a file "
+                               f"of its own; lccopt never reads or writes through it: remove it")
         if os.path.lexists(self.evals_path):
             try:
                 check_owned_dir(self.evals_path)
@@ -160,9 +161,9 @@ class RunDir:
                 raise RunError(f"{exc}") from None
             for entry in os.scandir(self.evals_path):
                 if not entry.is_file(follow_symlinks=False):
-                    raise RunError(f"{entry.path}: {kind_of(entry.stat(follow_symlinks=False).st_mode)} "
-                                   f"among the run's evaluation files; lccopt never reads or writes "
-                                   f"through it: remove it")
+                    kind = kind_of(entry.stat(follow_symlinks=False).st_mode)
+                    raise RunError(f"{entry.path}: {kind} among the run's evaluation files; "
+                                   f"lccopt never reads or writes through it: remove it")
 
     def evals_dir(self) -> Path:
         """evals/, made again if it was deleted under the run; never a link (UnsafeFile)."""
@@ -208,8 +209,9 @@ class RunDir:
         except UnsafeFile as exc:
             raise RunError(f"{exc}") from None
         except OSError as exc:
-            raise RunError(f"{self.path / 'lock'}: cannot open the run's lock file ({exc.strerror or exc}); "
-                           f"lccopt needs to write in the run directory") from None
+            raise RunError(f"{self.path / 'lock'}: cannot open the run's lock file "
+                           f"({exc.strerror or exc}); lccopt needs to write in the run "
+                           f"directory") from None
         try:
             fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError:
@@ -217,7 +219,8 @@ class RunDir:
             holder = fh.read().strip()
             fh.close()
             raise RunError(f"{self.path} is in use by another lccopt process"
-                           f"{' (' + holder + ')' if holder else ''}; wait for it to finish or stop it first")
+                           f"{' (' + holder + ')' if holder else ''}; wait for it to finish or "
+                           f"stop it first")
         fh.seek(0)
         fh.truncate()
         fh.write(f"pid {os.getpid()} on {platform.node()} since {now_iso()}\n")
@@ -248,7 +251,8 @@ class RunDir:
         cache: resume then replays the whole journal)."""
         try:
             d = json.loads(read_owned(self.state_path).decode("utf-8"))
-            return d if isinstance(d, dict) and isinstance(d.get("seq"), int) and "strategy" in d else None
+            whole = isinstance(d, dict) and isinstance(d.get("seq"), int) and "strategy" in d
+            return d if whole else None
         except (OSError, ValueError):
             return None
 
@@ -410,13 +414,15 @@ def write_results(path: Path, table: Table, *, case, problem, meta: dict) -> Non
                 g_c.attrs["weight"] = w
                 for k in OBJECTIVE_NAMES:
                     col = g_c.create_dataset(k, data=np.array(
-                        [float(r["objectives"].get(f"{k}@{c}", math.nan)) for r in rows], dtype=float))
+                        [float(r["objectives"].get(f"{k}@{c}", math.nan)) for r in rows],
+                        dtype=float))
                     col.attrs["unit"] = "N" if k.startswith("F") else "J"
         e.create_dataset("value", data=np.array([r["value"] for r in rows], dtype=float))
         for k in ("status", "reason", "phase", "worker", "file"):
             e.create_dataset(k, data=[str(r[k]) for r in rows], dtype=sdt)
         e.create_dataset("restart", data=np.array([r["restart"] for r in rows], dtype=np.int64))
-        wt = e.create_dataset("wall_time", data=np.array([r["wall_time"] for r in rows], dtype=float))
+        wt = e.create_dataset("wall_time",
+                              data=np.array([r["wall_time"] for r in rows], dtype=float))
         wt.attrs["unit"] = "s"
         F = np.array([[float(r["objectives"].get(k, math.nan)) for k in problem.objectives]
                       for r in rows], dtype=float).reshape(n, len(problem.objectives))

@@ -56,8 +56,16 @@ from ..terminal import PipeGuard, wrap_items
 from .executors import ExecutorError, make_executor
 from .journal import Journal, JournalError, line_mark, read_journal
 from .progress import Progress, fmt, hms, objective_text, objective_value, reference_objectives
-from .rundir import (RunDir, RunError, Table, eval_name, now_iso, sha256_text,
-                     versions, write_results)
+from .rundir import (
+    RunDir,
+    RunError,
+    Table,
+    eval_name,
+    now_iso,
+    sha256_text,
+    versions,
+    write_results,
+)
 from .schedule import batch_size, may_ask, release
 from .worker import RENAMED_EVALUATORS, Outcome, Task, evaluator_spec
 
@@ -71,8 +79,9 @@ def _usage_error(message: str) -> Exception:
 
 
 def _fault(exc: BaseException, rd: RunDir) -> EnvironmentFault:
-    return EnvironmentFault(f"{describe_os_error(exc)}; the run stopped with nothing lost (evaluations "
-                            f"in flight stay pending): fix the cause, then 'lccopt resume {rd.path}'")
+    return EnvironmentFault(f"{describe_os_error(exc)}; the run stopped with nothing lost "
+                            f"(evaluations in flight stay pending): fix the cause, then "
+                            f"'lccopt resume {rd.path}'")
 
 
 # ------------------------------------------------------------------------------ public API
@@ -93,12 +102,13 @@ def optimise(case, workers: int | None = None, scheduler=None, runs: Path = Path
         raise _usage_error(f"case name {case_obj.name!r} cannot name a run directory")
     _check_runs_folder(Path(runs))
     if os.path.lexists(run_path) and not run_path.is_dir():
-        raise _usage_error(f"{run_path} is {_kind(run_path)}, not a run directory: move it, or give "
-                           f"the case another name")
+        raise _usage_error(f"{run_path} is {_kind(run_path)}, not a run directory: move it, or "
+                           f"give the case another name")
     if run_path.exists() or run_path.is_symlink():
         if not force:
-            raise _usage_error(f"{run_path} already exists: carry it on with 'lccopt resume {run_path}', "
-                               f"or start again with 'lccopt optimise {case_obj.path} --force'")
+            raise _usage_error(f"{run_path} already exists: carry it on with "
+                               f"'lccopt resume {run_path}', or start again with "
+                               f"'lccopt optimise {case_obj.path} --force'")
         _check_replaceable(run_path, Path(runs))
     executor = _start_executor(case_obj, spec, workers, scheduler, problem,
                                Progress(0, stream, progress).log)
@@ -109,7 +119,8 @@ def optimise(case, workers: int | None = None, scheduler=None, runs: Path = Path
                 old.lock()  # refuse to delete a run another process is driving
             shutil.rmtree(run_path)
             old.unlock()
-        rd = RunDir.create(run_path, case_obj, problem, spec if isinstance(spec, str) else repr(spec))
+        rd = RunDir.create(run_path, case_obj, problem,
+                           spec if isinstance(spec, str) else repr(spec))
         rd.lock()
     except BaseException as exc:
         executor.close()
@@ -157,16 +168,18 @@ def _check_replaceable(run_path: Path, runs: Path) -> None:
     """``--force`` removes only an lccopt run directory that sits directly inside ``--runs``."""
     from .rundir import RUN_FORMAT
 
-    if run_path.is_symlink() or not run_path.is_dir() or run_path.resolve().parent != runs.resolve():
-        raise _usage_error(f"{run_path} is not a run directory inside {runs}; --force only replaces "
-                           f"lccopt run directories: move or remove it yourself")
+    if (run_path.is_symlink() or not run_path.is_dir()
+            or run_path.resolve().parent != runs.resolve()):
+        raise _usage_error(f"{run_path} is not a run directory inside {runs}; --force only "
+                           f"replaces lccopt run directories: move or remove it yourself")
     try:
         meta = RunDir(run_path).meta()
     except RunError:
         meta = None
     if not isinstance(meta, dict) or meta.get("format") != RUN_FORMAT:
-        raise _usage_error(f"{run_path} is not an lccopt run directory (no readable run.json of lccopt); "
-                           f"--force only replaces run directories: move or remove it yourself")
+        raise _usage_error(f"{run_path} is not an lccopt run directory (no readable run.json of "
+                           f"lccopt); --force only replaces run directories: move or remove it "
+                           f"yourself")
 
 
 def _start_executor(case, spec, workers, scheduler, problem, log=None):
@@ -178,8 +191,9 @@ def _start_executor(case, spec, workers, scheduler, problem, log=None):
     return executor
 
 
-def resume(run, workers: int | None = None, scheduler=None, case=None, allow_changed_case: bool = False,
-           budget: int | None = None, *, evaluator=None, progress: bool = True, stream=None) -> Path:
+def resume(run, workers: int | None = None, scheduler=None, case=None,
+           allow_changed_case: bool = False, budget: int | None = None, *, evaluator=None,
+           progress: bool = True, stream=None) -> Path:
     """Carry on the run in directory RUN; see the module docstring."""
     _check_options(workers, scheduler)
     out = Progress(0, stream, progress)
@@ -195,28 +209,34 @@ def resume(run, workers: int | None = None, scheduler=None, case=None, allow_cha
         events, _, _ = read_journal(rd.journal_path)
         if not events or events[0].get("event") != "run":
             n = len(list(rd.evals_path.glob("*.h5"))) if rd.evals_path.is_dir() else 0
-            raise RunError(f"{rd.journal_path} is empty or does not start with the run's first line: "
-                           f"this run cannot be carried on safely ({n} evaluation file(s) kept as they "
-                           f"are); restore the journal, or start a new run under another name")
+            raise RunError(f"{rd.journal_path} is empty or does not start with the run's first "
+                           f"line: this run cannot be carried on safely ({n} evaluation file(s) "
+                           f"kept as they are); restore the journal, or start a new run under "
+                           f"another name")
         journal, events, torn = Journal.open(rd.journal_path)
         if torn:
-            out.log("dropped a torn last line of the journal (the run was killed while writing it)")
+            out.log("dropped a torn last line of the journal (the run was killed while writing "
+                    "it)")
         case_obj = _resume_case(rd, meta, case, allow_changed_case, out, budget)
         problem = Problem.from_case(case_obj)
         if events and events[0].get("objectives") not in (None, list(problem.objectives)):
-            raise _usage_error(f"the case's objectives {list(problem.objectives)} differ from the run's "
-                               f"{events[0]['objectives']}; start a new run instead")
+            raise _usage_error(f"the case's objectives {list(problem.objectives)} differ from the "
+                               f"run's {events[0]['objectives']}; start a new run instead")
         asked = sum(ev.get("event") == "asked" for ev in events)
         if problem.budget < asked:
-            raise _usage_error(f"the case's budget of {problem.budget} is below the {asked} evaluations "
-                               f"the run has already asked for; give a budget of at least {asked}")
+            raise _usage_error(f"the case's budget of {problem.budget} is below the {asked} "
+                               f"evaluations the run has already asked for; give a budget of at "
+                               f"least {asked}")
         if meta.get("case_sha256") != sha256_text(case_obj.resolved):
-            extra = {"worst": list(problem.worst), "rho": problem.rho} if problem.multi and problem.worst else {}
-            ev = journal.append("case_changed", time=now_iso(), case_sha256=sha256_text(case_obj.resolved),
+            extra = ({"worst": list(problem.worst), "rho": problem.rho}
+                     if problem.multi and problem.worst else {})
+            ev = journal.append("case_changed", time=now_iso(),
+                                case_sha256=sha256_text(case_obj.resolved),
                                 budget=problem.budget, case_file=str(case_obj.path), **extra)
             events.append(ev)
             rd.write_case(case_obj.resolved)
-            meta.update(case_sha256=sha256_text(case_obj.resolved), case_file=str(Path(case_obj.path).resolve()),
+            meta.update(case_sha256=sha256_text(case_obj.resolved),
+                        case_file=str(Path(case_obj.path).resolve()),
                         overrides=list(getattr(case_obj, "overrides", ())))
             rd.write_meta(meta)
         strategy, table = restore(problem, events, rd.load_state())
@@ -225,11 +245,12 @@ def resume(run, workers: int | None = None, scheduler=None, case=None, allow_cha
         spec = evaluator_spec(evaluator)
         started = RENAMED_EVALUATORS.get(meta.get("evaluator"), meta.get("evaluator"))
         if isinstance(spec, str) and isinstance(started, str) and started != spec:
-            out.log(f"the run was started with evaluator {meta['evaluator'][:60]!r}; carrying on with {spec!r}")
+            out.log(f"the run was started with evaluator {meta['evaluator'][:60]!r}; carrying on "
+                    f"with {spec!r}")
         removed = rd.clean(pending={eval_name(i) for i in table.pending_ids()})
         if removed:
-            out.log(f"removed {len(removed)} temporary or unfinished file(s): {', '.join(removed[:5])}"
-                    f"{' ...' if len(removed) > 5 else ''}")
+            out.log(f"removed {len(removed)} temporary or unfinished file(s): "
+                    f"{', '.join(removed[:5])}{' ...' if len(removed) > 5 else ''}")
         lost = _lost_files(rd, table)
         if strategy.done and not table.pending_ids() and not lost:
             if not table.finished:
@@ -304,16 +325,18 @@ def _resume_case(rd: RunDir, meta: dict, case, allow_changed: bool, out: Progres
     if sha256_text(case_obj.resolved) != meta.get("case_sha256"):
         if not allow_changed:
             raise _usage_error(
-                f"the case file {case_obj.path} or a file it reads (extends, irregularity) changed "
-                f"since the run started (the resolved case differs from {rd.case_path}); restore it, "
-                f"resume with --case {rd.case_path} (the run's copy), or with --allow-changed-case "
-                f"to use the changed case")
+                f"the case file {case_obj.path} or a file it reads (extends, irregularity) "
+                f"changed since the run started (the resolved case differs from {rd.case_path}); "
+                f"restore it, resume with --case {rd.case_path} (the run's copy), or with "
+                f"--allow-changed-case to use the changed case")
         old_case = load_case(rd.case_path)
         old, new = Problem.from_case(old_case), Problem.from_case(case_obj)
         if not old.same_space(new):
-            raise _usage_error(f"the changed case {case_obj.path} has other design variables, bounds, "
-                               f"scales, reference design or objectives; start a new run instead")
-        refused = [k for k in changed_keys(old_case.data, case_obj.data) if k not in HONOURED_CHANGES]
+            raise _usage_error(f"the changed case {case_obj.path} has other design variables, "
+                               f"bounds, scales, reference design or objectives; start a new run "
+                               f"instead")
+        refused = [k for k in changed_keys(old_case.data, case_obj.data)
+                   if k not in HONOURED_CHANGES]
         if refused:
             raise _usage_error(f"{case_obj.path}: {refused[0]} changed since the run started; only "
                                f"budget, timeout, asf.worst and asf.rho may: start a new run")
@@ -350,7 +373,8 @@ def restore(problem: Problem, events: list[dict], snapshot: dict | None):
     snapshot is a cache: one made with other settings, or that does not replay (stale,
     foreign, from another version), is dropped and the whole journal replayed."""
     seq = snapshot.get("seq") if isinstance(snapshot, dict) else None
-    if isinstance(seq, int) and 0 <= seq < len(events) and snapshot.get("mark") == line_mark(events[seq]):
+    if (isinstance(seq, int) and 0 <= seq < len(events)
+            and snapshot.get("mark") == line_mark(events[seq])):
         try:
             strategy, table = _restore(problem, events, snapshot)
             if _agrees(strategy, table):
@@ -385,9 +409,11 @@ def _restore(problem: Problem, events: list[dict], snapshot: dict | None):
         try:
             table.apply(ev)
         except (KeyError, TypeError, ValueError, IndexError) as exc:
-            raise JournalError(f"journal line {ev.get('seq', '?') + 1 if isinstance(ev.get('seq'), int) else '?'}"
-                               f" is not a valid event ({type(exc).__name__}: {exc}); the journal was "
-                               f"changed by something other than lccopt") from None
+            seq = ev.get("seq")
+            line = seq + 1 if isinstance(seq, int) else "?"
+            raise JournalError(f"journal line {line} is not a valid event "
+                               f"({type(exc).__name__}: {exc}); the journal was changed by "
+                               f"something other than lccopt") from None
     first = events[0] if events else {}
     settings = recorded_settings(problem, first) if events else problem.optimiser_settings()
     strategy, start = None, 0
@@ -513,15 +539,18 @@ def replay(strategy, ev: dict) -> None:
     kind = ev["event"]
     if kind == "asked":
         props = strategy.ask(1)
-        if not props or props[0].id != ev["id"] or not np.array_equal(props[0].x, np.asarray(ev["x"], float)):
+        if (not props or props[0].id != ev["id"]
+                or not np.array_equal(props[0].x, np.asarray(ev["x"], float))):
             got = f"#{props[0].id} {props[0].x.tolist()}" if props else "nothing"
-            raise JournalError(f"journal line {ev['seq'] + 1}: the optimiser proposes {got}, the journal "
-                               f"says #{ev['id']} {ev['x']}; was lccopt changed since the run started?")
+            raise JournalError(f"journal line {ev['seq'] + 1}: the optimiser proposes {got}, the "
+                               f"journal says #{ev['id']} {ev['x']}; was lccopt changed since the "
+                               f"run started?")
     elif kind == "exhausted":
         props = strategy.ask(1)
         if props or not strategy.exhausted:
-            raise JournalError(f"journal line {ev['seq'] + 1}: the optimiser proposes #{props[0].id if props else '?'}"
-                               f", the journal says the design space was exhausted; was lccopt changed "
+            got = props[0].id if props else "?"
+            raise JournalError(f"journal line {ev['seq'] + 1}: the optimiser proposes #{got}, the "
+                               f"journal says the design space was exhausted; was lccopt changed "
                                f"since the run started?")
     elif kind == "case_changed":
         strategy.budget = int(ev["budget"])
@@ -595,7 +624,7 @@ class Engine:
                     f"{', '.join('#' + str(i) for i in ids[:6])}{' ...' if len(ids) > 6 else ''}")
         self._restore = list(ids)
 
-    # -- main ---------------------------------------------------------------------------------------
+    # -- main -----------------------------------------------------------------------------------
     def run(self) -> None:
         try:
             self._run()
@@ -628,7 +657,8 @@ class Engine:
                 p.log(f"running again {len(requeue)} evaluation(s) that were in flight: "
                       f"{', '.join('#' + str(i) for i in requeue)}")
             while True:
-                if PipeGuard.closed_pipe and not self.abort:  # | head went away: stop as SIGPIPE would
+                # | head went away: stop as SIGPIPE would
+                if PipeGuard.closed_pipe and not self.abort:
                     self.stop = self.abort = True
                 if self.stop:
                     self._held = False
@@ -636,8 +666,9 @@ class Engine:
                 if time.monotonic() - self._snapshot_at > SNAPSHOT_EVERY:
                     self._snapshot()
                 if self.executor.running == 0:
-                    if not self.stop and self.strategy.done and not self._restore and self._best_lacks_histories():
-                        continue  # its histories are simulated again (no budget), then the run ends
+                    if (not self.stop and self.strategy.done and not self._restore
+                            and self._best_lacks_histories()):
+                        continue  # its histories are simulated again (no budget), then it ends
                     if self.stop or (self.strategy.done and not self._restore):
                         break
                     if submitted == 0 and self.executor.free() > 0:
@@ -656,7 +687,8 @@ class Engine:
                     n = self.executor.running
                     msg = "interrupted: no new evaluations"
                     if not self.abort and n:
-                        msg += f"; waiting for the {n} running to finish (Ctrl-C again to stop them now)"
+                        msg += (f"; waiting for the {n} running to finish (Ctrl-C again to stop "
+                                f"them now)")
                     p.log(msg)
                 if self.abort:
                     n = self.executor.running
@@ -674,7 +706,8 @@ class Engine:
             try:
                 self._snapshot()
                 self.table.apply(self.journal.append(
-                    "session", time=now_iso(), wall_time=wall, evaluations=self.table.n_done - n_start,
+                    "session", time=now_iso(), wall_time=wall,
+                    evaluations=self.table.n_done - n_start,
                     optimiser_time=self.t_optimiser, bookkeeping_time=self.t_bookkeeping,
                     held_time=self.t_held, workers=self.lag,
                     executor=self.executor.description, versions=versions()))
@@ -685,7 +718,8 @@ class Engine:
             finally:
                 self.journal.close()
         if not self.table.finished:
-            p.log(f"saved {self.table.n_done}/{pb.budget} evaluations in {self.rd.path}; carry on with:")
+            p.log(f"saved {self.table.n_done}/{pb.budget} evaluations in {self.rd.path}; carry on "
+                  f"with:")
             p.log(f"    lccopt resume {self.rd.path}")
             raise typer.Exit(130)
         self._summary(wall)
@@ -793,22 +827,24 @@ class Engine:
         out = str(self.rd.evals_dir() / Path(eval_name(row["id"])).name)
         # time histories: every design's, or the reference design's and, at the end, the best's
         # (simulated again then: a few MB per design saved; docs/runs.md, "Disk use")
-        keep = self.histories == "all" or (self.histories == "best" and (row["id"] == 0 or row["id"] in
-                                                                          self._restoring))
+        keep = self.histories == "all" or (
+            self.histories == "best" and (row["id"] == 0 or row["id"] in self._restoring))
         self.executor.submit(Task(row["id"], list(row["x"]), row["phase"], row["restart"], out,
                                   histories=keep))
 
     def _record(self, o: Outcome) -> None:
         if o.fault is not None:  # the machine refused a write: stop, the evaluation stays pending
-            raise EnvironmentFault(f"{o.fault}; the run stopped with nothing lost (evaluations in flight "
-                                   f"stay pending): fix the cause, then 'lccopt resume {self.rd.path}'")
+            raise EnvironmentFault(f"{o.fault}; the run stopped with nothing lost (evaluations in "
+                                   f"flight stay pending): fix the cause, then "
+                                   f"'lccopt resume {self.rd.path}'")
         if o.id in self._restoring:
             self._restored(o)
             return
         row = self.table.rows.get(o.id)
         if row is None or row["status"] != "pending":
             return
-        if self.stop and o.error is not None and o.error.startswith("worker process died (killed by"):
+        if (self.stop and o.error is not None
+                and o.error.startswith("worker process died (killed by")):
             return  # stopped along with lccopt by a signal: pending, runs again on resume
         t0 = time.perf_counter()
         pb, j = self.problem, self.journal
@@ -823,12 +859,13 @@ class Engine:
             elif o.evaluation is not None:
                 from ..store import write_evaluation
 
-                write_evaluation(self.rd.path / eval_name(o.id), o.evaluation, row["x"], self.case.names,
-                                 attrs={"id": o.id, "phase": row["phase"], "restart": row["restart"],
-                                        "worker": o.worker, "wall_time": o.wall_time, **o.machine},
-                                 durable=False)
+                attrs = {"id": o.id, "phase": row["phase"], "restart": row["restart"],
+                         "worker": o.worker, "wall_time": o.wall_time, **o.machine}
+                write_evaluation(self.rd.path / eval_name(o.id), o.evaluation, row["x"],
+                                 self.case.names, attrs=attrs, durable=False)
                 file = eval_name(o.id)
-        common = dict(id=o.id, objectives=objectives or {}, wall_time=o.wall_time, worker=o.worker, file=file,
+        common = dict(id=o.id, objectives=objectives or {}, wall_time=o.wall_time, worker=o.worker,
+                      file=file,
                       at=round(time.time(), 3))  # when it was committed: `lccopt status` rates
         if error is None:
             if o.id == 0 and self.table.reference is None:
@@ -858,37 +895,44 @@ class Engine:
         if o.error is None and o.evaluation is not None:
             from ..store import write_evaluation
 
-            write_evaluation(self.rd.path / eval_name(o.id), o.evaluation, row["x"], self.case.names,
+            write_evaluation(self.rd.path / eval_name(o.id), o.evaluation, row["x"],
+                             self.case.names,
                              attrs={"id": o.id, "phase": row["phase"], "restart": row["restart"],
                                     "worker": o.worker, "wall_time": o.wall_time, **o.machine})
         if o.error is not None:
-            self.progress.log(f"could not simulate #{o.id} again ({o.error}); its file stays missing")
+            self.progress.log(f"could not simulate #{o.id} again ({o.error}); its file stays "
+                              f"missing")
             return
         same = all(abs(o.objectives[k] - v) <= 1e-9 * max(1.0, abs(v))
                    for k, v in row["objectives"].items() if k in o.objectives)
+        why = "histories" if o.id in self._histories_done else "lost"
         self.table.apply(self.journal.append("restored", id=o.id, file=eval_name(o.id), same=same,
-                                             why="histories" if o.id in self._histories_done else "lost"))
+                                             why=why))
         if not same:
             self.progress.log(f"#{o.id} simulated again gives other objectives than the journal's "
-                              f"(another machine or library version?); the journal's values are kept")
+                              f"(another machine or library version?); the journal's values are "
+                              f"kept")
 
     def _reference_failed(self, reason: str) -> CaseError:
-        return CaseError(f"{self.case.path}: the reference design (evaluation #0) failed: {reason}; a "
-                         f"multi-objective case needs its objectives for the ASF reference point")
+        return CaseError(f"{self.case.path}: the reference design (evaluation #0) failed: "
+                         f"{reason}; a multi-objective case needs its objectives for the ASF "
+                         f"reference point")
 
     def _snapshot(self) -> None:
         if self.table.seq == self._saved_seq:
             return
         t0 = time.perf_counter()
         self.journal.sync()  # a snapshot never reflects a line that is not on disk
-        self.rd.save_state(self.table.seq, self.strategy.state_dict(), line_mark(self.table.last_event))
+        self.rd.save_state(self.table.seq, self.strategy.state_dict(),
+                           line_mark(self.table.last_event))
         self._saved_seq = self.table.seq
         self._snapshot_at = time.monotonic()
         self.t_bookkeeping += time.perf_counter() - t0
 
     def _write_results(self) -> None:
         t0 = time.perf_counter()
-        write_results(self.rd.results_path, self.table, case=self.case, problem=self.problem, meta=self.meta)
+        write_results(self.rd.results_path, self.table, case=self.case, problem=self.problem,
+                      meta=self.meta)
         self._results_at = time.monotonic()
         self.t_bookkeeping += time.perf_counter() - t0
 
@@ -905,7 +949,8 @@ class Engine:
             lines += wrap_items(design_items(self.case, best["x"]), "  x: ")
             for k in pb.objectives:
                 v, r = best["objectives"].get(k), ref.get(k)
-                rel = f" ({(v - r) / r:+.1%} vs reference design {objective_value(k, r)})" if r else ""
+                rel = (f" ({(v - r) / r:+.1%} vs reference design {objective_value(k, r)})"
+                       if r else "")
                 lines.append(f"  {objective_text(k, v)}{rel}")
         lines.append(f"results: {self.rd.results_path}")
         sys.stdout.write("\n".join(lines) + "\n")

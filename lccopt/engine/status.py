@@ -40,8 +40,8 @@ def status_lines(run: Path) -> list[str]:
     state = "finished" if table.finished else ("running" if running else "stopped")
     done, failed, pending = table.n_done, table.n_failed, len(table.pending_ids())
     lines = [f"{rd.path}: {state}, {done}/{budget} evaluations"
-             + (f" ({failed} failed)" if failed else "") + (f", {pending} in flight" if pending and running
-                                                             else "")]
+             + (f" ({failed} failed)" if failed else "")
+             + (f", {pending} in flight" if pending and running else "")]
     lines.append("  " + best_text(table))
     best = table.best()
     if best is not None:
@@ -66,8 +66,8 @@ def _timing(events: list[dict], table: Table, budget: int, running: bool) -> lis
         recent = stamps[-RATE_WINDOW:]
         pace = (recent[-1] - recent[0]) / (len(recent) - 1)
         since = max(0.0, time.time() - recent[-1])
-        out.append(f"  one result every {pace:.3g} s lately; about {hms(max(0.0, left * pace - since))} "
-                   f"left")
+        out.append(f"  one result every {pace:.3g} s lately; about "
+                   f"{hms(max(0.0, left * pace - since))} left")
     return out
 
 

@@ -78,8 +78,8 @@ class Task:
 
 # Histories small enough to keep for every design (one value per sleeper, not per time step):
 # the sleeper-energy profile and the track's layout.
-PER_SLEEPER = ("sleeper_position", "sleeper_energy", "sleeper_strengthened", "entry_sleeper_position",
-               "entry_pad_stiffness", "entry_strengthened")
+PER_SLEEPER = ("sleeper_position", "sleeper_energy", "sleeper_strengthened",
+               "entry_sleeper_position", "entry_pad_stiffness", "entry_strengthened")
 
 
 def kept(ev, histories: bool):
@@ -88,8 +88,8 @@ def kept(ev, histories: bool):
         return ev
     from ..vti.response import Evaluation
 
-    return Evaluation(ev.objectives, {k: v for k, v in (ev.histories or {}).items() if k in PER_SLEEPER},
-                      ev.info)
+    per_sleeper = {k: v for k, v in (ev.histories or {}).items() if k in PER_SLEEPER}
+    return Evaluation(ev.objectives, per_sleeper, ev.info)
 
 
 @dataclass
@@ -143,14 +143,15 @@ def run_task(case, task: Task, evaluator: Callable, worker: str) -> Outcome:
 
             write_evaluation(task.out_path, kept(ev, task.histories), task.x, case.names,
                              attrs={"id": task.id, "phase": task.phase, "restart": task.restart,
-                                    "worker": worker, "wall_time": wall, "condition": task.condition,
-                                    **out.machine}, durable=False)
+                                    "worker": worker, "wall_time": wall,
+                                    "condition": task.condition, **out.machine}, durable=False)
             out.file_written = True
         except Exception as exc:  # noqa: BLE001
             from ..errors import describe_os_error, environment_errno
 
             if environment_errno(exc) is not None:  # not the design's fault: the run must stop
-                out.objectives, out.fault = None, f"cannot write {task.out_path}: {describe_os_error(exc)}"
+                out.objectives = None
+                out.fault = f"cannot write {task.out_path}: {describe_os_error(exc)}"
             else:
                 out.objectives, out.error = None, f"could not write {task.out_path}: {exc}"
     else:

@@ -37,8 +37,16 @@ from .context import AskContext, CandidatePool
 from .local_search import local_search
 from .restarts import NextPhase, Phase, RestartPolicy
 from .sampling import latin_hypercube, to_space
-from .settings import (ENUMERATE_LIMIT, IMPROVEMENT_TOL, SIGMA_INIT, SIGMA_MAX, SUCCESS_TOL,
-                       WEIGHTS, Settings, fail_tol)
+from .settings import (
+    ENUMERATE_LIMIT,
+    IMPROVEMENT_TOL,
+    SIGMA_INIT,
+    SIGMA_MAX,
+    SUCCESS_TOL,
+    WEIGHTS,
+    Settings,
+    fail_tol,
+)
 from .space import DesignSpace
 from .state import from_state, load, save, state_dict
 from .surrogates import CompositeFit, ScalarSurrogate

@@ -22,7 +22,6 @@ REAL = "lccopt.problem:evaluate"
 
 from tests.conftest import CHEAP_SIMULATION, write_case  # noqa: E402,F401 (shared with tests/report)
 
-
 COLUMNS = ("id", "x", "F_rms", "F_max", "E_rms", "E_max", "value", "status", "reason", "phase",
            "restart", "file")
 
@@ -92,7 +91,8 @@ def pinned_numerics_env() -> dict:
 
     from lccopt import machine
 
-    if platform.machine() not in ("x86_64", "AMD64") or machine.describe()["blas_kernels"] == "unknown":
+    if (platform.machine() not in ("x86_64", "AMD64")
+            or machine.describe()["blas_kernels"] == "unknown"):
         pytest.skip("needs OpenBLAS on x86-64 to pin the floating point of a stored run")
     try:
         from numpy._core._multiarray_umath import __cpu_dispatch__, __cpu_features__

@@ -15,7 +15,16 @@ from lccopt.engine.journal import read_journal
 from lccopt.engine.runner import optimise
 from lccopt.store import read_evaluation
 
-from .conftest import FAKE, REAL, REFERENCE, assert_same_evaluations, cli, cli_run, read_table, write_case
+from .conftest import (
+    FAKE,
+    REAL,
+    REFERENCE,
+    assert_same_evaluations,
+    cli,
+    cli_run,
+    read_table,
+    write_case,
+)
 
 
 def _children(pid: int) -> list[int]:

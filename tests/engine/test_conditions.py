@@ -12,11 +12,11 @@ import h5py
 import numpy as np
 import pytest
 
-from lccopt.config import load_case
-from lccopt.errors import CaseError
-from lccopt.engine.runner import optimise, resume
-from lccopt.problem import Problem
 from lccopt import machine
+from lccopt.config import load_case
+from lccopt.engine.runner import optimise
+from lccopt.errors import CaseError
+from lccopt.problem import Problem
 from lccopt.store import read_conditions, read_evaluation
 from tests.engine import fakesim
 from tests.engine.conftest import FAKE, cli, cli_run, optimise_on_local_dask, read_table, write_case

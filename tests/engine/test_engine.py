@@ -8,12 +8,12 @@ import h5py
 import numpy as np
 import pytest
 
-from lccopt.config import design_items, load_case
-from lccopt.errors import CaseError
 from lccopt.cli import UsageError
+from lccopt.config import design_items, load_case
 from lccopt.engine.journal import Journal, JournalError, line_mark, read_journal
 from lccopt.engine.rundir import RunDir
 from lccopt.engine.runner import optimise, restore, resume
+from lccopt.errors import CaseError
 from lccopt.optim.settings import Settings
 from lccopt.problem import Problem
 from lccopt.store import read_evaluation

@@ -14,7 +14,6 @@ import pytest
 
 from lccopt import machine
 from lccopt.engine.journal import read_journal
-
 from lccopt.store import read_evaluation
 
 from .conftest import FAKE, REPO, cli_run, optimise_on_local_dask, write_case

@@ -20,13 +20,21 @@ import pytest
 from lccopt.config import load_case
 from lccopt.engine.journal import JournalError, read_journal
 from lccopt.engine.rundir import RunDir
-from lccopt.engine.schedule import batch_size
 from lccopt.engine.runner import optimise, recorded_settings, restore, resume
+from lccopt.engine.schedule import batch_size
 from lccopt.optim.settings import Settings
 from lccopt.problem import Problem
 
-from .conftest import (FAKE, REAL, REPO, assert_same_evaluations, cli_run, pinned_numerics_env,
-                       read_table, write_case)
+from .conftest import (
+    FAKE,
+    REAL,
+    REPO,
+    assert_same_evaluations,
+    cli_run,
+    pinned_numerics_env,
+    read_table,
+    write_case,
+)
 
 
 def _events(run):
