@@ -82,8 +82,8 @@ def test_kill_9_at_random_moments_then_resume_equals_an_uninterrupted_run(tmp_pa
     """Real simulator (coarse settings), real case file and HDF5, two workers, fixed seed: the
     results reach the optimiser in id order whatever the timing, so the tables are equal."""
     case = write_case(tmp_path, "k9", budget=20, initial=6, seed=4, worst=(20000.0, 3.0))
-    reference = read_table(optimise(case, workers=2, runs=tmp_path / "uninterrupted", evaluator=REAL,
-                                    progress=False))
+    reference = read_table(optimise(case, workers=2, runs=tmp_path / "uninterrupted",
+                                    evaluator=REAL, progress=False))
     assert (reference["status"] == "ok").all(), set(reference["reason"])
     runs = tmp_path / "runs"
     run = runs / "k9"
@@ -116,7 +116,8 @@ def test_kill_9_at_random_moments_then_resume_equals_an_uninterrupted_run(tmp_pa
     final = read_table(run)
     assert_same_evaluations(reference, final)
     events, _, _ = read_journal(run / "journal.jsonl")
-    assert sorted(e["id"] for e in events if e["event"] in ("evaluated", "failed")) == list(range(20))
+    finished = sorted(e["id"] for e in events if e["event"] in ("evaluated", "failed"))
+    assert finished == list(range(20))
     assert sorted(p.name for p in (run / "evals").iterdir()) == [f"{i:06d}.h5" for i in range(20)]
 
 
@@ -164,8 +165,8 @@ def test_ctrl_c_saves_exits_130_and_resumes_to_the_same_run(tmp_path):
     case = write_case(tmp_path, "cc", budget=12, initial=5, seed=2)
     # two workers, evaluation times varying from point to point: results arrive out of order
     env = {"LCCOPT_EVALUATOR": FAKE, "LCCOPT_FAKE_DELAY": "0.3", "LCCOPT_FAKE_SPREAD": "0.8"}
-    reference = read_table(optimise(case, workers=2, runs=tmp_path / "uninterrupted", evaluator=FAKE,
-                                    progress=False))
+    reference = read_table(optimise(case, workers=2, runs=tmp_path / "uninterrupted",
+                                    evaluator=FAKE, progress=False))
     runs = tmp_path / "runs"
     run = runs / "cc"
     # Ctrl-C in a terminal signals the whole process group, workers included.
@@ -176,7 +177,8 @@ def test_ctrl_c_saves_exits_130_and_resumes_to_the_same_run(tmp_path):
     assert p.returncode == 130, err
     assert f"lccopt resume {run}" in err and "no new evaluations" in err
     t = read_table(run)
-    assert 3 <= len(t["id"]) < 12 and set(t["status"]) == {"ok"}  # the running one finished, not failed
+    # the running one finished, not failed
+    assert 3 <= len(t["id"]) < 12 and set(t["status"]) == {"ok"}
 
     # Second Ctrl-C stops the running evaluation; it runs again on resume.
     p = cli("resume", run, "--workers", "2", env=env, start_new_session=True)
@@ -201,25 +203,31 @@ def test_bad_case_and_bad_runs_give_one_line_messages_and_exit_2(tmp_path):
     noopt.write_text(f"extends: {REFERENCE}\nname: noopt\n")
     r = cli_run("optimise", noopt, "--runs", tmp_path / "runs")
     assert r.returncode == 2
-    assert r.stderr.strip().splitlines() == [f"lccopt: error: {noopt}:1: optimisation: missing section "
-                                             f"(objectives, budget, initial_points, ...); 'lccopt optimise' needs it"]
+    assert r.stderr.strip().splitlines() == [
+        f"lccopt: error: {noopt}:1: optimisation: missing section (objectives, budget, "
+        f"initial_points, ...); 'lccopt optimise' needs it"]
 
     bad = write_case(tmp_path, "bad", budget=3, initial=5)
     r = cli_run("optimise", bad, "--runs", tmp_path / "runs")
-    assert r.returncode == 2 and "initial_points: 5 initial points exceed the budget of 3" in r.stderr
+    assert r.returncode == 2
+    assert "initial_points: 5 initial points exceed the budget of 3" in r.stderr
     assert len(r.stderr.strip().splitlines()) == 1
 
     r = cli_run("resume", tmp_path / "runs" / "nothing")
-    assert r.returncode == 2 and r.stderr.strip() == f"lccopt: error: {tmp_path / 'runs' / 'nothing'}: no such run directory"
+    missing = tmp_path / "runs" / "nothing"
+    assert r.returncode == 2
+    assert r.stderr.strip() == f"lccopt: error: {missing}: no such run directory"
 
     case = write_case(tmp_path, "chg", budget=4, initial=3)
-    r = cli_run("optimise", case, "--workers", "1", "--runs", tmp_path / "runs", env={"LCCOPT_EVALUATOR": FAKE})
+    r = cli_run("optimise", case, "--workers", "1", "--runs", tmp_path / "runs",
+                env={"LCCOPT_EVALUATOR": FAKE})
     assert r.returncode == 0, r.stderr
     case.write_text(case.read_text().replace("seed: 1", "seed: 2"))
     r = cli_run("resume", tmp_path / "runs" / "chg", env={"LCCOPT_EVALUATOR": FAKE})
     assert r.returncode == 2
     lines = r.stderr.strip().splitlines()
-    assert len(lines) == 1 and "changed since the run started" in lines[0] and "--allow-changed-case" in lines[0]
+    assert len(lines) == 1 and "changed since the run started" in lines[0]
+    assert "--allow-changed-case" in lines[0]
     copy = tmp_path / "runs" / "chg" / "case.yaml"
     assert f"--case {copy}" in lines[0]
     r = cli_run("resume", tmp_path / "runs" / "chg", "--case", copy, env={"LCCOPT_EVALUATOR": FAKE})
@@ -227,7 +235,8 @@ def test_bad_case_and_bad_runs_give_one_line_messages_and_exit_2(tmp_path):
     # a changed scale changes what the optimiser proposes: never carried on with
     case.write_text(case.read_text().replace("seed: 2", "seed: 1")
                     + "design:\n  railpad_stiffness:\n    scale: linear\n")
-    r = cli_run("resume", tmp_path / "runs" / "chg", "--allow-changed-case", env={"LCCOPT_EVALUATOR": FAKE})
+    r = cli_run("resume", tmp_path / "runs" / "chg", "--allow-changed-case",
+                env={"LCCOPT_EVALUATOR": FAKE})
     assert r.returncode == 2 and "scales" in r.stderr and "start a new run" in r.stderr
 
     r = cli_run("optimise", case, "--runs", tmp_path / "runs", env={"LCCOPT_EVALUATOR": FAKE})
@@ -236,5 +245,6 @@ def test_bad_case_and_bad_runs_give_one_line_messages_and_exit_2(tmp_path):
     r = cli_run("optimise", case, "--workers", "0", "--runs", tmp_path / "runs2")
     assert r.returncode == 2 and "--workers must be at least 1" in r.stderr
 
-    r = cli_run("optimise", case, "--runs", tmp_path / "runs3", env={"LCCOPT_EVALUATOR": "nosuchmodule:f"})
+    r = cli_run("optimise", case, "--runs", tmp_path / "runs3",
+                env={"LCCOPT_EVALUATOR": "nosuchmodule:f"})
     assert r.returncode == 2 and "cannot load the evaluator 'nosuchmodule:f'" in r.stderr

@@ -28,7 +28,8 @@ def conditions_case(tmp_path: Path, conditions: str, *, mode="worst", name="tc",
                     objectives=("F_max", "E_max"), worst=(60000.0, 5.0), extra_opt="") -> Path:
     path = write_case(tmp_path, name=name, budget=budget, initial=5, objectives=objectives,
                       worst=worst, extra="conditions:\n" + conditions)
-    text = path.read_text().replace("optimisation:\n", f"optimisation:\n  conditions: {mode}\n{extra_opt}", 1)
+    text = path.read_text().replace("optimisation:\n",
+                                    f"optimisation:\n  conditions: {mode}\n{extra_opt}", 1)
     path.write_text(text)
     return path
 
@@ -54,7 +55,8 @@ def test_conditions_are_read_with_their_vehicle_speed_direction_and_weight(tmp_p
     ("  - {name: a}\n  - {name: a}\n", "conditions[1].name", "names two conditions"),
     ("  - {name: a, vehicle: tram}\n", "conditions[0].vehicle", "no vehicle 'tram'"),
     ("  - {name: ../x}\n", "conditions[0].name", "letters, digits"),
-    ("  - {name: a, direction: sideways}\n", "conditions[0].direction", "must be one of enter, leave"),
+    ("  - {name: a, direction: sideways}\n", "conditions[0].direction",
+     "must be one of enter, leave"),
     ("  - {name: a, weight: 0}\n", "conditions[0].weight", "must be > 0"),
     ("  - {name: a, speed: 1000}\n", "conditions[0].speed", "must be <= 250 km/h"),
     ("  []\n", "conditions", "expected a list"),
@@ -64,7 +66,8 @@ def test_a_bad_condition_is_one_line_naming_file_line_and_key(tmp_path, conditio
     with pytest.raises(CaseError) as e:
         load_case(path)
     msg = str(e.value)
-    assert "\n" not in msg and msg.startswith(f"{path}:") and f": {key}:" in msg and words in msg, msg
+    assert "\n" not in msg and msg.startswith(f"{path}:"), msg
+    assert f": {key}:" in msg and words in msg, msg
 
 
 def test_each_mode_needs_a_worst_value_per_objective_or_per_objective_and_condition(tmp_path):
@@ -98,7 +101,8 @@ def test_two_identical_conditions_weigh_as_one_with_the_sum_of_their_weights(tmp
     runs = []
     for i, conds in enumerate((split, whole)):
         path = conditions_case(tmp_path, conds, mode="mean", name=f"w{i}", budget=8)
-        runs.append(optimise(path, workers=2, runs=tmp_path / "runs", evaluator=FAKE, progress=False))
+        runs.append(optimise(path, workers=2, runs=tmp_path / "runs", evaluator=FAKE,
+                             progress=False))
     a, b = read_table(runs[0]), read_table(runs[1])
     np.testing.assert_array_equal(a["x"], b["x"])   # the same objectives: the same proposals
     for k in ("F_max", "E_max", "value"):
@@ -140,12 +144,13 @@ def test_kill_9_mid_design_keeps_the_finished_conditions_and_resumes_to_the_same
     """A design's conditions run as separate tasks: a kill between them loses none that
     finished, and the resumed run ends exactly as an uninterrupted one."""
     path = conditions_case(tmp_path, THREE, budget=10)
-    env = {"LCCOPT_EVALUATOR": FAKE, "LCCOPT_FAKE_DELAY": "0.05", "LCCOPT_FAKE_LOG": str(tmp_path / "log")}
+    env = {"LCCOPT_EVALUATOR": FAKE, "LCCOPT_FAKE_DELAY": "0.05",
+           "LCCOPT_FAKE_LOG": str(tmp_path / "log")}
     runs = tmp_path / "runs"
     # once 12 simulations are done, the 'leave' condition (v160) hangs: designs stay with
     # some conditions finished and one not, so the kill lands between them every time
-    p = cli("optimise", path, "--workers", "2", "--runs", runs, env={**env, "LCCOPT_FAKE_STALL": "12"},
-            start_new_session=True)
+    p = cli("optimise", path, "--workers", "2", "--runs", runs,
+            env={**env, "LCCOPT_FAKE_STALL": "12"}, start_new_session=True)
     evals = runs / "tc" / "evals"
     deadline = time.monotonic() + 60
     while time.monotonic() < deadline:   # wait until a design has some conditions but not all
@@ -191,7 +196,8 @@ def test_simulate_runs_every_condition_and_prints_their_combination(tmp_path):
 def test_conditions_on_dask_give_the_process_pools_evaluations_and_files(tmp_path):
     pytest.importorskip("distributed")
     path = conditions_case(tmp_path, THREE, budget=8)
-    local = read_table(optimise(path, workers=2, runs=tmp_path / "local", evaluator=FAKE, progress=False))
+    local = read_table(optimise(path, workers=2, runs=tmp_path / "local", evaluator=FAKE,
+                                progress=False))
     run = optimise_on_local_dask(path, tmp_path / "dask", FAKE, n_workers=2)
     dask = read_table(run)
     for k in ("x", "F_max", "E_max", "value"):

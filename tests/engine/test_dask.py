@@ -13,7 +13,8 @@ from .conftest import FAKE, assert_same_evaluations, optimise_on_local_dask, rea
 def test_dask_local_cluster_same_evaluations_as_process_pool(tmp_path):
     pytest.importorskip("distributed")
     case = write_case(tmp_path, "dk", budget=10, initial=5, seed=3)
-    local = read_table(optimise(case, workers=1, runs=tmp_path / "local", evaluator=FAKE, progress=False))
+    local = read_table(optimise(case, workers=1, runs=tmp_path / "local", evaluator=FAKE,
+                                progress=False))
     run = optimise_on_local_dask(case, tmp_path / "dask", FAKE)
     dask = read_table(run)
     assert_same_evaluations(local, dask)
@@ -33,7 +34,8 @@ def test_dask_runs_the_real_simulator_like_the_process_pool(tmp_path):
 
     pytest.importorskip("distributed")
     case = write_case(tmp_path, "dr", budget=4, initial=4, seed=5)
-    local = read_table(optimise(case, workers=1, runs=tmp_path / "local", evaluator=REAL, progress=False))
+    local = read_table(optimise(case, workers=1, runs=tmp_path / "local", evaluator=REAL,
+                                progress=False))
     run = optimise_on_local_dask(case, tmp_path / "dask", REAL)
     dask = read_table(run)
     assert list(dask["status"]) == ["ok"] * 4

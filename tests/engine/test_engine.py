@@ -1,4 +1,5 @@
-"""Run engine in-process: run directory, results.h5, faults, resume rules (fast stand-in evaluator)."""
+"""Run engine in-process: run directory, results.h5, faults, resume rules (fast stand-in
+evaluator)."""
 
 from __future__ import annotations
 
@@ -25,7 +26,8 @@ def test_run_directory_and_results_layout(tmp_path, capsys):
     case = write_case(tmp_path, "moo", budget=10, initial=4)
     run = optimise(case, workers=2, runs=tmp_path / "runs", evaluator=FAKE)
     assert run == tmp_path / "runs" / "moo"
-    for name in ("run.json", "case.yaml", "journal.jsonl", "state.json", "results.h5", "lock", "evals"):
+    for name in ("run.json", "case.yaml", "journal.jsonl", "state.json", "results.h5", "lock",
+                 "evals"):
         assert (run / name).exists(), name
     events, _, torn = read_journal(run / "journal.jsonl")
     assert not torn and events[0]["event"] == "run" and events[-1]["event"] == "finished"
@@ -40,7 +42,8 @@ def test_run_directory_and_results_layout(tmp_path, capsys):
     assert t["phase"][0] == "initial"
     with h5py.File(run / "results.h5", "r") as f:
         assert f.attrs["format"] == "lccopt-results" and bool(f.attrs["finished"])
-        assert f.attrs["scalarisation"] == "asf" and list(f.attrs["objectives"]) == ["F_max", "E_max"]
+        assert f.attrs["scalarisation"] == "asf"
+        assert list(f.attrs["objectives"]) == ["F_max", "E_max"]
         assert f["case/resolved"][()].decode() == c.resolved
         assert f["case"].attrs["sha256"] == meta["case_sha256"]
         assert set(f["versions"].attrs) >= {"lccopt", "numpy", "scipy", "h5py", "python"}
@@ -58,7 +61,8 @@ def test_run_directory_and_results_layout(tmp_path, capsys):
     with h5py.File(run / "results.h5", "r") as f:  # external links to the histories
         np.testing.assert_array_equal(f["evals/000003/design"][()], t["x"][3])
         assert "contact_force" in f["evals/000000/histories"]   # the reference's time histories
-        assert "contact_force" in f[f"evals/{best:06d}/histories"]   # and the best's (histories: best)
+        # and the best's (histories: best)
+        assert "contact_force" in f[f"evals/{best:06d}/histories"]
     for i, name in enumerate(t["file"]):
         x, ev = read_evaluation(run / name)
         np.testing.assert_array_equal(x, t["x"][i])
@@ -96,7 +100,8 @@ def test_faulty_simulations_are_recorded_and_the_run_completes(tmp_path, monkeyp
     case = write_case(tmp_path, "faults", budget=12, initial=6, timeout=3.0)
     run = optimise(case, workers=2, runs=tmp_path, evaluator=FAULTY, progress=False)
     t = read_table(run)
-    assert len(t["id"]) == 12 and sorted(p.name for p in faults.iterdir()) == ["exit", "hang", "nan", "raise"]
+    assert len(t["id"]) == 12
+    assert sorted(p.name for p in faults.iterdir()) == ["exit", "hang", "nan", "raise"]
     failed = {r for r, s in zip(t["reason"], t["status"]) if s == "failed"}
     assert len(failed) == 4, failed
     assert any(r.startswith("RuntimeError: injected simulation error") for r in failed)
@@ -259,7 +264,8 @@ def test_e_max_alone_fits_the_sleepers_energies_and_replays_them(tmp_path):
     assert len(evaluated) == 16
     for e in evaluated:
         assert len(e["parts"]) == 5
-        assert max(e["parts"]) - min(e["parts"]) == pytest.approx(e["objectives"]["E_max"], rel=1e-12)
+        spread = max(e["parts"]) - min(e["parts"])
+        assert spread == pytest.approx(e["objectives"]["E_max"], rel=1e-12)
     strategy, table = restore(pb, events, None)
     assert strategy.settings.composite is True
     assert strategy.aggregate is sleeper_energy_spread

@@ -40,8 +40,8 @@ def _wait_for(cond, timeout=120.0):
 
 
 def _uninterrupted(tmp_path: Path, case: Path, workers: int = 1) -> dict:
-    return read_table(optimise(case, workers=workers, runs=tmp_path / "uninterrupted", evaluator=FAKE,
-                               progress=False))
+    return read_table(optimise(case, workers=workers, runs=tmp_path / "uninterrupted",
+                               evaluator=FAKE, progress=False))
 
 
 def _one_error_line(stderr: str) -> str:
@@ -101,7 +101,8 @@ def test_a_stop_signal_to_the_process_group_leaves_the_running_evaluation_pendin
     run = tmp_path / "runs" / "st"
     # two workers and evaluation times that vary from point to point: results arrive out of order
     p = cli("optimise", case, "--workers", "2", "--runs", tmp_path / "runs",
-            env={**ENV, "LCCOPT_FAKE_DELAY": "0.4", "LCCOPT_FAKE_SPREAD": "0.8"}, start_new_session=True)
+            env={**ENV, "LCCOPT_FAKE_DELAY": "0.4", "LCCOPT_FAKE_SPREAD": "0.8"},
+            start_new_session=True)
     _wait_for(lambda: run.exists() and _n_done(run) >= 2)
     time.sleep(0.2)  # mid-evaluation
     os.killpg(p.pid, sig)
@@ -146,7 +147,8 @@ def test_disk_full_stops_with_one_line_exit_2_and_the_run_resumes_to_the_same_en
             r = subprocess.CompletedProcess(p.args, p.returncode, out, err)
         assert r.returncode == 2, r.stderr
         line = _one_error_line(r.stderr)
-        assert ("No space left on device" in line or "File too large" in line) and "lccopt resume" in line
+        assert "No space left on device" in line or "File too large" in line
+        assert "lccopt resume" in line
         run = runs / "full"
         assert not [e for e in _events(run) if e["event"] == "failed"]
         assert _n_done(run) < 12
@@ -200,7 +202,8 @@ def test_an_emptied_journal_is_refused_and_nothing_is_deleted(tmp_path):
 
 def _finished_run(tmp_path: Path, name: str) -> Path:
     case = write_case(tmp_path, name, budget=4, initial=4)
-    assert cli_run("optimise", case, "--workers", "1", "--runs", tmp_path / "runs", env=ENV).returncode == 0
+    r = cli_run("optimise", case, "--workers", "1", "--runs", tmp_path / "runs", env=ENV)
+    assert r.returncode == 0
     return tmp_path / "runs" / name
 
 
@@ -215,7 +218,8 @@ def test_damaged_run_files_give_one_line_and_exit_2(tmp_path):
     journal = (run / "journal.jsonl").read_bytes()
     lines = journal.splitlines(keepends=True)
     for bad in ({"seq": 1}, {"seq": 1, "event": "evaluated", "id": 999}):
-        (run / "journal.jsonl").write_bytes(lines[0] + (json.dumps(bad) + "\n").encode() + b"".join(lines[2:]))
+        (run / "journal.jsonl").write_bytes(lines[0] + (json.dumps(bad) + "\n").encode()
+                                            + b"".join(lines[2:]))
         r = cli_run("resume", run, env=ENV)
         assert r.returncode == 2 and "journal" in _one_error_line(r.stderr)
     (run / "journal.jsonl").write_bytes(journal)
@@ -240,8 +244,8 @@ def test_a_read_only_run_directory_gives_one_line_and_exit_2(tmp_path):
     case_open = write_case(tmp_path, "roopen", budget=12, initial=4)
     runs = base / "runs"
     assert cli_run("optimise", case_done, "--workers", "1", "--runs", runs, env=ENV).returncode == 0
-    p = cli("optimise", case_open, "--workers", "1", "--runs", runs, env={**ENV, "LCCOPT_FAKE_DELAY": "0.3"},
-            start_new_session=True)
+    p = cli("optimise", case_open, "--workers", "1", "--runs", runs,
+            env={**ENV, "LCCOPT_FAKE_DELAY": "0.3"}, start_new_session=True)
     _wait_for(lambda: (runs / "roopen").exists() and _n_done(runs / "roopen") >= 1)
     os.killpg(p.pid, signal.SIGTERM)
     assert p.wait(60) == 130
@@ -251,8 +255,9 @@ def test_a_read_only_run_directory_gives_one_line_and_exit_2(tmp_path):
         else:
             for d in [runs, *runs.rglob("*")]:
                 d.chmod(d.stat().st_mode & ~0o222)
+        new = write_case(tmp_path, "ronew", budget=3, initial=3)
         for args in (("resume", runs / "rodone"), ("resume", runs / "roopen"),
-                     ("optimise", write_case(tmp_path, "ronew", budget=3, initial=3), "--runs", runs)):
+                     ("optimise", new, "--runs", runs)):
             r = cli_run(*args, "--workers", "1", env=ENV)
             assert r.returncode == 2, (args, r.stderr)
             _one_error_line(r.stderr)
@@ -274,7 +279,8 @@ def cli_cmd() -> str:
     import shlex
     import sys
 
-    return f"{shlex.quote(sys.executable)} -c 'import sys; from lccopt.cli import main; sys.exit(main())'"
+    main = "import sys; from lccopt.cli import main; sys.exit(main())"
+    return f"{shlex.quote(sys.executable)} -c '{main}'"
 
 
 from .conftest import REPO  # noqa: E402

@@ -45,7 +45,8 @@ def _wait_for(cond, timeout=120.0):
 def _error_line(r) -> str:
     lines = r.stderr.strip().splitlines()
     assert r.returncode == 2, r.stderr
-    assert lines and lines[-1].startswith("lccopt: error: ") and "Traceback" not in r.stderr, r.stderr
+    assert lines and lines[-1].startswith("lccopt: error: "), r.stderr
+    assert "Traceback" not in r.stderr, r.stderr
     return lines[-1]
 
 
@@ -80,7 +81,8 @@ def test_links_planted_in_a_run_are_never_written_through(tmp_path, finished):
     (run / "evals").symlink_to(folder)
     line = _error_line(cli_run("resume", run, env=ENV))
     assert "evals" in line and "symbolic link" in line, line
-    assert sorted(p.name for p in folder.iterdir()) == ["keep.tmp"]   # nothing deleted, nothing written
+    # nothing deleted, nothing written
+    assert sorted(p.name for p in folder.iterdir()) == ["keep.tmp"]
 
     (run / "evals").unlink()
     shutil.move(tmp_path / "evals-moved", run / "evals")
@@ -120,8 +122,8 @@ def test_a_foreign_or_stale_snapshot_is_a_cache_dropped_for_a_replay(tmp_path):
     case = write_case(tmp_path, "st", budget=14, initial=4, seed=5)
     (tmp_path / "o").mkdir()
     other = write_case(tmp_path / "o", "st", budget=14, initial=4, seed=6)
-    reference = read_table(optimise(case, workers=1, runs=tmp_path / "uninterrupted", evaluator=FAKE,
-                                    progress=False))
+    reference = read_table(optimise(case, workers=1, runs=tmp_path / "uninterrupted",
+                                    evaluator=FAKE, progress=False))
     foreign = optimise(other, workers=1, runs=tmp_path / "foreign", evaluator=FAKE, progress=False)
     for planted in ("fifo", "foreign", "stale"):
         runs = tmp_path / f"planted-{planted}"
@@ -155,7 +157,8 @@ def test_a_foreign_or_stale_snapshot_is_a_cache_dropped_for_a_replay(tmp_path):
 
 # ------------------------------------------------------------------------ files swapped
 
-def test_an_evaluation_file_swapped_for_another_is_never_shown_and_is_simulated_again(tmp_path, finished):
+def test_an_evaluation_file_swapped_for_another_is_never_shown_and_is_simulated_again(
+        tmp_path, finished):
     case, run, table = finished
     best = int(table["id"][table["value"].argmin()])
     assert best != 0
@@ -163,14 +166,16 @@ def test_an_evaluation_file_swapped_for_another_is_never_shown_and_is_simulated_
     r = cli_run("report", run, env=ENV)
     assert r.returncode == 0, r.stderr
     summary = json.loads((run / "report" / "summary.json").read_text())
-    assert any(f"{best:06d}.h5 holds evaluation #0" in n for n in summary["notes"].values()), summary["notes"]
+    notes = summary["notes"]
+    assert any(f"{best:06d}.h5 holds evaluation #0" in n for n in notes.values()), notes
     case.write_text(case.read_text().replace("budget: 10", "budget: 11"))
     r = cli_run("resume", run, "--allow-changed-case", "--workers", "1", env=ENV)
     assert r.returncode == 0, r.stderr
     assert "1 evaluation file(s) lost or damaged" in r.stderr and f"#{best}" in r.stderr, r.stderr
     from lccopt.store import evaluation_problem
 
-    assert evaluation_problem(run / "evals" / f"{best:06d}.h5", best, table["x"][table["id"] == best][0]) is None
+    x_best = table["x"][table["id"] == best][0]
+    assert evaluation_problem(run / "evals" / f"{best:06d}.h5", best, x_best) is None
 
 
 def test_a_damaged_journal_is_said_by_report_on_one_line(tmp_path, finished):
@@ -181,7 +186,8 @@ def test_a_damaged_journal_is_said_by_report_on_one_line(tmp_path, finished):
     r = cli_run("report", run, env=ENV)
     assert r.returncode == 0, r.stderr
     warnings = [w for w in r.stderr.splitlines() if w.startswith("lccopt: warning: ")]
-    assert len(warnings) == 1 and "journal.jsonl" in warnings[0] and "results.h5" in warnings[0], r.stderr
+    assert len(warnings) == 1, r.stderr
+    assert "journal.jsonl" in warnings[0] and "results.h5" in warnings[0], r.stderr
 
 
 # ------------------------------------------------------------------------ changed cases
@@ -199,7 +205,8 @@ def test_changes_a_run_cannot_honour_are_refused_by_name(tmp_path, finished):
     line = _error_line(cli_run("resume", run, "--allow-changed-case", env=ENV))
     assert "budget of 6 is below the 10 evaluations" in line, line
     assert not any(e["event"] == "case_changed" for e in _events(run))
-    case.write_text(text.replace("budget: 10", "budget: 12").replace("timeout: 60.0", "timeout: 30.0"))
+    case.write_text(text.replace("budget: 10", "budget: 12")
+                    .replace("timeout: 60.0", "timeout: 30.0"))
     assert cli_run("resume", run, "--allow-changed-case", env=ENV).returncode == 0
     assert len(read_table(run)["id"]) == 12
 
@@ -209,11 +216,13 @@ def test_changes_a_run_cannot_honour_are_refused_by_name(tmp_path, finished):
 def test_absurd_worker_counts_and_scheduler_addresses_get_one_line_at_once(tmp_path):
     case = write_case(tmp_path, "w", budget=6, initial=4)
     for n in ("99999999999999999999999", "100000"):
-        line = _error_line(cli_run("optimise", case, "--workers", n, "--runs", tmp_path, env=ENV, timeout=60))
+        line = _error_line(cli_run("optimise", case, "--workers", n, "--runs", tmp_path,
+                                   env=ENV, timeout=60))
         assert "local workers fit here" in line, line
     for address in ("nonsense", "tcp://[::1", "http://host:1"):
         t0 = time.monotonic()
-        r = cli_run("optimise", case, "--scheduler", address, "--runs", tmp_path, env=ENV, timeout=60)
+        r = cli_run("optimise", case, "--scheduler", address, "--runs", tmp_path, env=ENV,
+                    timeout=60)
         assert time.monotonic() - t0 < 20          # the Client's finaliser would hang for 40 s
         assert "--scheduler" in _error_line(r) and "Exception ignored" not in r.stderr, r.stderr
     assert not (tmp_path / "w").exists()
@@ -226,8 +235,8 @@ def test_runs_that_is_not_a_folder_and_a_name_taken_by_a_file_are_said_plainly(t
     (tmp_path / "loop2").symlink_to(tmp_path / "loop1")
     for runs, words in (("afile", "a regular file"), ("loop1", "leads nowhere"),
                         ("/dev/null", "character device")):
-        line = _error_line(cli_run("optimise", case, "--runs", tmp_path / runs if runs[0] != "/" else runs,
-                                   env=ENV))
+        where = tmp_path / runs if runs[0] != "/" else runs
+        line = _error_line(cli_run("optimise", case, "--runs", where, env=ENV))
         assert words in line and "not a folder" in line, line
     (tmp_path / "runs").mkdir()
     (tmp_path / "runs" / "nf").write_text("")
@@ -292,8 +301,8 @@ def test_every_command_into_a_closed_pipe_exits_141_with_its_work_done(tmp_path,
 def test_a_worker_killed_by_a_signal_runs_its_design_again(tmp_path):
     """kill -9 of one local worker (as the OOM killer does) is not a failure of the design."""
     case = write_case(tmp_path, "k", budget=10, initial=4, seed=7)
-    reference = read_table(optimise(case, workers=2, runs=tmp_path / "uninterrupted", evaluator=FAKE,
-                                    progress=False))
+    reference = read_table(optimise(case, workers=2, runs=tmp_path / "uninterrupted",
+                                    evaluator=FAKE, progress=False))
     p = cli("optimise", case, "--workers", "2", "--runs", tmp_path / "runs",
             env={**ENV, "LCCOPT_FAKE_DELAY": "0.5"})
     run = tmp_path / "runs" / "k"
@@ -359,6 +368,7 @@ def test_a_journal_that_names_a_file_out_of_the_run_is_refused(tmp_path, finishe
     for ev in lines:
         if ev["event"] == "evaluated" and ev["id"] == 3:
             ev["file"] = "../../../../etc/hostname"
-    (run / "journal.jsonl").write_text("".join(json.dumps(ev, separators=(",", ":")) + "\n" for ev in lines))
+    (run / "journal.jsonl").write_text("".join(json.dumps(ev, separators=(",", ":")) + "\n"
+                                               for ev in lines))
     line = _error_line(cli_run("resume", run, env=ENV))
     assert "names the file" in line and "/etc/hostname" in line, line

@@ -42,14 +42,16 @@ def _events(run):
 
 
 def _asked(run):
-    return [(e["id"], e["x"], e["phase"], e["restart"]) for e in _events(run) if e["event"] == "asked"]
+    return [(e["id"], e["x"], e["phase"], e["restart"]) for e in _events(run)
+            if e["event"] == "asked"]
 
 
 def _state(strategy) -> str:
     return json.dumps(strategy.state_dict(), sort_keys=True)
 
 
-def test_the_same_case_twice_with_the_real_simulator_and_two_workers_gives_identical_tables(tmp_path):
+def test_the_same_case_twice_with_the_real_simulator_and_two_workers_gives_identical_tables(
+        tmp_path):
     """`lccopt optimise` as a user runs it, twice: identical results.h5 tables (ids, x, objectives,
     value, status, reason, phase, restart, file) and the same proposals in the same order."""
     case = write_case(tmp_path, "twice", budget=18, initial=5, seed=6, worst=(20000.0, 3.0))
@@ -80,7 +82,8 @@ def test_results_arriving_out_of_order_do_not_change_the_run(tmp_path, monkeypat
     for run in runs[1:]:
         assert_same_evaluations(read_table(runs[0]), read_table(run))
         assert _asked(runs[0]) == _asked(run)
-    arrived = [e["id"] for run in runs for e in _events(run) if e["event"] in ("evaluated", "failed")]
+    arrived = [e["id"] for run in runs for e in _events(run)
+               if e["event"] in ("evaluated", "failed")]
     assert arrived != sorted(arrived), "the test needs results that arrive out of order"
     schedule = [e for e in _events(runs[0]) if e["event"] == "schedule"]
     assert [(e["lag"], e["batch"]) for e in schedule] == [(workers, batch_size(workers))]

@@ -13,14 +13,15 @@ ENV = {"LCCOPT_EVALUATOR": FAKE}
 
 
 def _asked(run):
-    return [(e["id"], e["x"]) for e in read_journal(run / "journal.jsonl")[0] if e["event"] == "asked"]
+    return [(e["id"], e["x"]) for e in read_journal(run / "journal.jsonl")[0]
+            if e["event"] == "asked"]
 
 
 def test_set_is_recorded_and_resume_budget_extends_a_finished_run(tmp_path):
     case = write_case(tmp_path, "ctl", budget=30, initial=4, seed=3)
     runs = tmp_path / "runs"
-    r = cli_run("optimise", case, "--workers", "1", "--runs", runs, "--set", "optimisation.budget=8",
-                "--set", "optimisation.seed=5", env=ENV)
+    r = cli_run("optimise", case, "--workers", "1", "--runs", runs,
+                "--set", "optimisation.budget=8", "--set", "optimisation.seed=5", env=ENV)
     assert r.returncode == 0, r.stderr
     run = runs / "ctl"
     assert len(read_table(run)["id"]) == 8

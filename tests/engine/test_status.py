@@ -15,7 +15,8 @@ ENV = {"LCCOPT_EVALUATOR": FAKE}
 
 def _n_done(run) -> int:
     try:
-        return sum(e["event"] in ("evaluated", "failed") for e in read_journal(run / "journal.jsonl")[0])
+        events = read_journal(run / "journal.jsonl")[0]
+        return sum(e["event"] in ("evaluated", "failed") for e in events)
     except Exception:  # noqa: BLE001 - not there yet
         return 0
 
@@ -41,9 +42,10 @@ def test_status_of_a_running_a_stopped_and_a_finished_run(tmp_path):
     r = cli_run("status", run)
     assert r.returncode == 0 and "stopped" in r.stdout.splitlines()[0], r.stdout
     assert f"lccopt resume {run}" in r.stdout
-    done = optimise(write_case(tmp_path, "f", budget=8, initial=4), workers=1, runs=tmp_path / "runs",
-                    evaluator=FAKE, progress=False)
+    done = optimise(write_case(tmp_path, "f", budget=8, initial=4), workers=1,
+                    runs=tmp_path / "runs", evaluator=FAKE, progress=False)
     r = cli_run("status", done)
     assert r.returncode == 0 and r.stdout.startswith(f"{done}: finished, 8/8 evaluations"), r.stdout
     r = cli_run("status", tmp_path)
-    assert r.returncode == 2 and r.stderr.startswith("lccopt: error: ") and "not an lccopt run" in r.stderr
+    assert r.returncode == 2 and r.stderr.startswith("lccopt: error: ")
+    assert "not an lccopt run" in r.stderr
