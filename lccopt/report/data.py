@@ -12,10 +12,11 @@ from pathlib import Path
 import numpy as np
 
 from ..safeio import h5_open_owned, is_regular_file, read_owned
-from ..vti.response import OBJECTIVE_DOC, objective_display as obj_display  # noqa: F401 (re-exported)
+from ..vti.response import (OBJECTIVE_DOC, improvement_sign,  # noqa: F401 (re-exported)
+                            objective_display as obj_display, objective_unit)
 
 FORMATS = ("md", "html", "both")
-OBJECTIVE_NAMES = ("F_rms", "F_max", "E_rms", "E_max")
+OBJECTIVE_NAMES = ("F_rms", "F_max", "E_rms", "E_max")   # the paper's
 # Okabe & Ito's colour-blind-safe palette (Color Universal Design, 2008): every pair stays
 # distinguishable under the common colour-vision deficiencies.
 OKABE_ITO = {"orange": "#E69F00", "sky": "#56B4E9", "green": "#009E73", "yellow": "#F0E442",
@@ -32,7 +33,8 @@ ZONE_COLOR, TYPE_II_COLOR = OKABE_ITO["yellow"], OKABE_ITO["purple"]
 DPI = 110
 
 FIGURES = ("search-history", "objective-space", "best-vs-reference", "conditions", "contact-force",
-           "sleeper-energy", "track-layout", "sensitivity")
+           "sleeper-energy", "track-layout", "sensitivity", "settlement-history",
+           "settlement-profile")
 
 
 
@@ -69,7 +71,7 @@ class RunData:
     variables: list[VarInfo]
     ids: np.ndarray
     x: np.ndarray
-    obj: dict                      # objective name -> array over evaluations
+    obj: dict                      # objective name -> array over evaluations (table order)
     value: np.ndarray
     status: np.ndarray
     reason: np.ndarray
@@ -319,12 +321,13 @@ def _read_results(path: Path) -> dict:
                 for k in ("status", "reason", "phase", "file")}
         ref = f["reference"]
         objectives = [_s(v) for v in a["objectives"]]
+        columns = [_s(v) for v in a.get("objective_columns", OBJECTIVE_NAMES)]
         worst = np.asarray(a.get("worst", []), dtype=float)
         return {
             "name": _s(a.get("case_name", "")), "objectives": objectives,
             "scalarisation": _s(a.get("scalarisation", "single")), "budget": int(a.get("budget", n)),
             "names": names, "ids": ids, "x": e["x"][()].reshape(n, len(names)),
-            "obj": {k: e[k][()].astype(float) for k in OBJECTIVE_NAMES if k in e},
+            "obj": {k: e[k][()].astype(float) for k in columns if k in e},
             "value": e["value"][()].astype(float), **strs,
             "restart": e["restart"][()].astype(int), "wall_time": e["wall_time"][()].astype(float),
             "pareto": e["pareto"][()].astype(bool) if "pareto" in e else np.zeros(n, bool),
@@ -365,8 +368,10 @@ def _from_journal(run: Path, events: list[dict], res: dict | None) -> dict:
         table.apply(ev)
     rows = table.done_rows()
     n = len(rows)
+    from ..engine.rundir import objective_columns
+
     obj = {k: np.array([float(r["objectives"].get(k, math.nan)) for r in rows], dtype=float)
-           for k in OBJECTIVE_NAMES}
+           for k in objective_columns(rows, objectives)}
     status = np.array([r["status"] for r in rows], dtype=object)
     conditions = list(dict.fromkeys(k.split("@", 1)[1] for r in rows for k in r["objectives"] if "@" in k))
     cond_obj = {c: {k: np.array([float(r["objectives"].get(f"{k}@{c}", math.nan)) for r in rows])
@@ -447,7 +452,13 @@ def read_history(run: RunData, index: int | None, condition: str | None = None
 # ================================================================================ formatting
 
 def obj_unit(k: str) -> str:
-    return "N" if k.startswith("F") else "J"
+    """The SI unit of objective k."""
+    return objective_unit(k)
+
+
+def table_unit(k: str) -> tuple[float, str]:
+    """(scale, unit) of objective k in the report's tables: SI, but lengths in mm."""
+    return (1e3, "mm") if objective_unit(k) == "m" else (1.0, objective_unit(k))
 
 
 def fnum(v: float, sig: int = 5) -> str:

@@ -8,8 +8,8 @@ from pathlib import Path
 import numpy as np
 
 from .data import (BEST_COLOR, DPI, FAIL_COLOR, FRONT_COLOR, OBJECTIVE_NAMES, OKABE_ITO, PHASE_STYLE,
-                   REF_COLOR, TYPE_II_COLOR, ZONE_COLOR, RunData,
-                   fnum, obj_display, value_label, var_axis_label, var_value)
+                   REF_COLOR, TYPE_II_COLOR, ZONE_COLOR, RunData, fnum, improvement_sign,
+                   obj_display, value_label, var_axis_label, var_value)
 
 
 def _plt():
@@ -319,15 +319,18 @@ def fig_objective_space(run: RunData, out: Path) -> tuple[Path, str]:
 def fig_best_vs_reference(run: RunData, bi: int, ri: int | None, out: Path) -> Path:
     """Relative change of every objective (left) and the design vector (right), best vs reference."""
     plt = _plt()
-    fig, (a1, a2) = plt.subplots(1, 2, figsize=(9.5, 3.8), gridspec_kw={"width_ratios": [1, 1.5]})
-    names = [k for k in OBJECTIVE_NAMES if k in run.obj]
+    names = [k for k in run.obj if k in OBJECTIVE_NAMES or np.isfinite(run.obj[k][bi])]
+    rows = max(len(names), len(run.names))
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(9.5, max(3.8, 1.4 + 0.3 * rows)),
+                                 gridspec_kw={"width_ratios": [1, 1.5]})
     ch = []
     for k in names:
         r = run.ref_objectives.get(k, run.obj[k][ri] if ri is not None else math.nan)
         b = run.obj[k][bi]
         ch.append((b - r) / abs(r) * 100 if np.isfinite(b) and np.isfinite(r) and r else math.nan)
     ch = np.array(ch)
-    colors = [(OKABE_ITO["blue"] if c < 0 else OKABE_ITO["vermillion"]) for c in np.nan_to_num(ch)]
+    better = [c * improvement_sign(k) < 0 for k, c in zip(names, np.nan_to_num(ch))]
+    colors = [OKABE_ITO["blue"] if b else OKABE_ITO["vermillion"] for b in better]
     y = np.arange(len(names))
     a1.barh(y, np.nan_to_num(ch), color=colors)
     a1.set_yticks(y, names)
@@ -341,7 +344,8 @@ def fig_best_vs_reference(run: RunData, bi: int, ri: int | None, out: Path) -> P
     for yi, c in zip(y, ch):
         if np.isfinite(c):
             a1.text(0, yi, f" {c:+.1f} % ", va="center", ha="right" if c >= 0 else "left", fontsize=8)
-    a1.set(xlabel="change vs reference design [%]", title="objectives (bold: the run's; negative = better)")
+    a1.set(xlabel="change vs reference design [%]",
+           title="objectives\n(bold: the run's; blue: better)")
     a1.grid(axis="y", visible=False)
     # design vector, as a fraction of each variable's range
     xb, xr = run.x[bi], run.ref_x

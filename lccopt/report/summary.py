@@ -10,8 +10,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .data import (OBJECTIVE_DOC, OBJECTIVE_NAMES, PHASE_STYLE, RunData, fnum, obj_display, obj_unit, pct,
-                   var_value)
+from .data import (OBJECTIVE_DOC, OBJECTIVE_NAMES, PHASE_STYLE, RunData, fnum, improvement_sign, obj_display,
+                   obj_unit, pct, table_unit, var_value)
 
 
 class Doc:
@@ -126,7 +126,9 @@ def history_facts(best: tuple, ref: tuple, condition: str | None = None) -> list
 
 
 def build_summary(run: RunData, figs: dict, notes: dict, facts: list[str] | None = None,
-                  indices: dict | None = None) -> tuple[Doc, dict]:
+                  indices: dict | None = None, settlement=None) -> tuple[Doc, dict]:
+    """The summary document and summary.json's numbers; ``settlement``: (designs, limit) of a
+    run that predicted settlement (``lccopt.report.settlement``)."""
     doc = Doc()
     bi, ri = run.best_index(), run.ref_index()
     n_failed = int((run.status == "failed").sum())
@@ -143,9 +145,12 @@ def build_summary(run: RunData, figs: dict, notes: dict, facts: list[str] | None
     # --- what was searched
     doc.h(2, "What was searched")
     if run.multi:
-        pt = ", ".join(f"{k} = {fnum(v)} {obj_unit(k)}" for k, v in zip(run.objectives, run.ref_point)) \
+        def shown(k, v):
+            return f"{k} = {fnum(v * table_unit(k)[0])} {table_unit(k)[1]}"
+
+        pt = ", ".join(shown(k, v) for k, v in zip(run.objectives, run.ref_point)) \
             if run.ref_point is not None else "not set yet"
-        wst = ", ".join(f"{k} = {fnum(v)} {obj_unit(k)}" for k, v in zip(run.objectives, run.worst)) \
+        wst = ", ".join(shown(k, v) for k, v in zip(run.objectives, run.worst)) \
             if run.worst is not None else "–"
         doc.p(f"Minimise {', '.join(f'**{k}** ({OBJECTIVE_DOC.get(k, k)})' for k in run.objectives)} together, "
               f"scalarised by the augmented Chebyshev achievement function (paper Eq. 7, ρ = {run.rho:g}). "
@@ -153,7 +158,7 @@ def build_summary(run: RunData, figs: dict, notes: dict, facts: list[str] | None
               f"worst values: {wst}. The value is 0 on the reference point and negative beyond it.")
     else:
         k = run.objectives[0]
-        doc.p(f"Minimise **{k}**: {OBJECTIVE_DOC.get(k, k)} [{obj_unit(k)}].")
+        doc.p(f"Minimise **{k}**: {OBJECTIVE_DOC.get(k, k)} [{table_unit(k)[1]}].")
     rows = []
     for v in run.variables:
         rng = f"{var_value(v, v.lower)} … {var_value(v, v.upper)}" if np.isfinite(v.lower) else "–"
@@ -205,8 +210,10 @@ def build_summary(run: RunData, figs: dict, notes: dict, facts: list[str] | None
     # --- best design vs reference
     doc.h(2, "Best design against the reference design")
     lab = "chosen compromise (lowest ASF value)" if run.multi else f"lowest {run.objectives[0]}"
+    longer = [k for k in run.obj if improvement_sign(k) < 0]
     doc.p(f"The best design is evaluation **#{run.ids[bi]}**, the {lab}. Changes are relative to the "
-          f"reference design (evaluation #0); negative is better for every objective (paper Tables 5-7).")
+          f"reference design (evaluation #0); negative is better for every objective (paper Tables 5-7)"
+          + (f" but {', '.join(longer)}, a life (longer is better)." if longer else "."))
     rows = []
     for j, v in enumerate(run.variables):
         xr, xb = run.ref_x[j], run.x[bi, j]
@@ -214,16 +221,17 @@ def build_summary(run: RunData, figs: dict, notes: dict, facts: list[str] | None
                      pct(xb, xr) if not v.integer else (f"{xb - xr:+g}" if xb != xr else "0")])
     doc.table(["variable", "meaning", "unit", "reference", f"best #{run.ids[bi]}", "change"], rows, "lllrrr")
     rows = []
-    for k in OBJECTIVE_NAMES:
-        if k not in run.obj:
-            continue
+    for k in run.obj:
         r = run.ref_objectives.get(k, run.obj[k][ri] if ri is not None else math.nan)
         b = float(run.obj[k][bi])
+        if k not in OBJECTIVE_NAMES and not (np.isfinite(b) or np.isfinite(r)):
+            continue
+        s_, unit = table_unit(k)
         tgt = ""
         if run.multi and run.ref_point is not None and k in run.objectives:
             t = run.ref_point[run.objectives.index(k)]
-            tgt = f"{fnum(t)} ({'reached' if b <= t else 'not reached'})"
-        rows.append([f"**{k}**" if k in run.objectives else k, obj_unit(k), fnum(r), fnum(b), pct(b, r)]
+            tgt = f"{fnum(t * s_)} ({'reached' if b <= t else 'not reached'})"
+        rows.append([f"**{k}**" if k in run.objectives else k, unit, fnum(r * s_), fnum(b * s_), pct(b, r)]
                     + ([tgt] if run.multi else []))
     doc.table(["objective", "unit", "reference", f"best #{run.ids[bi]}", "change"]
               + (["target f^r"] if run.multi else []), rows)
@@ -235,6 +243,8 @@ def build_summary(run: RunData, figs: dict, notes: dict, facts: list[str] | None
 
     if run.conditions and ri is not None:
         _conditions_section(doc, run, bi, ri, figs)
+    if settlement is not None:
+        _settlement_section(doc, run, *settlement, figs)
 
     # --- why
     doc.h(2, "Why it is better")
@@ -363,3 +373,39 @@ def _conditions_section(doc: Doc, run: RunData, bi: int, ri: int, figs: dict) ->
         doc.fig(figs["conditions"], "Each condition's objectives, reference design against the best design; "
                 "dashed: the combined value.")
 
+
+
+def _settlement_section(doc: Doc, run: RunData, designs: list, limit, figs: dict) -> None:
+    """What the settlement prediction assumed, what its objectives mean, and what it shows."""
+    from .settlement import facts, meaning_items
+
+    doc.h(2, "Settlement over the horizon")
+    info = designs[-1].info
+    horizon = info.get("settlement_horizon_years")
+    deg = run.case.degradation if run.case is not None else None
+    what = (f"over {horizon:g} year{'' if horizon == 1 else 's'}" if horizon
+            else "over its horizon")
+    if deg is not None:
+        from ..config.describe import law_items
+
+        traffic = (", ".join(f"{k} {v:.3g} passages a year" for k, v in deg["traffic"].items())
+                   if deg.get("traffic") else f"{deg['passages_per_year']:.3g} passages a year")
+        what += (f" of the traffic ({traffic}), by the {deg['law']['name']} law "
+                 f"({', '.join(law_items(deg['law']))}), {deg['settling_sleepers']} settling "
+                 f"sleepers next to the slab")
+    doc.p(f"Every design's settlement was predicted {what} (docs/settlement.md): blocks of load "
+          f"cycles, each sleeper's ballast settling by the law from the peak force of every axle, "
+          f"the track re-simulated as it settles. The objectives at the horizon:")
+    doc.ul(meaning_items(limit))
+    for d in designs:
+        doc.p(facts(d))
+    for key, cap in (("settlement-history", "Top: settlement of every settling sleeper against axle "
+                                            "passes (colour: distance from the slab; ticks: the "
+                                            "simulated passages). Bottom: the limit's measure and the "
+                                            "largest void against axle passes and years."),
+                     ("settlement-profile", "Top: the ballast's lowering under each sleeper (markers) "
+                                            "and the rail's level at rest (thin) along the approach at "
+                                            "chosen times; bottom: the voids under the sleepers. Solid: "
+                                            "the best design, dashed: the reference design.")):
+        if key in figs:
+            doc.fig(figs[key], cap)
