@@ -76,8 +76,8 @@ def check(case: Path = typer.Argument(..., help="case file (YAML)"),
 def simulate(
     case: Path = typer.Argument(..., help="case file (YAML)"),
     design: Optional[str] = typer.Option(None, help="design x in the case's order, comma-separated: "
-                                         "pad stiffness x_r1..x_rN in MN/m, then x_n, the spans x_s1.. in "
-                                         "0.1 m elements, x_l in 0.1 m elements; e.g. 214,155,50,5,6,7,3,0 "
+                                         "pad stiffness x_r1..x_rN in MN/m, then x_n, the spans x_s1.. and "
+                                         "the strip x_l in m (0.1 m steps); e.g. 214,155,50,5,0.6,0.7,0.3,0 "
                                          "(default: the case's reference design)"),
     out: Optional[Path] = typer.Option(None, help="output directory (default: runs/<case name>-simulate)"),
     no_plots: bool = typer.Option(False, "--no-plots", help="skip the PNG plots"),

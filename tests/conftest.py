@@ -26,13 +26,23 @@ def lccopt_command() -> list[str]:
     return [exe] if exe else [sys.executable, "-m", "lccopt.cli"]
 
 
+def subprocess_env(base=None, **extra) -> dict:
+    """The environment for an lccopt subprocess.  A test evaluator (``tests.engine.fakesim``)
+    lives in this repository, not in the installed package: the subprocess then needs the
+    repository on its path, which a plain (non-editable) install, as CI makes, lacks."""
+    env = {**(os.environ if base is None else base), "MPLBACKEND": "Agg", **extra}
+    if env.get("LCCOPT_EVALUATOR", "").startswith("tests."):
+        env["PYTHONPATH"] = os.pathsep.join(p for p in (str(ROOT), env.get("PYTHONPATH")) if p)
+    return env
+
+
 @pytest.fixture
 def run_cli(tmp_path):
     """Run ``lccopt ARGS`` in a subprocess from tmp_path; return the CompletedProcess."""
     def run(*args, cwd=None, timeout=600, env=None):
         return subprocess.run(lccopt_command() + [str(a) for a in args], cwd=cwd or tmp_path,
                               capture_output=True, text=True, timeout=timeout,
-                              env={**os.environ, "MPLBACKEND": "Agg", **(env or {})})
+                              env=subprocess_env(**(env or {})))
     return run
 
 

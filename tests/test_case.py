@@ -100,11 +100,13 @@ def test_extends_overrides_and_reports_the_right_file(tmp_path):
 
 def test_design_vector_checks():
     case = load_case(CONFIGS / "reference.yaml")
-    x = parse_design("214,155,50,5,6,7,3,0", case)          # pads in MN/m, as on screen
+    x = parse_design("214,155,50,5,0.6,0.7,0.3,0", case)   # as on screen: MN/m, m
     assert np.array_equal(x, [214e6, 155e6, 50e6, 5, 6, 7, 3, 0])
-    for bad, words in [("214,155", "has 8 values"), ("214,155,50,5.5,6,7,3,0", "whole number"),
-                       ("1,155,50,5,6,7,3,0", "outside"), ("214e6,155,50,5,6,7,3,0", "outside"),
-                       ("a,b", "comma-separated")]:
+    for bad, words in [("214,155", "has 8 values"), ("214,155,50,5.5,0.6,0.7,0.3,0", "whole number"),
+                       ("214,155,50,5,0.65,0.7,0.3,0", "x_s1 = 0.65 m is not a multiple of 0.1 m"),
+                       ("214,155,50,5,6,7,3,0", "x_s1 = 6 m is outside"),
+                       ("1,155,50,5,0.6,0.7,0.3,0", "outside"),
+                       ("214e6,155,50,5,0.6,0.7,0.3,0", "outside"), ("a,b", "comma-separated")]:
         with pytest.raises(ValueError, match=words):
             parse_design(bad, case)
 

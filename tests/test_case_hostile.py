@@ -296,7 +296,7 @@ def test_simulate_never_shows_a_non_finite_objective_as_a_result(tmp_path, run_c
     (tmp_path / "faults").mkdir()
     env = {"LCCOPT_EVALUATOR": "tests.engine.fakesim:faulty", "LCCOPT_TEST_FAULTS": "nan",
            "LCCOPT_TEST_FAULT_DIR": str(tmp_path / "faults"), "PYTHONPATH": str(ROOT)}
-    r = run_cli("simulate", Q, "--design", "214,155,50,5,6,7,3,0", "--out", "o", env=env)
+    r = run_cli("simulate", Q, "--design", "214,155,50,5,0.6,0.7,0.3,0", "--out", "o", env=env)
     assert r.returncode == 2, (r.stdout, r.stderr)
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and "non-finite objectives: F_rms = nan" in lines[0], r.stderr

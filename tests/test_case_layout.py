@@ -50,7 +50,7 @@ def test_a_nine_metre_slab_moves_the_zone_end_with_it(tmp_path, run_cli):
     assert r.returncode == 0, r.stderr
     assert "force to 2 m before the exit interface (x = 107 m)" in r.stdout
     # and the Type II strip's range with it: the whole ERS, by default
-    assert "x_l∈Z [0, 90] x 0.1 m" in r.stdout
+    assert "x_l [0, 9] m in 0.1 m steps" in r.stdout
     r = run_cli("simulate", case, "--out", tmp_path / "out", "--no-plots")
     assert r.returncode == 0, r.stderr
     assert "(x = 107 m)" in r.stdout

@@ -60,7 +60,7 @@ def test_simulate_writes_readable_histories_and_plots(reference_run):
 
 
 def test_simulate_another_design(run_cli, tmp_path):
-    proc = run_cli("simulate", CONFIGS / "reference.yaml", "--design", "214,155,50,5,6,7,3,0",
+    proc = run_cli("simulate", CONFIGS / "reference.yaml", "--design", "214,155,50,5,0.6,0.7,0.3,0",
                    "--out", tmp_path / "moo", "--no-plots")
     assert proc.returncode == 0, proc.stderr
     with h5py.File(tmp_path / "moo" / "simulation.h5") as f:
@@ -71,9 +71,9 @@ def test_simulate_another_design(run_cli, tmp_path):
 
 
 def test_simulate_rejects_a_bad_design(run_cli):
-    proc = run_cli("simulate", CONFIGS / "reference.yaml", "--design", "214,155,50,5,6,7,3,500")
+    proc = run_cli("simulate", CONFIGS / "reference.yaml", "--design", "214,155,50,5,0.6,0.7,0.3,50")
     assert proc.returncode == 2
-    assert proc.stderr.strip().splitlines() == ["lccopt: error: --design: x_l = 500 is outside [0, 120]"]
+    assert proc.stderr.strip().splitlines() == ["lccopt: error: --design: x_l = 50 m is outside [0, 12] m"]
 
 
 def test_check_accepts_a_good_case(run_cli):
@@ -111,7 +111,7 @@ def test_missing_file_and_usage_errors(run_cli, tmp_path):
 
 
 def test_design_is_given_in_mn_per_m_and_checked_in_those_units(run_cli, tmp_path):
-    proc = run_cli("simulate", CONFIGS / "reference.yaml", "--design", "214e6,155,50,5,6,7,3,0",
+    proc = run_cli("simulate", CONFIGS / "reference.yaml", "--design", "214e6,155,50,5,0.6,0.7,0.3,0",
                    "--out", tmp_path / "x")
     assert proc.returncode == 2
     assert proc.stderr.strip() == "lccopt: error: --design: x_r1 = 2.14e+08 MN/m is outside [50, 1200] MN/m"

@@ -12,7 +12,7 @@ import subprocess
 import termios
 import time
 
-from tests.conftest import REFERENCE, lccopt_command, write_case
+from tests.conftest import REFERENCE, lccopt_command, subprocess_env, write_case
 
 ANSI = re.compile(r"\x1b\[[0-9;?]*[A-Za-z]")
 
@@ -20,8 +20,8 @@ ANSI = re.compile(r"\x1b\[[0-9;?]*[A-Za-z]")
 def run_in_terminal(args, cwd, columns=80, timeout=300) -> str:
     master, slave = pty.openpty()
     fcntl.ioctl(slave, termios.TIOCSWINSZ, struct.pack("HHHH", 24, columns, 0, 0))
-    env = {k: v for k, v in os.environ.items() if k not in ("COLUMNS", "LINES")}
-    env.update(TERM="xterm-256color", MPLBACKEND="Agg")
+    env = subprocess_env({k: v for k, v in os.environ.items() if k not in ("COLUMNS", "LINES")},
+                         TERM="xterm-256color")
     proc = subprocess.Popen(lccopt_command() + [str(a) for a in args], cwd=cwd, env=env,
                             stdin=slave, stdout=slave, stderr=slave, close_fds=True)
     os.close(slave)
@@ -79,8 +79,8 @@ def _terminal_lines(args, cwd, env=None) -> tuple[int, list[str]]:
     """(exit status, screen lines) of `lccopt ARGS` on an 80-column terminal."""
     master, slave = pty.openpty()
     fcntl.ioctl(slave, termios.TIOCSWINSZ, struct.pack("HHHH", 24, 80, 0, 0))
-    e = {k: v for k, v in os.environ.items() if k not in ("COLUMNS", "LINES")}
-    e.update(TERM="xterm-256color", MPLBACKEND="Agg", **(env or {}))
+    e = subprocess_env({k: v for k, v in os.environ.items() if k not in ("COLUMNS", "LINES")},
+                       TERM="xterm-256color", **(env or {}))
     proc = subprocess.Popen(lccopt_command() + [str(a) for a in args], cwd=cwd, env=e,
                             stdin=slave, stdout=slave, stderr=slave, close_fds=True)
     os.close(slave)

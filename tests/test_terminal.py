@@ -32,4 +32,4 @@ def test_check_prints_lines_of_at_most_80_characters():
     lines = proc.stdout.splitlines()
     assert "ok: case 'reference', 8 design variables" in lines[0]
     assert all(len(line) <= 80 for line in lines[1:]), lines
-    assert "x_l∈Z [0, 120]" in proc.stdout
+    assert "x_l [0, 12] m in 0.1 m steps" in proc.stdout

@@ -18,7 +18,7 @@ import numpy as np
 import yaml
 
 from ..errors import CaseError
-from ..vti.specs import Scenario, TrackDesign
+from ..vti.specs import ELEMENT_UNIT, Scenario, TrackDesign
 from . import build
 from . import overrides as set_values
 from .checks import (check_accuracy, check_design_size, check_layout_fits, check_mesh_units,
@@ -55,11 +55,16 @@ class Variable:
 
     @property
     def display(self) -> tuple[str, float]:
-        """(unit, scale) shown to people: pad stiffness in MN/m, counts as they are."""
-        return ("MN/m", 1e-6) if self.unit == "N/m" else ("", 1.0)
+        """(unit, scale) shown to people: pad stiffness in MN/m, spans and the strip (counted
+        in 0.1 m elements) in m, counts as they are."""
+        if self.unit == "N/m":
+            return "MN/m", 1e-6
+        if self.unit == "elements":
+            return "m", ELEMENT_UNIT
+        return "", 1.0
 
     def show(self, value: float) -> str:
-        """``x_r1=214 MN/m``: the value in the units people use."""
+        """``x_r1=214 MN/m``, ``x_s3=0.3 m``: the value in the units people use."""
         unit, scale = self.display
         return f"{self.name}={value * scale:.6g}" + (f" {unit}" if unit else "")
 
@@ -426,20 +431,29 @@ def _conditions(data: dict, path: Path, lines: dict, err,
 
 
 def parse_design(text: str, case: Case) -> np.ndarray:
-    """Parse ``--design 214,155,50,5,6,7,3,0`` (pads in MN/m, the rest as counted) into a
-    checked design vector in SI units (raises ValueError)."""
+    """Parse ``--design 214,155,50,5,0.6,0.7,0.3,0`` (in the units shown: pads in MN/m, spans
+    and the strip in m, counts as they are) into a checked design vector in SI units
+    (raises ValueError)."""
     try:
         x = [float(t) for t in text.replace(" ", "").split(",") if t]
     except ValueError:
         raise ValueError(f"expected comma-separated numbers, got {text!r}") from None
     if len(x) == len(case.variables):
+        model = []
         for xi, v in zip(x, case.variables):
             unit, scale = v.display
             u = f" {unit}" if unit else ""
-            if not np.isfinite(xi) or not v.lower * scale <= xi <= v.upper * scale:
+            q = xi / scale if np.isfinite(xi) else np.nan
+            if v.integer and scale != 1.0 and np.isfinite(q):   # a length counted in 0.1 m elements
+                if abs(q - round(q)) > 1e-6:
+                    raise ValueError(f"{v.name} = {xi:g}{u} is not a multiple of {scale:g}{u}")
+                q = float(round(q))
+            tol = 1e-9 * max(abs(v.lower), abs(v.upper), 1.0)
+            if not np.isfinite(q) or not v.lower - tol <= q <= v.upper + tol:
                 raise ValueError(f"{v.name} = {xi:g}{u} is outside "
                                  f"[{v.lower * scale:g}, {v.upper * scale:g}]{u}")
-        x = [xi / v.display[1] for xi, v in zip(x, case.variables)]
+            model.append(min(max(q, v.lower), v.upper))
+        x = model
     return case.check_design(x)
 
 

@@ -15,8 +15,6 @@ from .checks import simulation_size
 from .degradation import SINGLE_CONDITION, axles
 from .zones import force_zone_end, zone_end_x
 
-_SPAN_GROUPS = ("sleeper_spans", "type_ii_strip")
-
 
 def vehicle_facts(vehicle: dict) -> tuple[str, float, float]:
     """(type, speed [km/h], static wheel load [kN]) of a vehicle section."""
@@ -36,9 +34,10 @@ def variable_items(case) -> list[str]:
     out = []
     for v in case.variables:
         unit, scale = v.display
-        unit = " x 0.1 m" if v.group in _SPAN_GROUPS else (f" {unit}" if unit else "")
-        out.append(f"{v.name}{'∈Z' if v.integer else ''} [{v.lower * scale:g}, "
-                   f"{v.upper * scale:g}]{unit}{' log' if v.log else ''}")
+        steps = v.integer and scale != 1.0          # a length counted in 0.1 m elements
+        out.append(f"{v.name}{'∈Z' if v.integer and not steps else ''} [{v.lower * scale:g}, "
+                   f"{v.upper * scale:g}]{f' {unit}' if unit else ''}"
+                   f"{f' in {scale:g} m steps' if steps else ''}{' log' if v.log else ''}")
     return out
 
 

@@ -297,9 +297,10 @@ def _resume_case(rd: RunDir, meta: dict, case, allow_changed: bool, out: Progres
     if sha256_text(case_obj.resolved) != meta.get("case_sha256"):
         if not allow_changed:
             raise _usage_error(
-                f"the case file {case_obj.path} changed since the run started (the resolved case "
-                f"differs from {rd.case_path}); restore it, resume with --case {rd.case_path} (the "
-                f"run's copy), or with --allow-changed-case to use the changed case")
+                f"the case file {case_obj.path} or a file it reads (extends, irregularity) changed "
+                f"since the run started (the resolved case differs from {rd.case_path}); restore it, "
+                f"resume with --case {rd.case_path} (the run's copy), or with --allow-changed-case "
+                f"to use the changed case")
         old_case = load_case(rd.case_path)
         old, new = Problem.from_case(old_case), Problem.from_case(case_obj)
         if not old.same_space(new):
