@@ -165,15 +165,16 @@ def _simulate_settlement(case, case_path: Path, x, out: Path, plots: bool, evalu
     h = ev.histories
     if "settlement_sleepers" in h:
         s, v = h["settlement_sleepers"][-1] * 1e3, h["settlement_void"][-1] * 1e3
-        typer.echo("\n".join(wrap_items([f"{a:.2f}" for a in s],
-                                         "settlement [mm], sleeper 1 (next to the slab) on: ")))
-        typer.echo("\n".join(wrap_items([f"{a:.2f}" for a in v], "void [mm]: ")))
+        typer.echo("settlement and void [mm] at the horizon, from the sleeper next to the slab:")
+        typer.echo("\n".join(wrap_items([f"{a:.2f}" for a in s], "  settlement ")))
+        typer.echo("\n".join(wrap_items([f"{a:.2f}" for a in v], "  void       ")))
     out.mkdir(parents=True, exist_ok=True)
     h5 = write_evaluation(out / "simulation.h5", ev, x, case.names,
                           {"case": case.resolved, **machine.describe()})
     typer.echo(f"histories: {h5}")
     if plots:
-        from .report.settlement import Design, fig_settlement_history, fig_settlement_profile, limit_of
+        from .report.settlement import (Design, fig_settlement_history, fig_settlement_profile,
+                                        limit_of)
         from .report.simulation import simulation_figures
 
         paths = simulation_figures(ev, case.name, out)

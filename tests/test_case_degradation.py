@@ -175,7 +175,8 @@ def test_the_three_dof_vehicle_of_a_condition_is_refused_by_its_name(tmp_path):
 vehicles: {paper}
 conditions: [{{name: a, vehicle: paper}}]
 """
-    refused(tmp_path, body, "vehicles.paper", "(condition a): the paper's three-dof vehicle",
+    refused(tmp_path, body, "vehicles.paper",
+            "the paper's three-dof vehicle of condition a cannot carry",
             base=(CONFIGS / "reference.yaml").as_posix())
 
 

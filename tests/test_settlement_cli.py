@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import signal
 import subprocess
 import time
@@ -180,3 +181,20 @@ def test_a_settlement_run_killed_mid_run_resumes_to_the_uninterrupted_end(tmp_pa
     got = _table(path)
     for k, v in reference.items():
         np.testing.assert_array_equal(got[k], v, err_msg=k)
+
+
+def test_the_papers_three_dof_vehicle_is_refused_in_one_line(tmp_path):
+    """The paper's vehicle under a settlement prediction: exit 2, one line naming the file,
+    the line and the key to change, and what to use instead; nothing is written."""
+    case = tmp_path / "d3.yaml"
+    case.write_text(f"extends: {(CONFIGS / 'reference.yaml').as_posix()}\nname: d3\n"
+                    "degradation: {passages_per_year: 5.0e5}\n", encoding="utf-8")
+    for command in ("check", "optimise"):
+        r = cli(command, case, cwd=tmp_path)
+        assert r.returncode == 2, r.stderr
+        lines = r.stderr.strip().splitlines()
+        assert len(lines) == 1 and "Traceback" not in r.stderr, r.stderr
+        assert re.search(r"reference\.yaml:\d+: vehicle\.type: the paper's three-dof vehicle "
+                         r"cannot carry a settlement prediction", lines[0]), lines[0]
+        assert "use type: bogie or half-car" in lines[0]
+    assert not (tmp_path / "runs").exists()

@@ -29,10 +29,10 @@ LAW_PARAMETERS = {
 }
 DEFAULT_HORIZON_YEARS = 10.0
 SINGLE_CONDITION = "vehicle"     # the traffic condition of a case without a conditions: list
-_THREE_DOF = ("the paper's three-dof vehicle rests half its bogie on a second wheelset fixed in "
-              "space, so a settling track changes its wheel load (56 -> 39 kN for a uniform "
-              "14 mm, docs/settlement.md): use type: bogie or half-car (configs/vehicles/), or "
-              "model: quarter-car")
+_THREE_DOF = ("cannot carry a settlement prediction (degradation:): it rests half its bogie on "
+              "a second wheelset fixed in space, so a settling track changes its wheel load "
+              "(56 -> 39 kN for a uniform 14 mm, docs/settlement.md); use type: bogie or "
+              "half-car (configs/vehicles/), or model: quarter-car")
 
 
 def axles(vehicle: dict) -> int:
@@ -78,8 +78,8 @@ def _check_vehicles(data: dict, conditions: tuple, err) -> None:
                 at = ("vehicle", "type")
             else:
                 at = ("vehicles", c.vehicle)
-            under = "" if c is None else f" (condition {c.name})"
-            raise err(at, f"degradation:{under}: {_THREE_DOF}")
+            under = "" if c is None else f" of condition {c.name}"
+            raise err(at, f"the paper's three-dof vehicle{under} {_THREE_DOF}")
 
 
 def _check_traffic(data: dict, deg: dict, conditions: tuple, err) -> dict:

@@ -117,9 +117,9 @@ def fig_settlement_history(designs: list[Design], out: Path, title: str,
                 label="simulated passages")
         ax.set_xscale("log")
         _time_marks(ax, h, labels=False)
-        ax.set(title=f"{d.label}: {int(np.sum(np.asarray(h['settlement_simulated'], bool)))} "
-                     f"simulation points", xlabel="axle passes")
-        ax.legend(loc="upper right", frameon=False)
+        sims = d.info.get("settlement_simulations") or int(np.sum(sim))
+        ax.set(title=f"{d.label}: {sims} simulations", xlabel="axle passes")
+        ax.legend(loc="lower left", frameon=False)
     top[0].set_ylabel("settlement of each settling sleeper [mm]")
     top[0].invert_yaxis()
     bar = fig.colorbar(cm.ScalarMappable(norm=norm, cmap=cmap), ax=top, pad=0.01)
@@ -205,10 +205,10 @@ def fig_settlement_profile(designs: list[Design], out: Path, title: str,
         ax.axvspan(0.0, right + 0.5, color="0.88", zorder=0)
         ax.axvline(0.0, color="0.3", lw=0.9)
         ax.set_xlim(right=right + 0.5)
-    a1.text(0.1, 0.02, "slab (ERS): does not settle", transform=a1.get_xaxis_transform(),
+    a1.text(0.1, 0.02, "slab (ERS):\nno settlement", transform=a1.get_xaxis_transform(),
             fontsize=8, color="0.3")
-    a1.set(ylabel="lowering (settlement) [mm]", title="ballast under each sleeper (markers) and the rail's "
-                                         "level at rest (thin)")
+    a1.set(ylabel="lowering (settlement) [mm]",
+           title="ballast under each sleeper (markers) and the rail's level at rest (thin)")
     a2.set(xlabel="position from the slab edge [m] (the vehicle comes from the left)",
            ylabel="void under the sleeper [mm]", title="voids: sleepers hanging from the rail")
     a1.legend(loc="lower left", frameon=False, fontsize=7.5, ncol=max(1, len(designs)))

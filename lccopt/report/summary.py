@@ -10,8 +10,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .data import (OBJECTIVE_DOC, OBJECTIVE_NAMES, PHASE_STYLE, RunData, fnum, improvement_sign, obj_display,
-                   obj_unit, pct, table_unit, var_value)
+from .data import (OBJECTIVE_DOC, OBJECTIVE_NAMES, PHASE_STYLE, RunData, fnum, improvement_sign,
+                   obj_display, obj_unit, pct, table_unit, var_value)
 
 
 class Doc:
@@ -212,7 +212,8 @@ def build_summary(run: RunData, figs: dict, notes: dict, facts: list[str] | None
     lab = "chosen compromise (lowest ASF value)" if run.multi else f"lowest {run.objectives[0]}"
     longer = [k for k in run.obj if improvement_sign(k) < 0]
     doc.p(f"The best design is evaluation **#{run.ids[bi]}**, the {lab}. Changes are relative to the "
-          f"reference design (evaluation #0); negative is better for every objective (paper Tables 5-7)"
+          f"reference design (evaluation #0); negative is better for every objective "
+          f"(paper Tables 5-7)"
           + (f" but {', '.join(longer)}, a life (longer is better)." if longer else "."))
     rows = []
     for j, v in enumerate(run.variables):
@@ -231,8 +232,8 @@ def build_summary(run: RunData, figs: dict, notes: dict, facts: list[str] | None
         if run.multi and run.ref_point is not None and k in run.objectives:
             t = run.ref_point[run.objectives.index(k)]
             tgt = f"{fnum(t * s_)} ({'reached' if b <= t else 'not reached'})"
-        rows.append([f"**{k}**" if k in run.objectives else k, unit, fnum(r * s_), fnum(b * s_), pct(b, r)]
-                    + ([tgt] if run.multi else []))
+        rows.append([f"**{k}**" if k in run.objectives else k, unit, fnum(r * s_),
+                     fnum(b * s_), pct(b, r)] + ([tgt] if run.multi else []))
     doc.table(["objective", "unit", "reference", f"best #{run.ids[bi]}", "change"]
               + (["target f^r"] if run.multi else []), rows)
     doc.p(f"Value minimised: reference {fnum(run.value[ri]) if ri is not None else '–'}, best "
@@ -399,13 +400,16 @@ def _settlement_section(doc: Doc, run: RunData, designs: list, limit, figs: dict
     doc.ul(meaning_items(limit))
     for d in designs:
         doc.p(facts(d))
-    for key, cap in (("settlement-history", "Top: settlement of every settling sleeper against axle "
-                                            "passes (colour: distance from the slab; ticks: the "
-                                            "simulated passages). Bottom: the limit's measure and the "
-                                            "largest void against axle passes and years."),
-                     ("settlement-profile", "Top: the ballast's lowering under each sleeper (markers) "
-                                            "and the rail's level at rest (thin) along the approach at "
-                                            "chosen times; bottom: the voids under the sleepers. Solid: "
-                                            "the best design, dashed: the reference design.")):
+    captions = {
+        "settlement-history": "Top: settlement of every settling sleeper against axle passes "
+                              "(colour: distance from the slab; ticks: the simulated passages). "
+                              "Bottom: the limit's measure and the largest void against axle "
+                              "passes and years.",
+        "settlement-profile": "Top: the ballast's lowering under each sleeper (markers) and the "
+                              "rail's level at rest (thin) along the approach at chosen times; "
+                              "bottom: the voids under the sleepers. Solid: the best design, "
+                              "dashed: the reference design.",
+    }
+    for key, cap in captions.items():
         if key in figs:
             doc.fig(figs[key], cap)
