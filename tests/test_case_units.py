@@ -136,3 +136,13 @@ def test_traffic_conditions_show_each_vehicle_and_speed(run_cli):
     assert "    virm-160-leave-rough: virm (half-car, 87.2 kN), 160 km/h, leave" in out
     assert "    freight-100-enter-smooth: freight (half-car, 110.4 kN), 100 km/h, enter" in out
     assert all(len(line) <= 80 for line in out[1:])
+
+
+@pytest.mark.parametrize("body, fix", [
+    ("design:\n  sleeper_spans: {bounds: [0.3, 0.7]}\n", "[3, 7] for 0.3-0.7 m"),
+    ("design:\n  sleeper_spans: {reference: [6, 6, 0.4]}\n", "4 for 0.4 m"),
+])
+def test_spans_written_in_metres_are_refused_with_the_elements_they_meant(tmp_path, body, fix):
+    """Spans and the strip count 0.1 m elements: a length in m is refused with its count."""
+    msg = error(case_with(tmp_path, body))
+    assert fix in msg and "0.1 m elements" in msg

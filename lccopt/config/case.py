@@ -251,9 +251,12 @@ def _variables(design: dict, lines: dict, file: str) -> tuple[Variable, ...]:
 
         if lo > hi:
             raise CaseError(f"{at('bounds')}: lower bound {lo:g} is above upper bound {hi:g}")
+        in_elements = key in ("sleeper_spans", "type_ii_strip")
+        hint = (f" (it counts 0.1 m elements: [{lo * 10:g}, {hi * 10:g}] for "
+                f"{lo:g}-{hi:g} m)" if in_elements else "")
         if integer and (lo != round(lo) or hi != round(hi)):
             raise CaseError(f"{at('bounds')}: an integer variable needs whole-number bounds, "
-                            f"got [{lo:g}, {hi:g}]")
+                            f"got [{lo:g}, {hi:g}]{hint}")
         if "scale" in g and g["scale"] is None:
             del g["scale"]  # absent stays absent: the resolved case does not grow a key
         log = g.get("scale") == "log"
@@ -267,7 +270,9 @@ def _variables(design: dict, lines: dict, file: str) -> tuple[Variable, ...]:
         for i, r in enumerate(refs):
             name = f"{stem}{i + 1}" if "count" in g else stem
             if integer and r != round(r):
-                raise CaseError(f"{at('reference')}: {name} = {r:g} must be a whole number")
+                raise CaseError(f"{at('reference')}: {name} = {r:g} must be a whole number"
+                                + (f" (0.1 m elements: {r * 10:g} for {r:g} m)"
+                                   if in_elements else ""))
             if not lo <= r <= hi:
                 raise CaseError(f"{at('reference')}: reference {name} = {r:g} is outside the "
                                 f"bounds [{lo:g}, {hi:g}]")

@@ -157,10 +157,10 @@ def _var_info(name: str, group: str, integer: bool, lo: float, hi: float, ref: f
     if group == "sleeper_spans":
         k = count - index
         what = ("slab edge to sleeper 1" if k == 1 else f"sleeper {k - 1} to sleeper {k}")
-        return VarInfo(name, group, integer, lo, hi, ref, f"span {what}", "× 0.1 m", 1.0)
+        return VarInfo(name, group, integer, lo, hi, ref, f"span {what}", "m", 0.1)
     if group == "type_ii_strip":
         return VarInfo(name, group, integer, lo, hi, ref, "Type II strip from the entry slab edge",
-                       "× 0.1 m", 1.0)
+                       "m", 0.1)
     return VarInfo(name, group, integer, lo, hi, ref, name, "", 1.0)
 
 
@@ -484,17 +484,11 @@ def pct(new: float, old: float) -> str:
 def var_value(v: VarInfo, value: float) -> str:
     if not np.isfinite(value):
         return "–"
-    if v.group in ("sleeper_spans", "type_ii_strip"):
-        return f"{value:g} ({value * 0.1:.1f} m)"
+    if v.group in ("sleeper_spans", "type_ii_strip"):  # counted in 0.1 m elements, shown in m
+        return f"{value * v.scale:.1f}"
     if v.integer or v.group == "strengthened_sleepers":
         return f"{value:g}"
     return f"{value * v.scale:.4g}"
-
-
-def var_axis_label(v: VarInfo) -> str:
-    if v.group in ("sleeper_spans", "type_ii_strip"):
-        return f"{v.name} [elements of 0.1 m]"
-    return f"{v.name} [{v.unit}]" if v.unit else v.name
 
 
 def value_label(run: RunData) -> tuple[float, str]:

@@ -9,7 +9,7 @@ import numpy as np
 
 from .data import (BEST_COLOR, DPI, FAIL_COLOR, FRONT_COLOR, OBJECTIVE_NAMES, OKABE_ITO, PHASE_STYLE,
                    REF_COLOR, TYPE_II_COLOR, ZONE_COLOR, RunData, fnum, improvement_sign,
-                   obj_display, value_label, var_axis_label, var_value)
+                   obj_display, value_label, var_value)
 
 
 def _plt():
@@ -364,7 +364,7 @@ def fig_best_vs_reference(run: RunData, bi: int, ri: int | None, out: Path) -> P
     a2.scatter(ub, yy, marker="*", s=120, color=BEST_COLOR, edgecolor="k", zorder=4, label=f"best (#{run.ids[bi]})")
     for yi, v in enumerate(run.variables):
         a2.text(1.03, yi, f"{var_value(v, xr[yi])} → {var_value(v, xb[yi])}"
-                + (f" {v.unit}" if v.unit and v.group not in ("sleeper_spans", "type_ii_strip") else ""),
+                + (f" {v.unit}" if v.unit else ""),
                 va="center", fontsize=7.5, transform=a2.get_yaxis_transform())
     a2.set_yticks(yy, run.names)
     a2.invert_yaxis()

@@ -219,7 +219,8 @@ def build_summary(run: RunData, figs: dict, notes: dict, facts: list[str] | None
     for j, v in enumerate(run.variables):
         xr, xb = run.ref_x[j], run.x[bi, j]
         rows.append([f"`{v.name}`", v.label, v.unit or "–", var_value(v, xr), var_value(v, xb),
-                     pct(xb, xr) if not v.integer else (f"{xb - xr:+g}" if xb != xr else "0")])
+                     pct(xb, xr) if not v.integer else
+                     (f"{(xb - xr) * v.scale:+.3g}" if xb != xr else "0")])
     doc.table(["variable", "meaning", "unit", "reference", f"best #{run.ids[bi]}", "change"], rows, "lllrrr")
     rows = []
     for k in run.obj:
@@ -337,7 +338,7 @@ def _why_text(run: RunData, bi: int, ri: int | None, notes: dict) -> str:
         xr, xb = run.ref_x[j], run.x[bi, j]
         if not np.isclose(xr, xb):
             diffs.append(f"{v.label} {var_value(v, xr)} → {var_value(v, xb)}"
-                         + (f" {v.unit}" if v.unit and v.group not in ("sleeper_spans", "type_ii_strip") else ""))
+                         + (f" {v.unit}" if v.unit else ""))
     if diffs:
         text += " The design differs in: " + "; ".join(diffs) + "."
     else:
