@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from ..vti.response import OBJECTIVE_DOC, SETTLEMENT_OBJECTIVES
-from .data import BEST_COLOR, DPI, OKABE_ITO, REF_COLOR, fnum
+from .data import BEST_COLOR, DPI, OKABE_ITO, fnum
 
 # What each settlement objective measures, for the report's summary (docs/settlement.md).
 MEANING = {

@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from .data import (OBJECTIVE_DOC, OBJECTIVE_NAMES, PHASE_STYLE, RunData, fnum, improvement_sign,
-                   obj_display, obj_unit, pct, table_unit, var_value)
+                   obj_display, pct, table_unit, var_value)
 
 
 class Doc:
