@@ -198,3 +198,21 @@ def test_the_papers_three_dof_vehicle_is_refused_in_one_line(tmp_path):
                          r"cannot carry a settlement prediction", lines[0]), lines[0]
         assert "use type: bogie or half-car" in lines[0]
     assert not (tmp_path / "runs").exists()
+
+
+def test_a_settlement_objective_alone_is_what_the_run_minimises(tmp_path):
+    """max_void alone: a single-objective run whose value column is each design's largest
+    void, and whose best design is the one with the smallest."""
+    case = write_settlement_case(tmp_path, name="v", budget=6)
+    text = case.read_text().replace("[differential_settlement, F_max]", "[max_void]")
+    case.write_text(text.replace("initial_points: 5", "initial_points: 4"), encoding="utf-8")
+    r = cli("optimise", case, "--workers", 1, cwd=tmp_path)
+    assert r.returncode == 0, r.stderr[-3000:]
+    with h5py.File(tmp_path / "runs" / "v" / "results.h5", "r") as f:
+        e = f["evaluations"]
+        void, value = e["max_void"][()], e["value"][()]
+        assert list(f.attrs["objectives"]) == ["max_void"] and len(void) == 6
+        np.testing.assert_array_equal(value, void)
+        assert np.all(void > 0) and np.ptp(void) > 1e-5     # the designs differ
+    r = cli("status", tmp_path / "runs" / "v", cwd=tmp_path)
+    assert r.returncode == 0 and "max_void" in r.stdout, r.stdout + r.stderr
