@@ -36,14 +36,42 @@ _THREE_DOF = ("cannot carry a settlement prediction (degradation:): it rests hal
 
 
 def axles(vehicle: dict) -> int:
-    """Wheels of a vehicle section on the modelled rail: load cycles per passage."""
+    """Wheels of a vehicle section on the modelled rail: load cycles per passage.
+
+    Parameters
+    ----------
+    vehicle
+        a validated vehicle section (``type`` three-dof, bogie or half-car).
+
+    Returns
+    -------
+    int
+        1 (three-dof), 2 (bogie) or 4 (half-car).
+    """
     return {"bogie": 2, "half-car": 4}.get(vehicle.get("type") or "three-dof", 1)
 
 
 def check_degradation(data: dict, conditions: tuple, err) -> None:
-    """Check the ``degradation:`` section (and the objectives that need it) of validated
-    ``data`` with its traffic ``conditions``; fill in the defaults of the chosen law and the
-    horizon, so that the resolved case says what the prediction ran with."""
+    """Check the ``degradation:`` section of a case and the objectives that need it.
+
+    Fills in the defaults of the chosen law and the horizon (in years), so that the resolved
+    case says what the prediction ran with.
+
+    Parameters
+    ----------
+    data
+        the validated case (changed in place: ``degradation.law`` and
+        ``degradation.horizon_years`` completed).
+    conditions
+        the case's traffic conditions (empty for a case without ``conditions:``).
+    err
+        ``err(key_path, message)`` -> the case error to raise, naming the file and line.
+
+    Raises
+    ------
+    CaseError
+        (from ``err``) the first problem found.
+    """
     deg = data.get("degradation")
     opt = data.get("optimisation") or {}
     objectives = opt.get("objectives") or []
@@ -191,7 +219,20 @@ def _check_cost(data: dict, deg: dict, conditions: tuple, rates: dict, err) -> N
 
 
 def degradation_spec(data: dict, conditions: tuple) -> DegradationSpec:
-    """The settlement prediction's inputs from a checked case (``check_degradation``)."""
+    """The settlement prediction's typed inputs from a case checked by
+    :func:`check_degradation`.
+
+    Parameters
+    ----------
+    data
+        the checked case.
+    conditions
+        its traffic conditions (empty: the case's own vehicle is the one condition).
+
+    Returns
+    -------
+    lccopt.degradation.specs.DegradationSpec
+    """
     deg = data["degradation"]
     if conditions:
         traffic = tuple(Traffic(c.name, build.scenario(c.data), deg["traffic"][c.name],

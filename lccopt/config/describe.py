@@ -80,15 +80,37 @@ def condition_lines(case) -> list[str]:
 
 
 def law_items(law: dict) -> list[str]:
-    """``["alpha 0.6", "beta 0.82", "gamma 10 mm", "reference_force 50 kN", ...]``."""
+    """A settlement law's parameters as ``lccopt check`` shows them.
+
+    Parameters
+    ----------
+    law
+        the checked ``degradation.law`` section.
+
+    Returns
+    -------
+    list of str
+        e.g. ``["alpha 0.6", "beta 0.82", "gamma 10 mm", "reference_force 50 kN", ...]``.
+    """
     shown = {"gamma": (1e3, " mm"), "first_cycle": (1e3, " mm"), "reference_force": (1e-3, " kN")}
     return [f"{k} {v * shown.get(k, (1.0, ''))[0]:g}{shown.get(k, (1.0, ''))[1]}"
             for k, v in law.items() if k != "name"]
 
 
 def degradation_lines(case) -> list[str]:
-    """The settlement prediction: law, traffic (axle passes and gross tonnage a year),
-    horizon, limit and what it may cost."""
+    """The settlement prediction as ``lccopt check`` prints it: law,
+    traffic (axle passes and gross tonnage a year), horizon, limit and cost cap.
+
+    Parameters
+    ----------
+    case
+        a loaded case with a ``degradation:`` section.
+
+    Returns
+    -------
+    list of str
+        lines of at most 80 columns, indented by two.
+    """
     deg = case.degradation
     rows = [(c.name, deg["traffic"][c.name], c.data["vehicle"]) for c in case.traffic] or [
         (SINGLE_CONDITION, deg["passages_per_year"], case.vehicle)]

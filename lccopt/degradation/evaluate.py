@@ -70,9 +70,22 @@ def evaluate(spec: DegradationSpec, design: TrackDesign) -> Evaluation:
 
 
 def predict(spec: DegradationSpec, design: TrackDesign) -> SettlementResult:
-    """The settlement prediction of ``design`` under the conditions with passages: each
-    simulates on its own track model (the mesh follows its vehicle's run), all on the gaps of
-    one settling zone; the statics are those of the first condition's track."""
+    """The settlement prediction of ``design`` under the conditions with passages.
+
+    Each condition simulates on its own track model (the mesh follows its vehicle's run), all
+    on the gaps of one settling zone; the statics are those of the first condition's track.
+
+    Parameters
+    ----------
+    spec
+        the traffic, the law and the iteration's settings.
+    design
+        the design of the entry side.
+
+    Returns
+    -------
+    lccopt.degradation.iteration.SettlementResult
+    """
     conditions, tracks = [], []
     for t in spec.settling_traffic:
         track = build_track(t.scenario, design)
@@ -88,7 +101,18 @@ def predict(spec: DegradationSpec, design: TrackDesign) -> SettlementResult:
 
 
 def law(spec: LawSpec):
-    """The law object of ``spec``."""
+    """The settlement law of ``spec``.
+
+    Parameters
+    ----------
+    spec
+        the law's name (``LAW_NAMES``) and its class's arguments.
+
+    Returns
+    -------
+    VarandasLaw or LogarithmicLaw
+        an instance of ``lccopt.degradation.laws.LAWS[spec.name]``.
+    """
     return LAWS[spec.name](**dict(spec.parameters))
 
 
@@ -139,9 +163,24 @@ def _paper_objectives(spec: DegradationSpec, per_condition: list[dict]) -> dict:
 
 
 def settlement_objectives(result: SettlementResult, limit: Limit) -> dict:
-    """The settlement objectives at the horizon (``SETTLEMENT_OBJECTIVES``) and
-    ``years_to_limit`` (the horizon if the limit is not reached; years and axle passes are
-    proportional, the traffic being the same every year)."""
+    """The settlement objectives at the horizon and ``years_to_limit``.
+
+    Years and axle passes are proportional (the traffic is the same every year), so the
+    passes until the limit become years; ``years_to_limit`` is the horizon if the limit is
+    never reached.
+
+    Parameters
+    ----------
+    result
+        the prediction.
+    limit
+        the measure and value that ``years_to_limit`` counts to.
+
+    Returns
+    -------
+    dict
+        ``SETTLEMENT_OBJECTIVES`` and ``years_to_limit`` -> float, SI units.
+    """
     o = result.objectives(limit.measure, limit.value)
     per_year = result.axle_passes[-1] / result.years[-1]
     years = o.pop("passes_to_limit") / per_year
@@ -151,7 +190,18 @@ def settlement_objectives(result: SettlementResult, limit: Limit) -> dict:
 
 
 def settlement_histories(result: SettlementResult) -> dict:
-    """The prediction's histories as an evaluation file keeps them (``HISTORY_DOC``)."""
+    """The prediction's histories as an evaluation file keeps them.
+
+    Parameters
+    ----------
+    result
+        the prediction.
+
+    Returns
+    -------
+    dict
+        ``settlement_*`` -> array, one row per block (``lccopt.vti.response.HISTORY_DOC``).
+    """
     return {
         "settlement_years": result.years,
         "settlement_axle_passes": result.axle_passes,

@@ -343,9 +343,23 @@ class Table:
 
 
 def objective_columns(rows: list[dict], objectives) -> list[str]:
-    """The objective columns of /evaluations: the paper's four, the case's objectives, then
-    every other objective an evaluation returned (e.g. a settlement prediction's), in the
-    order first met; a condition's own values (``F_max@name``) go to /conditions."""
+    """The objective columns of results.h5's /evaluations.
+
+    The paper's four, then the case's objectives, then every other objective an evaluation
+    returned (e.g. a settlement prediction's), in the order first met; a condition's own
+    values (``F_max@name``) go to /conditions instead.
+
+    Parameters
+    ----------
+    rows
+        the table's finished rows (each with an ``objectives`` dict).
+    objectives
+        the case's objectives.
+
+    Returns
+    -------
+    list of str
+    """
     out = list(OBJECTIVE_NAMES)
     for k in [*objectives, *(k for r in rows for k in r["objectives"])]:
         if "@" not in k and k not in out:

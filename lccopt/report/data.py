@@ -13,7 +13,7 @@ import numpy as np
 
 from ..safeio import h5_open_owned, is_regular_file, read_owned
 from ..vti.response import (OBJECTIVE_DOC, improvement_sign,  # noqa: F401 (re-exported)
-                            objective_display as obj_display, objective_unit)
+                            objective_display as obj_display)
 
 FORMATS = ("md", "html", "both")
 OBJECTIVE_NAMES = ("F_rms", "F_max", "E_rms", "E_max")   # the paper's
@@ -450,16 +450,6 @@ def read_history(run: RunData, index: int | None, condition: str | None = None
 
 
 # ================================================================================ formatting
-
-def obj_unit(k: str) -> str:
-    """The SI unit of objective k."""
-    return objective_unit(k)
-
-
-def table_unit(k: str) -> tuple[float, str]:
-    """(scale, unit) of objective k in the report's tables: SI, but lengths in mm."""
-    return (1e3, "mm") if objective_unit(k) == "m" else (1.0, objective_unit(k))
-
 
 def fnum(v: float, sig: int = 5) -> str:
     if v is None or not np.isfinite(v):

@@ -59,18 +59,55 @@ class Design:
 
 
 def has_settlement(histories: dict | None) -> bool:
+    """Whether ``histories`` hold a settlement prediction.
+
+    Parameters
+    ----------
+    histories
+        an evaluation's histories, or None.
+
+    Returns
+    -------
+    bool
+    """
     return histories is not None and "settlement_sleepers" in histories
 
 
 def chosen_years(horizon: float) -> list[float]:
-    """Up to four times of the profile figure: a month, 1, 3, 10, 30, 100 years within the
-    horizon (the last three), and the horizon itself."""
+    """The times of the profile figure.
+
+    Parameters
+    ----------
+    horizon
+        the prediction's horizon [year].
+
+    Returns
+    -------
+    list of float
+        up to three of a month, 1, 3, 10, 30, 100 years within the horizon (the last three),
+        and the horizon itself.
+    """
     picked = [t for t in TIMES if t < horizon * (1 - 1e-9)][-3:]
     return picked + [float(horizon)]
 
 
 def at_years(h: dict, key: str, years) -> np.ndarray:
-    """``h[key]`` (blocks x ...) at ``years``, linear between the blocks."""
+    """A settlement history at given times, linear between the blocks.
+
+    Parameters
+    ----------
+    h
+        an evaluation's histories with ``settlement_years``.
+    key
+        the history (blocks x ...).
+    years
+        the times [year].
+
+    Returns
+    -------
+    numpy.ndarray
+        (len(years), ...) values.
+    """
     t = np.asarray(h["settlement_years"], float)
     v = np.asarray(h[key], float)
     flat = v.reshape(len(t), -1)
@@ -90,8 +127,26 @@ def _from_slab(d: Design) -> np.ndarray:
 
 def fig_settlement_history(designs: list[Design], out: Path, title: str,
                            limit: tuple[str, float] | None = None) -> Path:
-    """Settlement per sleeper against axle passes, one panel per design (colour: distance
-    from the slab), and below the limit's measure and the largest void of every design."""
+    """Settlement per sleeper against axle passes, one panel per
+    design (colour: distance from the slab); below, the limit's measure and the largest void
+    of every design, with the limit.
+
+    Parameters
+    ----------
+    designs
+        the designs side by side.
+    out
+        the directory to write ``settlement-history.png`` into.
+    title
+        the figure's title.
+    limit
+        (measure, value [m]) of the limit, or None (the differential settlement is drawn).
+
+    Returns
+    -------
+    pathlib.Path
+        the PNG written.
+    """
     plt = _plt()
     from matplotlib import cm
     from matplotlib.colors import Normalize
@@ -180,8 +235,26 @@ def _measure(h: dict, name: str) -> np.ndarray:
 
 def fig_settlement_profile(designs: list[Design], out: Path, title: str,
                            years: list[float] | None = None) -> Path:
-    """The ballast's settlement at sleepers (markers) and the rail's level at rest (thin) along
-    the zone at chosen times (colour), designs by line style; the voids below."""
+    """The ballast's settlement at the sleepers (markers) and the
+    rail's level at rest (thin) along the zone at chosen times (colour), designs by line
+    style; the voids below.
+
+    Parameters
+    ----------
+    designs
+        the designs side by side.
+    out
+        the directory to write ``settlement-profile.png`` into.
+    title
+        the figure's title.
+    years
+        the times [year]; default :func:`chosen_years` of the first design's horizon.
+
+    Returns
+    -------
+    pathlib.Path
+        the PNG written.
+    """
     plt = _plt()
     horizon = float(np.asarray(designs[0].histories["settlement_years"], float)[-1])
     years = years or chosen_years(horizon)
@@ -232,7 +305,18 @@ def _save(fig, path: Path) -> Path:
 
 
 def facts(d: Design) -> str:
-    """One sentence on a design's prediction: the dip, the hanging sleepers, the limit."""
+    """One sentence on a design's prediction: the dip, the hanging sleepers, the
+    limit.
+
+    Parameters
+    ----------
+    d
+        the design.
+
+    Returns
+    -------
+    str
+    """
     h, info = d.histories, d.info
     s = np.asarray(h["settlement_sleepers"], float)[-1]
     v = np.asarray(h["settlement_void"], float)[-1]
@@ -267,7 +351,18 @@ def _limit_years(h: dict, measure: str, value: float) -> str:
 
 
 def meaning_items(limit: tuple[str, float] | None) -> list[str]:
-    """The settlement objectives and what each measures (the limit said where it counts)."""
+    """The settlement objectives and what each measures.
+
+    Parameters
+    ----------
+    limit
+        (measure, value [m]) that years_to_limit counts to, said where it counts; or None.
+
+    Returns
+    -------
+    list of str
+        one Markdown item per objective.
+    """
     out = []
     for k in (*SETTLEMENT_OBJECTIVES, "years_to_limit"):
         text = MEANING.get(k, OBJECTIVE_DOC.get(k, k))
@@ -278,5 +373,16 @@ def meaning_items(limit: tuple[str, float] | None) -> list[str]:
 
 
 def limit_of(info: dict) -> tuple[str, float] | None:
+    """The limit a prediction counted to, from its info.
+
+    Parameters
+    ----------
+    info
+        an evaluation's info (``settlement_limit_measure``, ``settlement_limit_value``).
+
+    Returns
+    -------
+    tuple of (str, float) or None
+    """
     m, v = info.get("settlement_limit_measure"), info.get("settlement_limit_value")
     return (str(m), float(v)) if m and v and math.isfinite(float(v)) else None

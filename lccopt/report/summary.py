@@ -10,8 +10,14 @@ from pathlib import Path
 
 import numpy as np
 
+from ..vti.response import objective_unit
 from .data import (OBJECTIVE_DOC, OBJECTIVE_NAMES, PHASE_STYLE, RunData, fnum, improvement_sign,
-                   obj_display, pct, table_unit, var_value)
+                   obj_display, pct, var_value)
+
+
+def _table_unit(k: str) -> tuple[float, str]:
+    """(scale, unit) of objective k in the report's tables: SI, but lengths in mm."""
+    return (1e3, "mm") if objective_unit(k) == "m" else (1.0, objective_unit(k))
 
 
 class Doc:
@@ -146,7 +152,7 @@ def build_summary(run: RunData, figs: dict, notes: dict, facts: list[str] | None
     doc.h(2, "What was searched")
     if run.multi:
         def shown(k, v):
-            return f"{k} = {fnum(v * table_unit(k)[0])} {table_unit(k)[1]}"
+            return f"{k} = {fnum(v * _table_unit(k)[0])} {_table_unit(k)[1]}"
 
         pt = ", ".join(shown(k, v) for k, v in zip(run.objectives, run.ref_point)) \
             if run.ref_point is not None else "not set yet"
@@ -158,7 +164,7 @@ def build_summary(run: RunData, figs: dict, notes: dict, facts: list[str] | None
               f"worst values: {wst}. The value is 0 on the reference point and negative beyond it.")
     else:
         k = run.objectives[0]
-        doc.p(f"Minimise **{k}**: {OBJECTIVE_DOC.get(k, k)} [{table_unit(k)[1]}].")
+        doc.p(f"Minimise **{k}**: {OBJECTIVE_DOC.get(k, k)} [{_table_unit(k)[1]}].")
     rows = []
     for v in run.variables:
         rng = f"{var_value(v, v.lower)} … {var_value(v, v.upper)}" if np.isfinite(v.lower) else "–"
@@ -228,7 +234,7 @@ def build_summary(run: RunData, figs: dict, notes: dict, facts: list[str] | None
         b = float(run.obj[k][bi])
         if k not in OBJECTIVE_NAMES and not (np.isfinite(b) or np.isfinite(r)):
             continue
-        s_, unit = table_unit(k)
+        s_, unit = _table_unit(k)
         tgt = ""
         if run.multi and run.ref_point is not None and k in run.objectives:
             t = run.ref_point[run.objectives.index(k)]

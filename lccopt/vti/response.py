@@ -40,20 +40,53 @@ _DISPLAY = {"N": (1e-3, "kN"), "J": (1.0, "J"), "m": (1e3, "mm"), "-": (1.0, "")
 
 
 def objective_unit(k: str) -> str:
-    """The SI unit of objective k (``F_max@name``: F_max's)."""
+    """The SI unit of an objective.
+
+    Parameters
+    ----------
+    k
+        an objective's name; ``F_max@name`` (a condition's) has F_max's unit.
+
+    Returns
+    -------
+    str
+        e.g. ``"N"``, ``"J"``, ``"m"``, ``"1/year"``.
+    """
     base = k.split("@")[0]
     return OBJECTIVE_UNITS.get(base, "N" if base.startswith("F") else "J")
 
 
 def objective_display(k: str) -> tuple[float, str]:
-    """(scale, unit) in which people read objective k: forces in kN, energies in J,
-    settlements in mm."""
+    """The scale and unit people read an objective in: forces in kN,
+    energies in J, settlements in mm.
+
+    Parameters
+    ----------
+    k
+        an objective's name.
+
+    Returns
+    -------
+    tuple of (float, str)
+        (factor from SI, unit).
+    """
     return _DISPLAY.get(objective_unit(k), (1.0, objective_unit(k)))
 
 
 def improvement_sign(k: str) -> float:
-    """+1 where a smaller value is better (every objective the optimiser may minimise), -1
-    for the reported-only ``years_to_limit``."""
+    """Which way an objective improves.
+
+    Parameters
+    ----------
+    k
+        an objective's name.
+
+    Returns
+    -------
+    float
+        +1 where smaller is better (every objective the optimiser may minimise), -1 for the
+        reported-only ``years_to_limit``.
+    """
     return -1.0 if k.split("@")[0] in REPORTED_ONLY else 1.0
 
 
