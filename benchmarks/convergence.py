@@ -38,8 +38,10 @@ def main(path: str = "configs/reference.yaml") -> None:
         "run-out x2": dict(run_out=2 * sim["run_out"]),
     }
     print(f"case {path}: dt = {sim['time_step']:g} s, element = {sim['element_length']:g} m, "
-          f"(far {sim['far_element_length']:g} m), run-in = {sim['run_in']:g} m, run-out = {sim['run_out']:g} m\n")
-    print("| design | F_max [N] | E_max [J] | " + " | ".join(f"{v}: ΔF_max, ΔE_max" for v in variants) + " |")
+          f"(far {sim['far_element_length']:g} m), run-in = {sim['run_in']:g} m, "
+          f"run-out = {sim['run_out']:g} m\n")
+    variant_columns = " | ".join(f"{v}: ΔF_max, ΔE_max" for v in variants)
+    print("| design | F_max [N] | E_max [J] | " + variant_columns + " |")
     print("|---|---|---|" + "---|" * len(variants))
     worst = 0.0
     for name, x in DESIGNS.items():
@@ -51,7 +53,8 @@ def main(path: str = "configs/reference.yaml") -> None:
             d = [abs(o[k] - base[k]) / abs(base[k]) * 100 for k in ("F_max", "E_max")]
             worst = max(worst, *d)
             cells.append(f"{d[0]:.2f}%, {d[1]:.2f}%")
-        print(f"| {name} | {base['F_max']:.1f} | {base['E_max']:.4f} | " + " | ".join(cells) + " |", flush=True)
+        print(f"| {name} | {base['F_max']:.1f} | {base['E_max']:.4f} | " + " | ".join(cells) + " |",
+              flush=True)
     print(f"\nlargest change: {worst:.2f}% ({'within' if worst <= 1.0 else 'NOT within'} 1%)")
 
 

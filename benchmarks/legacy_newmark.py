@@ -146,7 +146,8 @@ def integrate_reference(track: TrackLike, dt: float, speed: float, x_start: floa
     ab, kd = to_upper_banded(K + a0 * M + a1 * C)
     chol, info = lapack.dpbtrf(ab, lower=0, overwrite_ab=1)
     if info != 0:
-        raise np.linalg.LinAlgError(f"effective track matrix is not positive definite (dpbtrf info={info})")
+        raise np.linalg.LinAlgError(
+            f"effective track matrix is not positive definite (dpbtrf info={info})")
     # rhs of the track from [u; v; a]: M(a0 u + a2 v + a) + C(a1 u + v), one sparse product
     W = sp.hstack([a0 * M + a1 * C, a2 * M + C, M]).tocsr()
 

@@ -219,7 +219,7 @@ def load_methods(wanted: list[str]) -> tuple[dict, dict]:
     return runners, notes
 
 
-# -- statistics -------------------------------------------------------------------------------------
+# -- statistics ---------------------------------------------------------------------------------
 def quartiles(v) -> tuple[float, float, float]:
     q25, q50, q75 = np.percentile(np.asarray(v, dtype=float), [25, 50, 75])
     return float(q50), float(q25), float(q75)
@@ -265,7 +265,7 @@ def cells(data: dict, probs: list[str], methods: list[str], budgets: list[int]) 
     return out
 
 
-# -- report -----------------------------------------------------------------------------------------
+# -- report -------------------------------------------------------------------------------------
 def _fmt(v: float) -> str:
     if v == 0:
         return "0"
@@ -278,9 +278,9 @@ def report(data: dict, probs: list[str], methods: list[str], budgets: list[int])
     present = [m for m in methods if any(m in c["samples"] for c in cs)]
     for b in budgets:
         lines += [f"#### budget {b}", "",
-                  "Median [q25, q75] of the best value over seeds (n = seeds). `vs` = the best other "
-                  "method (lowest median); `test` = lccopt against it, Mann-Whitney U, two-sided, "
-                  f"alpha {ALPHA}; `<=` = lccopt median <= best other median.", "",
+                  "Median [q25, q75] of the best value over seeds (n = seeds). `vs` = the best "
+                  "other method (lowest median); `test` = lccopt against it, Mann-Whitney U, "
+                  f"two-sided, alpha {ALPHA}; `<=` = lccopt median <= best other median.", "",
                   "| problem | kind | f* | " + " | ".join(present) + " | vs | test (p) | <= |",
                   "|---|---|---|" + "---|" * len(present) + "---|---|---|"]
         for c in (c for c in cs if c["budget"] == b):
@@ -293,7 +293,8 @@ def report(data: dict, probs: list[str], methods: list[str], budgets: list[int])
                 else:
                     row.append("-")
             if "result" in c:
-                row += [c["best_other"], f"{c['result']} ({c['p']:.2g})", "yes" if c["criterion"] else "no"]
+                row += [c["best_other"], f"{c['result']} ({c['p']:.2g})",
+                        "yes" if c["criterion"] else "no"]
             else:
                 row += ["-", "-", "-"]
             lines.append("| " + " | ".join(row) + " |")
@@ -307,14 +308,17 @@ def report(data: dict, probs: list[str], methods: list[str], budgets: list[int])
             continue
         n_ok = sum(c["criterion"] for c in bc)
         w, t, l_ = (sum(c["result"] == r for c in bc) for r in ("win", "tie", "loss"))
-        lines.append(f"| {b} | {len(bc)} | {n_ok} ({100 * n_ok / len(bc):.0f} %) | {w} | {t} | {l_} |")
-    lines += ["", "By kind of problem (all budgets): cells with lccopt median <= best other median; W/T/L", "",
+        share = f"{n_ok} ({100 * n_ok / len(bc):.0f} %)"
+        lines.append(f"| {b} | {len(bc)} | {share} | {w} | {t} | {l_} |")
+    lines += ["", "By kind of problem (all budgets): cells with lccopt median <= best other "
+              "median; W/T/L", "",
               "| kind | cells | <= | W/T/L |", "|---|---|---|---|"]
     for cat in problems.CATEGORIES:
         bc = [c for c in cs if "result" in c and problems.get(c["problem"]).category == cat]
         if bc:
             w, t, l_ = (sum(c["result"] == r for c in bc) for r in ("win", "tie", "loss"))
-            lines.append(f"| {cat} | {len(bc)} | {sum(c['criterion'] for c in bc)} | {w}/{t}/{l_} |")
+            n_ok = sum(c["criterion"] for c in bc)
+            lines.append(f"| {cat} | {len(bc)} | {n_ok} | {w}/{t}/{l_} |")
     lines += ["", "lccopt against each method (all budgets): cells with lccopt median <= its "
               "median; W/T/L by Mann-Whitney", "", "| method | budget | cells | <= | W/T/L |",
               "|---|---|---|---|---|"]
@@ -323,7 +327,8 @@ def report(data: dict, probs: list[str], methods: list[str], budgets: list[int])
             bc = [c["each"][m] for c in cs if c["budget"] == b and m in c.get("each", {})]
             if bc:
                 w, t, l_ = (sum(r == x for r, _ in bc) for x in ("win", "tie", "loss"))
-                lines.append(f"| {m} | {b} | {len(bc)} | {sum(le for _, le in bc)} | {w}/{t}/{l_} |")
+                n_ok = sum(le for _, le in bc)
+                lines.append(f"| {m} | {b} | {len(bc)} | {n_ok} | {w}/{t}/{l_} |")
     lines += ["", "Best other method per cell: " + ", ".join(
         f"{m} {sum(c.get('best_other') == m for c in cs)}" for m in present if m != "lccopt"), ""]
     secs = {m: [r["seconds"] for k, r in data["runs"].items()
@@ -408,7 +413,6 @@ def main(argv=None) -> int:
     methods = [m for m in (args.methods or METHODS) if not (args.no_pysot and m == "pysot")]
     seeds = _seeds(args.seeds)
     budgets = sorted(set(args.budgets))
-    n = max(budgets)
     for name in args.problems:
         problems.get(name)  # unknown names fail now
     if args.variant != "default" and args.resume:

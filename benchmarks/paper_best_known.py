@@ -51,8 +51,10 @@ def candidates(run: Path, top: int) -> list[tuple[tuple, str]]:
         for key in ("F_max", "E_max", "value"):
             if key in e:
                 v = np.where(ok, e[key][()], np.inf)
-                picked.update(int(i) for i in np.argsort(v, kind="stable")[:top] if np.isfinite(v[i]))
-    return [(tuple(float(c) for c in x[i]), f"{run.parent.name}/{run.name} #{int(ids[i])}") for i in sorted(picked)]
+                best_first = np.argsort(v, kind="stable")[:top]
+                picked.update(int(i) for i in best_first if np.isfinite(v[i]))
+    return [(tuple(float(c) for c in x[i]), f"{run.parent.name}/{run.name} #{int(ids[i])}")
+            for i in sorted(picked)]
 
 
 @functools.cache
@@ -92,8 +94,10 @@ def main(argv=None) -> None:
     for case, v in values.items():
         i = int(np.argmin(v))
         x = designs[i]
-        shown = f"{x[0] / 1e6:.1f}, {x[1] / 1e6:.1f}, {x[2] / 1e6:.1f} MN/m; " + ", ".join(f"{c:g}" for c in x[3:])
-        print(f"  {case}: {v[i]:.5g}  (F_max {F[i, 0]:.5g} N, E_max {F[i, 1]:.5g} J; {found[x]}: {shown})")
+        shown = (f"{x[0] / 1e6:.1f}, {x[1] / 1e6:.1f}, {x[2] / 1e6:.1f} MN/m; "
+                 + ", ".join(f"{c:g}" for c in x[3:]))
+        print(f"  {case}: {v[i]:.5g}  (F_max {F[i, 0]:.5g} N, E_max {F[i, 1]:.5g} J; "
+              f"{found[x]}: {shown})")
     print("--known " + " ".join(f"{c}={float(np.min(v)):.6g}" for c, v in values.items()))
 
 

@@ -37,11 +37,10 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
-from paper_seeds import seeds_arg  # noqa: E402
-
 from lccopt.config import load_case  # noqa: E402
 from lccopt.optim.strategy import Strategy  # noqa: E402
 from lccopt.problem import Problem, evaluate, sleeper_energy_spread  # noqa: E402
+from paper_seeds import seeds_arg  # noqa: E402
 
 
 def high_minus_low(F) -> np.ndarray:
@@ -71,7 +70,8 @@ def parts(ev, objective: str, f_parts: str = "high-low") -> list[float]:
         return [low + ev.objectives["F_max"], low]   # F_max also takes the zone's exact ends
     # the force's high and low while the wheels are over each of SEGMENTS equal stretches
     lo, hi = sorted((ev.info["zone_start"], ev.info["zone_end"]))
-    where = np.clip(((h["wheel_positions"][inside] - lo) / (hi - lo) * SEGMENTS).astype(int), 0, SEGMENTS - 1)
+    segment = ((h["wheel_positions"][inside] - lo) / (hi - lo) * SEGMENTS).astype(int)
+    where = np.clip(segment, 0, SEGMENTS - 1)
     highs = np.full(SEGMENTS, low)
     lows = np.full(SEGMENTS, float(force.max()))
     np.maximum.at(highs, where, force)
@@ -114,7 +114,8 @@ def main(argv=None) -> None:
     args = ap.parse_args(argv)
     seeds = seeds_arg(args.seeds)
     variants = (True,) if args.composite_only else (False, True)
-    jobs = [(c, comp, s, args.f_parts) for c in args.cases.split(",") for s in seeds for comp in variants]
+    jobs = [(c, comp, s, args.f_parts)
+            for c in args.cases.split(",") for s in seeds for comp in variants]
     with ProcessPoolExecutor(args.processes) as pool:
         out = list(pool.map(run, jobs))
     best = {(c, comp, s): v for c, comp, s, v in out}

@@ -41,13 +41,12 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
 import optimiser as bench  # noqa: E402  (the method runners of the broad benchmark)
-from paper_seeds import seeds_arg  # noqa: E402
-
 from benchmarks.problems import TestFunction as BenchProblem  # noqa: E402
 from benchmarks.runs_table import commit  # noqa: E402
 from lccopt.config import load_case  # noqa: E402
 from lccopt.optim.space import DesignSpace  # noqa: E402
 from lccopt.problem import Problem, evaluate  # noqa: E402
+from paper_seeds import seeds_arg  # noqa: E402
 
 OBJECTIVE = {"single-F_max": "F_max", "single-E_max": "E_max"}
 
@@ -62,8 +61,8 @@ def paper_problem(case: str) -> tuple[BenchProblem, np.ndarray, int]:
     p = Problem.from_case(model)
     key = OBJECTIVE[case]
     cased = p.space()   # the case's own space: bounds, integers, log scales
-    space = DesignSpace(names=list(p.names), lower=list(cased.search_lb), upper=list(cased.search_ub),
-                        integer=list(p.integer))
+    space = DesignSpace(names=list(p.names), lower=list(cased.search_lb),
+                        upper=list(cased.search_ub), integer=list(p.integer))
 
     def fun(X):
         X = cased.snap(cased.from_search(np.atleast_2d(np.asarray(X, dtype=float))))
@@ -105,12 +104,18 @@ def load(path: Path) -> dict:
                 for r in csv.DictReader(fh)}
 
 
+def _case_method_seed(key: str) -> tuple[str, str, int]:
+    """Sort key of a 'case/method/seed' run key: seeds in numeric order."""
+    parts = key.split("/")
+    return parts[0], parts[1], int(parts[2])
+
+
 def save(path: Path, data: dict) -> None:
     tmp = path.with_suffix(".tmp")
     with open(tmp, "w", newline="") as fh:
         w = csv.writer(fh, lineterminator="\n")
         w.writerow(COLUMNS)
-        for key in sorted(data, key=lambda k: (k.split("/")[0], k.split("/")[1], int(k.split("/")[2]))):
+        for key in sorted(data, key=_case_method_seed):
             r = data[key]
             w.writerow(key.split("/") + [r["evaluations"], repr(r["best"]), round(r["seconds"], 1),
                                          r["commit"]])
@@ -160,9 +165,9 @@ def main(argv=None) -> None:
             r = [(x - f_best) / (f_ref - f_best) for x in v]
             print(f"| {case} | {m} | {len(v)} | {statistics.median(v):.5g} | {v[-1]:.5g} "
                   f"| {statistics.median(r):.3f} | {r[-1]:.3f} |")
-            print(f"<!-- {case} {m} regret per seed: "
-                  + " ".join(f"{(best[m][s] - f_best) / (f_ref - f_best):.3f}" for s in sorted(best[m]))
-                  + " -->")
+            regrets = " ".join(f"{(best[m][s] - f_best) / (f_ref - f_best):.3f}"
+                               for s in sorted(best[m]))
+            print(f"<!-- {case} {m} regret per seed: " + regrets + " -->")
         print(f"<!-- {case}: reference {f_ref:.5g}, best known {f_best:.5g} -->")
 
 

@@ -54,7 +54,8 @@ def main() -> None:
         if cut is not None:
             fresh += [v <= cut for k, n, v in ph if k == "F"]
     if cut is not None:
-        print(f"regret above 0.25 marked '>'; fresh phases that got below it: {sum(fresh)} of {len(fresh)}")
+        print("regret above 0.25 marked '>'; fresh phases that got below it: "
+              f"{sum(fresh)} of {len(fresh)}")
 
 
 if __name__ == "__main__":

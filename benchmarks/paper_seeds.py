@@ -53,7 +53,8 @@ def run_one(case: str, seed: int, runs: Path, workers: int, budget: int | None =
     run = runs / name
     cases = runs / "cases"
     cases.mkdir(parents=True, exist_ok=True)
-    text = f"extends: {ROOT / 'configs' / (case + '.yaml')}\nname: {name}\noptimisation:\n  seed: {seed}\n"
+    text = (f"extends: {ROOT / 'configs' / (case + '.yaml')}\nname: {name}\n"
+            f"optimisation:\n  seed: {seed}\n")
     if budget:
         text += f"  budget: {budget}\n"
     path = cases / f"{name}.yaml"
@@ -116,7 +117,8 @@ def main() -> None:
     ap.add_argument("--cases", default="single-F_max,single-E_max,moo")
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--runs", default="bench-runs/paper-seeds")
-    ap.add_argument("--long", type=int, default=0, help="budget of one extra long run per case (0: none)")
+    ap.add_argument("--long", type=int, default=0,
+                    help="budget of one extra long run per case (0: none)")
     ap.add_argument("--known", nargs="*", default=[], metavar="CASE=VALUE",
                     help="best-known values found elsewhere (benchmarks/paper_best_known.py)")
     ap.add_argument("--out", default=None, help="CSV file: one row per run")
@@ -147,10 +149,12 @@ def main() -> None:
             print(f"  known from elsewhere (--known): {known[case]:.5g}")
     if args.out:
         write_rows(args.out, runs, rows, seeds, args.commit)
-    print(f"\n| case | reference | best known | median seed | worst seed | median regret | worst regret |")
+    print("\n| case | reference | best known | median seed | worst seed | median regret "
+          "| worst regret |")
     print("|---|---|---|---|---|---|---|")
     for case, f_ref, f_best, med, worst, mreg, wreg, _, _ in rows:
-        print(f"| {case} | {f_ref:.5g} | {f_best:.5g} | {med:.5g} | {worst:.5g} | {mreg:.3f} | {wreg:.3f} |")
+        print(f"| {case} | {f_ref:.5g} | {f_best:.5g} | {med:.5g} | {worst:.5g} | {mreg:.3f} "
+              f"| {wreg:.3f} |")
 
 
 if __name__ == "__main__":

@@ -29,12 +29,14 @@ def best_row(path: Path) -> dict:
         ref = {k: float(f["reference/objectives"].attrs[k]) for k in OBJ}
         row = {k: float(e[k][i]) for k in OBJ}
         wall = sum(float(v) for v in e["wall_time"][()])
-        return {"id": int(e["id"][i]), "x": e["x"][i], "obj": row, "ref": ref, "n": int(f.attrs["n_evaluations"]),
-                "finished": bool(f.attrs["finished"]), "sim_time": wall}
+        return {"id": int(e["id"][i]), "x": e["x"][i], "obj": row, "ref": ref,
+                "n": int(f.attrs["n_evaluations"]), "finished": bool(f.attrs["finished"]),
+                "sim_time": wall}
 
 
 def design(x) -> str:
-    return f"{x[0] / 1e6:.0f}, {x[1] / 1e6:.0f}, {x[2] / 1e6:.0f}; {x[3]:.0f}; {x[4]:.0f}, {x[5]:.0f}, {x[6]:.0f}; {x[7]:.0f}"
+    return (f"{x[0] / 1e6:.0f}, {x[1] / 1e6:.0f}, {x[2] / 1e6:.0f}; {x[3]:.0f}; "
+            f"{x[4]:.0f}, {x[5]:.0f}, {x[6]:.0f}; {x[7]:.0f}")
 
 
 def main(runs: str = "runs") -> None:
@@ -48,7 +50,8 @@ def main(runs: str = "runs") -> None:
         rows["moo (F_max, E_max)"] = best_row(runs / "moo" / "results.h5")
     if not rows:
         sys.exit(f"no finished runs under {runs}")
-    print("| optimised | " + " | ".join(OBJ) + " | design (x_r [MN/m]; x_n; x_s; x_l) | best # / evaluations |")
+    print("| optimised | " + " | ".join(OBJ)
+          + " | design (x_r [MN/m]; x_n; x_s; x_l) | best # / evaluations |")
     print("|---|" + "---|" * (len(OBJ) + 2))
     for name, r in rows.items():
         cells = []
@@ -58,12 +61,13 @@ def main(runs: str = "runs") -> None:
             cells.append(f"**{d:+.1f} %**" if own else f"{d:+.1f} %")
         print(f"| {name} | " + " | ".join(cells) + f" | {design(r['x'])} | #{r['id']} / {r['n']} |")
     ref = next(iter(rows.values()))["ref"]
-    print("| reference design | " + " | ".join(f"{ref[k]:.5g}" for k in OBJ) + " | 1120, 1120, 1120; 8; 6, 6, 4; 0 | |")
+    print("| reference design | " + " | ".join(f"{ref[k]:.5g}" for k in OBJ)
+          + " | 1120, 1120, 1120; 8; 6, 6, 4; 0 | |")
     singles = [r for n, r in rows.items() if n.startswith("min")]
     if len(singles) == 4:
         worst = [max(r["obj"][k] for r in singles) for k in ("F_max", "E_max")]
-        print(f"\nASF worst values by the paper's rule (largest among the single-objective optima): "
-              f"F_max {worst[0]:.0f} N, E_max {worst[1]:.3g} J")
+        print("\nASF worst values by the paper's rule (largest among the single-objective "
+              f"optima): F_max {worst[0]:.0f} N, E_max {worst[1]:.3g} J")
 
 
 if __name__ == "__main__":

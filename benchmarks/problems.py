@@ -228,7 +228,8 @@ def ellipsoid_mi10() -> TestFunction:
     x_opt = [1.3, 3, -2.7, -6, 0.4, 7, 3.1, -2, -1.9, 4]
     step = [0.5 if m else 1.0 for m in integer]
     return _mapped("ellipsoid_mi10", ellipsoid, lb, ub, integer, x_opt, 0.0, step,
-                   "unimodal-illcond", "ellipsoid sum 1e6^(i/9) z_i^2 (Hansen et al., BBOB f2); f* = 0")
+                   "unimodal-illcond",
+                   "ellipsoid sum 1e6^(i/9) z_i^2 (Hansen et al., BBOB f2); f* = 0")
 
 
 def rotellipsoid_int6() -> TestFunction:
@@ -240,7 +241,8 @@ def rotellipsoid_int6() -> TestFunction:
 
     return _mapped("rotellipsoid_int6", g, [0] * 6, [99] * 6, [True] * 6,
                    [71, 23, 58, 12, 86, 40], 0.0, 0.1, "unimodal-illcond",
-                   "rotated ellipsoid sum 1e4^(i/5) (Rz)_i^2, R fixed orthogonal (BBOB f10); f* = 0")
+                   "rotated ellipsoid sum 1e4^(i/5) (Rz)_i^2, R fixed orthogonal (BBOB f10); "
+                   "f* = 0")
 
 
 def cigar_mi8() -> TestFunction:
@@ -267,7 +269,8 @@ def quad_int12() -> TestFunction:
 
     return _mapped("quad_int12", g, [-1] * 12, [1] * 12, [True] * 12,
                    [1, -1, 0, 1, 1, -1, 0, -1, 1, 0, -1, 1], 0.0, 1.0, "unimodal-illcond",
-                   "convex integer quadratic: rotated ellipsoid, condition 1e3, 3^12 points; f* = 0")
+                   "convex integer quadratic: rotated ellipsoid, condition 1e3, 3^12 points; "
+                   "f* = 0")
 
 
 def rastrigin_int8() -> TestFunction:
@@ -387,7 +390,8 @@ def _schoen(name: str, n_int: int, n_cont: int, seed: int) -> TestFunction:
         return out
 
     return TestFunction(name, space, fun, -1000.0, x_opt, "classic-minlp",
-                   f"Schoen function, {n_int} integer + {n_cont} continuous, 50 points (seed {seed})")
+                        f"Schoen function, {n_int} integer + {n_cont} continuous, 50 points "
+                        f"(seed {seed})")
 
 
 def schoen6_int() -> TestFunction:

@@ -14,20 +14,20 @@ The figures: benchmarks/RESULTS-simulator.md.
 
 from __future__ import annotations
 
-import os
-
-for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
-    os.environ.setdefault(var, "1")
-
 import argparse
+import os
 import sys
 import time
 from pathlib import Path
 
-import numpy as np
+# One core: set before numpy loads BLAS, so the imports below follow it (noqa: E402).
+for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(var, "1")
 
-from lccopt.config import Case, load_case
-from lccopt.problem import evaluate
+import numpy as np  # noqa: E402
+
+from lccopt.config import Case, load_case  # noqa: E402
+from lccopt.problem import evaluate  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from convergence import DESIGNS  # noqa: E402
@@ -41,7 +41,8 @@ def random_designs(case: Case, count: int, seed: int) -> list[np.ndarray]:
     out = []
     while len(out) < count:
         x = np.array([rng.uniform(v.lower, v.upper) if not v.integer
-                      else rng.integers(int(v.lower), int(v.upper) + 1) for v in case.variables], float)
+                      else rng.integers(int(v.lower), int(v.upper) + 1)
+                      for v in case.variables], float)
         try:
             out.append(case.check_design(x))
         except ValueError:
@@ -64,11 +65,14 @@ def main() -> int:
     args = ap.parse_args()
     case = load_case(args.case)
     sim = case.simulation
-    print(f"case {args.case}: new settings dt = {sim['time_step']:g} s, run-in = {sim['run_in']:g} m, "
-          f"run-out = {sim['run_out']:g} m, far elements <= {sim['far_element_length']:g} m; "
+    print(f"case {args.case}: new settings dt = {sim['time_step']:g} s, "
+          f"run-in = {sim['run_in']:g} m, run-out = {sim['run_out']:g} m, "
+          f"far elements <= {sim['far_element_length']:g} m; "
           f"old: {REFERENCE_SETTINGS}\n")
-    designs = [(name, case.reference if x is None else case.check_design(x)) for name, x in DESIGNS.items()]
-    designs += [(f"random {i + 1}", x) for i, x in enumerate(random_designs(case, args.random, args.seed))]
+    designs = [(name, case.reference if x is None else case.check_design(x))
+               for name, x in DESIGNS.items()]
+    randoms = random_designs(case, args.random, args.seed)
+    designs += [(f"random {i + 1}", x) for i, x in enumerate(randoms)]
     print("| design | F_max old [N] | ΔF_max | E_max old [J] | ΔE_max | ΔF_rms | ΔE_rms |")
     print("|---|---|---|---|---|---|---|")
     worst = {k: 0.0 for k in ("F_max", "E_max", "F_rms", "E_rms")}
@@ -77,11 +81,11 @@ def main() -> int:
         d = {k: (new[k] - old[k]) / abs(old[k]) * 100 for k in worst}
         for k in worst:
             worst[k] = max(worst[k], abs(d[k]))
-        print(f"| {name} | {old['F_max']:.1f} | {d['F_max']:+.3f}% | {old['E_max']:.4f} | {d['E_max']:+.3f}% "
-              f"| {d['F_rms']:+.3f}% | {d['E_rms']:+.3f}% |", flush=True)
+        print(f"| {name} | {old['F_max']:.1f} | {d['F_max']:+.3f}% | {old['E_max']:.4f} "
+              f"| {d['E_max']:+.3f}% | {d['F_rms']:+.3f}% | {d['E_rms']:+.3f}% |", flush=True)
     ok = worst["F_max"] <= TOLERANCE and worst["E_max"] <= TOLERANCE
-    print(f"\n{len(designs)} designs; max |Δ|: F_max {worst['F_max']:.3f}%, E_max {worst['E_max']:.3f}%, "
-          f"F_rms {worst['F_rms']:.3f}%, E_rms {worst['E_rms']:.3f}% "
+    print(f"\n{len(designs)} designs; max |Δ|: F_max {worst['F_max']:.3f}%, "
+          f"E_max {worst['E_max']:.3f}%, F_rms {worst['F_rms']:.3f}%, E_rms {worst['E_rms']:.3f}% "
           f"({'within' if ok else 'NOT within'} {TOLERANCE}% on F_max and E_max)")
     return 0 if ok else 1
 

@@ -21,30 +21,29 @@ The figures and their history: benchmarks/RESULTS-simulator.md.
 
 from __future__ import annotations
 
-import os
-
-for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
-    os.environ.setdefault(var, "1")   # one core: set before numpy loads BLAS
-
 import argparse
 import copy
+import os
 import statistics
 import time
 
-import numpy as np
-import scipy.sparse as sp
-from scipy.sparse.linalg import splu
+# One core: set before numpy loads BLAS, so the imports below follow it (noqa: E402).
+for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(var, "1")
 
-from scipy.linalg import blas, lapack
+import numpy as np  # noqa: E402
+import scipy.sparse as sp  # noqa: E402
+from scipy.linalg import blas, lapack  # noqa: E402
+from scipy.sparse.linalg import splu  # noqa: E402
 
-import legacy_newmark
-from legacy_newmark import REFERENCE_SETTINGS, evaluate_legacy
-from lccopt.config import load_case
-from lccopt.problem import evaluate
-from lccopt.vti.assembly import to_upper_banded
-from lccopt.vti.newmark import contact_vector, forward_columns, integrate
-from lccopt.vti.track import build_track
-from lccopt.vti.vehicle import build_vehicle
+import legacy_newmark  # noqa: E402
+from lccopt.config import load_case  # noqa: E402
+from lccopt.problem import evaluate  # noqa: E402
+from lccopt.vti.assembly import to_upper_banded  # noqa: E402
+from lccopt.vti.newmark import contact_vector, forward_columns, integrate  # noqa: E402
+from lccopt.vti.track import build_track  # noqa: E402
+from lccopt.vti.vehicle import build_vehicle  # noqa: E402
+from legacy_newmark import REFERENCE_SETTINGS, evaluate_legacy  # noqa: E402
 
 
 def naive_steps(track, veh, dt, x_start, steps):
@@ -112,11 +111,13 @@ def breakdown(case, x, n_steps: int) -> dict[str, float]:
                                          side="right") - 1)
     mid = elements[len(elements) // 2]
     dofs = [track.rail_w[mid + 1], track.rail_th[mid + 1]]
+    product = timed(lambda: MC @ pq) * n_steps
+    solves = timed(lambda: (blas.dtbsv(kd, chol, b, trans=1), blas.dtbsv(kd, chol, b))) * n_steps
+    entering = timed(lambda: forward_columns(chol, dofs, rows), 50) * len(elements)
     return {
-        "sparse product [M C][p; q]": timed(lambda: MC @ pq) * n_steps,
-        "two banded triangular solves": timed(lambda: (blas.dtbsv(kd, chol, b, trans=1),
-                                                       blas.dtbsv(kd, chol, b))) * n_steps,
-        "U^-T rows on entering an element": timed(lambda: forward_columns(chol, dofs, rows), 50) * len(elements),
+        "sparse product [M C][p; q]": product,
+        "two banded triangular solves": solves,
+        "U^-T rows on entering an element": entering,
     }
 
 
@@ -125,8 +126,10 @@ def main() -> None:
     ap.add_argument("--case", default="configs/reference.yaml")
     ap.add_argument("--repeat", type=int, default=7)
     ap.add_argument("--naive-steps", type=int, default=300)
-    ap.add_argument("--flush", action="store_true", help="also time the old method without its flush")
-    ap.add_argument("--scaling", action="store_true", help="time against track length and time step")
+    ap.add_argument("--flush", action="store_true",
+                    help="also time the old method without its flush")
+    ap.add_argument("--scaling", action="store_true",
+                    help="time against track length and time step")
     args = ap.parse_args()
     case = load_case(args.case)
     old_case = case.with_simulation(**REFERENCE_SETTINGS)
@@ -148,11 +151,12 @@ def main() -> None:
 
     print(f"case {args.case}, 1-min load average {load1:.2f} on {os.cpu_count()} cores")
     print(f"current: {n_dofs} track dofs + 3 vehicle dofs, {n_steps} steps of {dt * 1e3:g} ms")
-    print(f"  evaluate: median {fast:.3f} s over {args.repeat} runs (min {min(new_t):.3f}, max {max(new_t):.3f}), "
-          f"{fast / n_steps * 1e6:.0f} µs/step")
+    print(f"  evaluate: median {fast:.3f} s over {args.repeat} runs "
+          f"(min {min(new_t):.3f}, max {max(new_t):.3f}), {fast / n_steps * 1e6:.0f} µs/step")
     print(f"before issue 11: {ev_old.info['n_dofs']} track dofs, {ev_old.info['n_steps']} steps of "
           f"{old_case.simulation['time_step'] * 1e3:g} ms")
-    print(f"  evaluate: median {old:.3f} s over {args.repeat} runs (min {min(old_t):.3f}, max {max(old_t):.3f}), "
+    print(f"  evaluate: median {old:.3f} s over {args.repeat} runs "
+          f"(min {min(old_t):.3f}, max {max(old_t):.3f}), "
           f"{old / ev_old.info['n_steps'] * 1e6:.0f} µs/step")
     print(f"ratio old/current: {old / fast:.2f}x")
     d = {k: ev.objectives[k] / ev_old.objectives[k] - 1 for k in ("F_max", "E_max")}
@@ -175,7 +179,8 @@ def main() -> None:
                 evaluate_legacy(old_case, x)
                 store.append(time.perf_counter() - t0)
         legacy_newmark.FLUSH_EVERY, legacy_newmark.FLUSH_BELOW = saved
-        print(f"old method with its flush of tiny values: median {statistics.median(flushed):.3f} s, "
+        print("old method with its flush of tiny values: "
+              f"median {statistics.median(flushed):.3f} s, "
               f"without: {statistics.median(unflushed):.3f} s")
 
     if args.scaling:
@@ -210,8 +215,9 @@ def main() -> None:
         dz = np.max(np.abs(ref[:, -1] - h.vehicle_displacement[:, 2])) / np.max(np.abs(ref[:, -1]))
         naive = naive_per_step * n_steps
         print(f"straightforward (assemble + SuperLU every step): {naive:.1f} s "
-              f"({naive_per_step * 1e3:.2f} ms/step over {args.naive_steps} steps, scaled to {n_steps}), "
-              f"{naive / fast:.0f}x the current; wheel displacements agree to {dz:.1e} (relative)")
+              f"({naive_per_step * 1e3:.2f} ms/step over {args.naive_steps} steps, "
+              f"scaled to {n_steps}), {naive / fast:.0f}x the current; "
+              f"wheel displacements agree to {dz:.1e} (relative)")
 
 
 if __name__ == "__main__":

@@ -1,7 +1,7 @@
 """The traffic study (issue 10): designs condition by condition under configs/traffic.yaml.
 
-    lccopt optimise configs/traffic.yaml                       # the robust design (~30 min, 2 cores)
-    python benchmarks/traffic_study.py runs/traffic            # the table for the README
+    lccopt optimise configs/traffic.yaml              # the robust design (~30 min, 2 cores)
+    python benchmarks/traffic_study.py runs/traffic   # the table for the README
 
 Compares, under every condition of the case, the reference design, the single-condition
 optimum of this model (configs/moo.yaml, seed 1: the README's Tables 5-7), the paper's MOO
@@ -61,14 +61,16 @@ def main() -> None:
     print("| condition | " + " | ".join(labels) + " |")
     print("|---|" + "---|" * len(labels))
     for i, n in enumerate(names):
-        cells = [f"{table[k][0][i]['F_max'] / 1e3:.1f} kN, {table[k][0][i]['E_max']:.2f} J" for k in labels]
+        cells = [f"{table[k][0][i]['F_max'] / 1e3:.1f} kN, {table[k][0][i]['E_max']:.2f} J"
+                 for k in labels]
         print(f"| {n} | " + " | ".join(cells) + " |")
-    cells = [f"**{table[k][1]['F_max'] / 1e3:.1f} kN, {table[k][1]['E_max']:.2f} J**" for k in labels]
-    print(f"| worst case | " + " | ".join(cells) + " |")
+    cells = [f"**{table[k][1]['F_max'] / 1e3:.1f} kN, {table[k][1]['E_max']:.2f} J**"
+             for k in labels]
+    print("| worst case | " + " | ".join(cells) + " |")
     ref = table["reference"][1]
     cells = [f"{(table[k][1]['F_max'] / ref['F_max'] - 1) * 100:+.0f} %, "
              f"{(table[k][1]['E_max'] / ref['E_max'] - 1) * 100:+.0f} %" for k in labels]
-    print(f"| worst case vs reference | " + " | ".join(cells) + " |")
+    print("| worst case vs reference | " + " | ".join(cells) + " |")
 
 
 if __name__ == "__main__":

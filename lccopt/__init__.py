@@ -66,7 +66,8 @@ def simulate(case, design=None):
     """
     from .problem import evaluate
 
-    case = case if not isinstance(case, (str, bytes)) and hasattr(case, "variables") else load_case(case)
+    is_loaded = not isinstance(case, (str, bytes)) and hasattr(case, "variables")
+    case = case if is_loaded else load_case(case)
     x = case.reference if design is None else design
     if case.conditions:
         return {c.name: evaluate(case.condition_case(i), x) for i, c in enumerate(case.conditions)}
@@ -130,4 +131,5 @@ def resume(run, *, budget=None, workers=None, scheduler=None, progress=True):
 
     from .engine.runner import resume as carry_on
 
-    return carry_on(Path(run), workers=workers, scheduler=scheduler, budget=budget, progress=progress)
+    return carry_on(Path(run), workers=workers, scheduler=scheduler, budget=budget,
+                    progress=progress)

@@ -9,29 +9,36 @@ from __future__ import annotations
 import enum
 import os
 import sys
+from pathlib import Path
+from typing import List, Optional
 
 # One BLAS thread in the lccopt process, set before numpy loads OpenBLAS: the engine's
 # optimiser runs while the worker simulations use the cores, and multi-threaded BLAS then
 # spins against them (measured: ask/tell 2.5x slower, parallel efficiency 0.94 -> 0.87).
-# The simulations' banded solves are sequential anyway. An explicit setting wins.
+# The simulations' banded solves are sequential anyway. An explicit setting wins. The imports
+# below it may load numpy, so they follow it (noqa: E402).
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
-from pathlib import Path
-from typing import List, Optional
 
-import typer
+import typer  # noqa: E402
 
-from .errors import CaseError, UsageError, describe_os_error
-from .terminal import PipeGuard, wrap_message
+from .errors import CaseError, UsageError, describe_os_error  # noqa: E402
+from .terminal import PipeGuard, wrap_message  # noqa: E402
 
 EXIT_OK, EXIT_INTERNAL, EXIT_USAGE, EXIT_INTERRUPTED, EXIT_PIPE = 0, 1, 2, 130, 141
 
+_APP_HELP = (
+    "Optimise railway level crossings and their transition zones.\n\n"
+    "Objectives (paper Sec. 2.2.2), over the evaluation zone next to the interface: "
+    "F_rms and F_max, the rms and the max - min of the wheel-rail contact force (kN); "
+    "E_rms and E_max, the rms and the max - min over the zone sleepers of the energy "
+    "dissipated in the ballast under each (J)."
+)
+_WORKERS_HELP = "local worker processes (default: number of cores)"
+_SCHEDULER_HELP = "Dask scheduler address, e.g. tcp://host:8786"
+
 app = typer.Typer(no_args_is_help=True, pretty_exceptions_enable=False, rich_markup_mode=None,
-                  help="Optimise railway level crossings and their transition zones.\n\n"
-                       "Objectives (paper Sec. 2.2.2), over the evaluation zone next to the interface: "
-                       "F_rms and F_max, the rms and the max - min of the wheel-rail contact force (kN); "
-                       "E_rms and E_max, the rms and the max - min over the zone sleepers of the energy "
-                       "dissipated in the ballast under each (J).")
+                  help=_APP_HELP)
 
 
 class Format(str, enum.Enum):
@@ -75,13 +82,17 @@ def check(case: Path = typer.Argument(..., help="case file (YAML)"),
 @app.command()
 def simulate(
     case: Path = typer.Argument(..., help="case file (YAML)"),
-    design: Optional[str] = typer.Option(None, help="design x in the case's order, comma-separated: "
-                                         "pad stiffness x_r1..x_rN in MN/m, then x_n, the spans x_s1.. and "
-                                         "the strip x_l in m (0.1 m steps); e.g. 214,155,50,5,0.6,0.7,0.3,0 "
-                                         "(default: the case's reference design)"),
-    out: Optional[Path] = typer.Option(None, help="output directory (default: runs/<case name>-simulate)"),
+    design: Optional[str] = typer.Option(
+        None,
+        help="design x in the case's order, comma-separated: "
+             "pad stiffness x_r1..x_rN in MN/m, then x_n, the spans x_s1.. and "
+             "the strip x_l in m (0.1 m steps); e.g. 214,155,50,5,0.6,0.7,0.3,0 "
+             "(default: the case's reference design)"),
+    out: Optional[Path] = typer.Option(
+        None, help="output directory (default: runs/<case name>-simulate)"),
     no_plots: bool = typer.Option(False, "--no-plots", help="skip the PNG plots"),
-    force: bool = typer.Option(False, "--force", help="replace a simulation already in the output directory"),
+    force: bool = typer.Option(
+        False, "--force", help="replace a simulation already in the output directory"),
     set_: Optional[List[str]] = _set_option(),
 ) -> None:
     """Simulate one design: print F_rms, F_max (kN), E_rms, E_max (J); write HDF5 and plots."""
@@ -93,11 +104,11 @@ def simulate(
 @app.command()
 def optimise(
     case: Path = typer.Argument(..., help="case file (YAML) with an optimisation section"),
-    workers: Optional[int] = typer.Option(None, help="local worker processes (default: number of cores)"),
-    scheduler: Optional[str] = typer.Option(None, help="Dask scheduler address, e.g. tcp://host:8786"),
+    workers: Optional[int] = typer.Option(None, help=_WORKERS_HELP),
+    scheduler: Optional[str] = typer.Option(None, help=_SCHEDULER_HELP),
     runs: Path = typer.Option(Path("runs"), help="directory that holds run directories"),
-    force: bool = typer.Option(False, "--force", help="replace an existing lccopt run directory of the "
-                               "same name inside --runs"),
+    force: bool = typer.Option(False, "--force", help="replace an existing lccopt run directory "
+                               "of the same name inside --runs"),
     set_: Optional[List[str]] = _set_option(),
 ) -> None:
     """Run the surrogate optimisation of a case into runs/<case name>/."""
@@ -111,10 +122,10 @@ def optimise(
 @app.command()
 def resume(
     run: Path = typer.Argument(..., help="run directory, e.g. runs/moo"),
-    workers: Optional[int] = typer.Option(None, help="local worker processes (default: number of cores)"),
-    scheduler: Optional[str] = typer.Option(None, help="Dask scheduler address, e.g. tcp://host:8786"),
-    case: Optional[Path] = typer.Option(None, help="the case file to check against (default: the one "
-                                        "the run was started from)"),
+    workers: Optional[int] = typer.Option(None, help=_WORKERS_HELP),
+    scheduler: Optional[str] = typer.Option(None, help=_SCHEDULER_HELP),
+    case: Optional[Path] = typer.Option(None, help="the case file to check against (default: the "
+                                        "one the run was started from)"),
     allow_changed_case: bool = typer.Option(False, "--allow-changed-case",
                                             help="resume even if the case file changed (budget, "
                                                  "timeout and the ASF's worst and rho may)"),
@@ -145,7 +156,8 @@ def status(run: Path = typer.Argument(..., help="run directory, e.g. runs/moo"))
 def report(
     run: Path = typer.Argument(..., help="run directory, e.g. runs/moo"),
     format: Format = typer.Option(Format.both, "--format", help="summary format"),
-    out: Optional[Path] = typer.Option(None, "--out", help="output directory (default: RUN/report)"),
+    out: Optional[Path] = typer.Option(
+        None, "--out", help="output directory (default: RUN/report)"),
     force: bool = typer.Option(False, "--force", help="replace a report already in --out"),
 ) -> None:
     """Write figures and a summary of a run into RUN/report/ (or --out)."""

@@ -119,7 +119,8 @@ def _pins(started: dict, now: dict, changed: list[str]) -> str | None:
         old, new = started[key], now[key]
         if key == "blas_kernels" and old != "unknown" and " " not in old:
             pins.append(f"OPENBLAS_CORETYPE={old}")
-        elif key == "numpy_simd" and "unknown" not in (old, new) and set(old.split()) <= set(new.split()):
+        elif (key == "numpy_simd" and "unknown" not in (old, new)
+              and set(old.split()) <= set(new.split())):
             off = [f for f in new.split() if f not in old.split()]
             pins.append(f'NPY_DISABLE_CPU_FEATURES="{" ".join(off)}"')
         else:

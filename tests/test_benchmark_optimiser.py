@@ -39,9 +39,11 @@ def test_quick_benchmark_table_and_csv(tmp_path):
     # one table per budget, a row per problem, the summary with W/T/L
     for b in (20, 40):
         assert f"#### budget {b}" in text
-    rows = [ln for ln in text.splitlines() if ln.startswith("| gear |") or ln.startswith("| trap_int6 |")]
+    lines = text.splitlines()
+    rows = [ln for ln in lines if ln.startswith(("| gear |", "| trap_int6 |"))]
     assert len(rows) == 4
-    ncol = text.splitlines()[[i for i, ln in enumerate(text.splitlines()) if ln.startswith("| problem |")][0]].count("|")
+    header = next(ln for ln in lines if ln.startswith("| problem |"))
+    ncol = header.count("|")
     assert all(r.count("|") == ncol for r in rows)
     assert "| budget | cells | lccopt median <= best other median | wins | ties | losses |" in text
     summary = [ln for ln in text.splitlines() if ln.startswith("| 40 | 2 |")]

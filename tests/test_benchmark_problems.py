@@ -47,7 +47,8 @@ def test_coverage_of_the_benchmark_set():
     pure = [p for p in ps if p.space.int_mask.all()]
     mixed = [p for p in ps if p.space.int_mask.any() and not p.space.int_mask.all()]
     assert len(pure) >= 5 and len(mixed) >= 5
-    sizes = {int(hi - lo + 1) for p in ps for lo, hi, m in zip(p.space.lb, p.space.ub, p.space.int_mask) if m}
+    sizes = {int(hi - lo + 1)
+             for p in ps for lo, hi, m in zip(p.space.lb, p.space.ub, p.space.int_mask) if m}
     assert min(sizes) == 3 and 100 in sizes
     assert {p.category for p in ps} == set(P.CATEGORIES)
     assert len({p.name for p in ps}) == len(ps)

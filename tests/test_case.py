@@ -1,4 +1,5 @@
-"""Case files: typed values, and one clear line (file:line: key: message) for each kind of bad input."""
+"""Case files: typed values, and one clear line (file:line: key: message) for each kind of bad
+input."""
 
 import numpy as np
 import pytest
@@ -34,14 +35,18 @@ BAD = [  # (replace this, with this, key path in the message, words in the messa
     ("  speed: 140 km/h", "  sped: 140 km/h", "vehicle.sped", "unknown key"),
     ("  speed: 140 km/h", "  speed: fast", "vehicle.speed", "expected a number"),
     ("  speed: 140 km/h", "  speed: -5.0", "vehicle.speed", "must be > 0"),
-    ("    reference: 8\n", "    reference: 25\n", "design.strengthened_sleepers.reference", "outside the bounds"),
-    ("    bounds: [3, 7]", "    bounds: [3, 7.5]", "design.sleeper_spans.bounds", "whole-number bounds"),
-    ("    reference: [6, 6, 4]", "    reference: [6, 6]", "design.sleeper_spans.reference", "expected 3 values"),
+    ("    reference: 8\n", "    reference: 25\n", "design.strengthened_sleepers.reference",
+     "outside the bounds"),
+    ("    bounds: [3, 7]", "    bounds: [3, 7.5]", "design.sleeper_spans.bounds",
+     "whole-number bounds"),
+    ("    reference: [6, 6, 4]", "    reference: [6, 6]", "design.sleeper_spans.reference",
+     "expected 3 values"),
     ("    bounds: [0, 20]", "    bounds: [0, 200]", "design.strengthened_sleepers.bounds",
      "the entry side holds 166 sleepers"),
     ("  sleepers: 20", "  sleepers: 400", "evaluation.sleepers", "entry side holds 166"),
     ("  element_length: 0.05", "  element_length: 0.03", "simulation.element_length", "divide 0.1"),
-    ("    kind: continuous", "    kind: integer", "design.railpad_stiffness.kind", "must be one of"),
+    ("    kind: continuous", "    kind: integer", "design.railpad_stiffness.kind",
+     "must be one of"),
     ("  gravity: 9.8", "  gravity: [9.8]", "vehicle.gravity", "expected a number"),
     ("  time_step: 5.0e-4", "  time_step: .nan", "simulation.time_step", "finite"),
     ("    # bounds: by default", "    bounds: [0, 200]\n    # bounds: by default",
@@ -102,7 +107,8 @@ def test_design_vector_checks():
     case = load_case(CONFIGS / "reference.yaml")
     x = parse_design("214,155,50,5,0.6,0.7,0.3,0", case)   # as on screen: MN/m, m
     assert np.array_equal(x, [214e6, 155e6, 50e6, 5, 6, 7, 3, 0])
-    for bad, words in [("214,155", "has 8 values"), ("214,155,50,5.5,0.6,0.7,0.3,0", "whole number"),
+    for bad, words in [("214,155", "has 8 values"),
+                       ("214,155,50,5.5,0.6,0.7,0.3,0", "whole number"),
                        ("214,155,50,5,0.65,0.7,0.3,0", "x_s1 = 0.65 m is not a multiple of 0.1 m"),
                        ("214,155,50,5,6,7,3,0", "x_s1 = 6 m is outside"),
                        ("1,155,50,5,0.6,0.7,0.3,0", "outside"),
@@ -143,7 +149,8 @@ def test_a_case_without_scale_resolves_as_before(tmp_path):
     # A run keeps the sha256 of its resolved case; a case written before scales existed must
     # resolve to the same text, or its runs could not be resumed.
     p = tmp_path / "c.yaml"
-    p.write_text(LINEAR + "optimisation:\n  objectives: [F_max]\n  budget: 30\n  initial_points: 10\n")
+    p.write_text(LINEAR + "optimisation:\n  objectives: [F_max]\n  budget: 30\n"
+                 "  initial_points: 10\n")
     case = load_case(p)
     assert "scale" not in case.resolved and not case.log.any()
     from lccopt.problem import Problem
@@ -159,7 +166,8 @@ def test_a_case_without_scale_resolves_as_before(tmp_path):
 ])
 def test_bad_scale_names_file_line_and_key(tmp_path, extra, where, key, words):
     if where == "integer":
-        text = LINEAR.replace("  strengthened_sleepers:", "  strengthened_sleepers:\n" + extra.rstrip("\n"), 1)
+        text = LINEAR.replace("  strengthened_sleepers:",
+                              "  strengthened_sleepers:\n" + extra.rstrip("\n"), 1)
     else:
         text = with_pad_lines(extra)
         if where == "pads-bounds":  # the group's own bounds line comes later: drop it

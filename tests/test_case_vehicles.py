@@ -30,32 +30,36 @@ def line_of(text, needle):
 
 
 SPECTRUM = "  irregularity: {{spectrum: {spectrum}, seed: 3, wavelengths: [{lo}, {hi}]}}\n"
+WAVELENGTHS = "simulation.irregularity.wavelengths"
+HALF_CAR_WITHOUT_BOGIE_DISTANCE = ("vehicle:\n  type: half-car\n  wheelbase: 2.5\n"
+                                   "  bogie_pitch_inertia: 1400\n  carbody_pitch_inertia: 1.6e6\n")
 
 BAD = [  # (extra YAML after extends/name, key in the message, words, the line holding the needle)
-    ("vehicle:\n  type: tram\n", "vehicle.type", "must be one of three-dof, bogie, half-car", "type: tram"),
+    ("vehicle:\n  type: tram\n", "vehicle.type", "must be one of three-dof, bogie, half-car",
+     "type: tram"),
     ("vehicle:\n  type: bogie\n  wheelbase: 2.5\n", "vehicle.bogie_pitch_inertia",
      "missing key 'bogie_pitch_inertia' (vehicle type bogie needs it)", "vehicle:"),
-    ("vehicle:\n  type: half-car\n  wheelbase: 2.5\n  bogie_pitch_inertia: 1400\n  carbody_pitch_inertia: 1.6e6\n",
+    (HALF_CAR_WITHOUT_BOGIE_DISTANCE,
      "vehicle.bogie_distance", "missing key 'bogie_distance'", "vehicle:"),
-    ("vehicle:\n  type: half-car\n  wheelbase: 2.5\n  bogie_pitch_inertia: 1400\n  carbody_pitch_inertia: 1.6e6\n"
-     "  bogie_distance: 2.0\n", "vehicle.bogie_distance", "must exceed the wheelbase", "bogie_distance: 2.0"),
+    (HALF_CAR_WITHOUT_BOGIE_DISTANCE + "  bogie_distance: 2.0\n",
+     "vehicle.bogie_distance", "must exceed the wheelbase", "bogie_distance: 2.0"),
     ("vehicle:\n  wheelbase: -2.5\n", "vehicle.wheelbase", "must be > 0", "wheelbase: -2.5"),
     ("simulation:\n  direction: backwards\n", "simulation.direction", "must be one of enter, leave",
      "direction: backwards"),
-    ("simulation:\n" + SPECTRUM.format(spectrum="fra-9", lo=1, hi=50), "simulation.irregularity.spectrum",
-     "must be one of erri-low", "irregularity:"),
-    ("simulation:\n" + SPECTRUM.format(spectrum="erri-low", lo=50, hi=1), "simulation.irregularity.wavelengths",
+    ("simulation:\n" + SPECTRUM.format(spectrum="fra-9", lo=1, hi=50),
+     "simulation.irregularity.spectrum", "must be one of erri-low", "irregularity:"),
+    ("simulation:\n" + SPECTRUM.format(spectrum="erri-low", lo=50, hi=1), WAVELENGTHS,
      "must increase", "irregularity:"),
-    ("simulation:\n" + SPECTRUM.format(spectrum="erri-low", lo=1, hi=500), "simulation.irregularity.wavelengths",
+    ("simulation:\n" + SPECTRUM.format(spectrum="erri-low", lo=1, hi=500), WAVELENGTHS,
      "exceeds the track", "irregularity:"),
-    ("simulation:\n" + SPECTRUM.format(spectrum="erri-low", lo=0.1, hi=50), "simulation.irregularity.wavelengths",
+    ("simulation:\n" + SPECTRUM.format(spectrum="erri-low", lo=0.1, hi=50), WAVELENGTHS,
      "below what the mesh and time step resolve", "irregularity:"),
-    ("simulation:\n" + SPECTRUM.format(spectrum="erri-low", lo=10.2, hi=10.25), "simulation.irregularity.wavelengths",
+    ("simulation:\n" + SPECTRUM.format(spectrum="erri-low", lo=10.2, hi=10.25), WAVELENGTHS,
      "holds no wavelength", "irregularity:"),
-    ("simulation:\n  irregularity: {spectrum: erri-low, wavelengths: [1, 50]}\n", "simulation.irregularity",
-     "missing key 'seed'", "irregularity:"),
-    ("simulation:\n  irregularity: [1, 2]\n", "simulation.irregularity", "expected a file name or a mapping",
-     "irregularity:"),
+    ("simulation:\n  irregularity: {spectrum: erri-low, wavelengths: [1, 50]}\n",
+     "simulation.irregularity", "missing key 'seed'", "irregularity:"),
+    ("simulation:\n  irregularity: [1, 2]\n", "simulation.irregularity",
+     "expected a file name or a mapping", "irregularity:"),
     ("simulation:\n  direction: leave\n  run_in: 40.0\n", "simulation.run_in",
      "beyond the modelled rail [0, 134] m less 1 m at each end (vehicle 0 m long): shorten "
      "run_in/run_out or lengthen track.layout.exit_length", "run_in: 40.0"),
@@ -81,17 +85,17 @@ def test_spectrum_irregularity_is_resolved_at_load_time_and_the_same_for_every_d
     prof = case.irregularity
     assert prof.shape[1] == 2 and prof[0, 0] == 0.0 and prof[-1, 0] == pytest.approx(134.0)
     assert np.array_equal(load_case(p).irregularity, prof)            # deterministic
-    cheap = case.with_simulation(time_step=1e-3, element_length=0.1, far_element_length=0.1, run_in=3.0,
-                                 run_out=1.0)
+    cheap_settings = dict(time_step=1e-3, element_length=0.1, far_element_length=0.1, run_in=3.0,
+                          run_out=1.0)
+    cheap = case.with_simulation(**cheap_settings)
     x2 = cheap.reference.copy()
     x2[4:7] = [7, 7, 7]                                                # another mesh
     for x in (cheap.reference, x2):
         ev = evaluate(cheap, x)
         pos = ev.histories["wheel_position"]
-        assert np.allclose(ev.histories["irregularity_at_wheel"], np.interp(pos, prof[:, 0], prof[:, 1]))
-    smooth = evaluate(load_case(REFERENCE).with_simulation(time_step=1e-3, element_length=0.1,
-                                                         far_element_length=0.1, run_in=3.0, run_out=1.0),
-                      cheap.reference)
+        assert np.allclose(ev.histories["irregularity_at_wheel"],
+                           np.interp(pos, prof[:, 0], prof[:, 1]))
+    smooth = evaluate(load_case(REFERENCE).with_simulation(**cheap_settings), cheap.reference)
     assert ev.objectives["F_max"] > smooth.objectives["F_max"]
 
 
@@ -182,8 +186,10 @@ def test_simulate_command_runs_a_half_car(tmp_path):
     p = tmp_path / "c.yaml"
     p.write_text(f"extends: {HALF_CAR}\nname: hc\n" + CHEAP_SIMULATION)
     # this interpreter's lccopt (the one under test), whatever `lccopt` is on PATH
-    proc = subprocess.run([sys.executable, "-m", "lccopt.cli", "simulate", str(p), "--out", str(tmp_path / "out")],
-                          capture_output=True, text=True, timeout=300, env={**os.environ, "MPLBACKEND": "Agg"})
+    command = [sys.executable, "-m", "lccopt.cli", "simulate", str(p),
+               "--out", str(tmp_path / "out")]
+    proc = subprocess.run(command, capture_output=True, text=True, timeout=300,
+                          env={**os.environ, "MPLBACKEND": "Agg"})
     assert proc.returncode == 0, proc.stderr
     with h5py.File(tmp_path / "out" / "simulation.h5") as f:
         assert f["histories/contact_force_wheels"].shape[1] == 4

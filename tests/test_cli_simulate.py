@@ -5,7 +5,6 @@ import numpy as np
 import pytest
 
 from lccopt import machine
-
 from tests.conftest import CONFIGS
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
@@ -13,18 +12,22 @@ PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 
 @pytest.fixture(scope="module")
 def reference_run(tmp_path_factory):
-    import subprocess, os
+    import os
+    import subprocess
+
     from tests.conftest import lccopt_command
     out = tmp_path_factory.mktemp("sim")
-    proc = subprocess.run(lccopt_command() + ["simulate", str(CONFIGS / "reference.yaml"), "--out", str(out)],
-                          capture_output=True, text=True, timeout=300, env={**os.environ, "MPLBACKEND": "Agg"})
+    command = lccopt_command() + ["simulate", str(CONFIGS / "reference.yaml"), "--out", str(out)]
+    proc = subprocess.run(command, capture_output=True, text=True, timeout=300,
+                          env={**os.environ, "MPLBACKEND": "Agg"})
     return proc, out
 
 
 def test_simulate_prints_the_four_objectives_with_units(reference_run):
     proc, out = reference_run
     assert proc.returncode == 0, proc.stderr
-    lines = {l.split("=")[0].strip(): l for l in proc.stdout.splitlines() if "=" in l and l.startswith("  ")}
+    lines = {l.split("=")[0].strip(): l
+             for l in proc.stdout.splitlines() if "=" in l and l.startswith("  ")}
     for name, unit in [("F_rms", "kN"), ("F_max", "kN"), ("E_rms", "J"), ("E_max", "J")]:
         assert lines[name].split("=")[1].split()[1] == unit
     assert "static wheel load 56.98 kN" in proc.stdout and "P = 100.0 kN" in proc.stdout
@@ -37,14 +40,16 @@ def test_simulate_writes_readable_histories_and_plots(reference_run):
     proc, out = reference_run
     with h5py.File(out / "simulation.h5", "r") as f:
         x = f["design"][()]
-        assert list(f["design"].attrs["names"]) == ["x_r1", "x_r2", "x_r3", "x_n", "x_s1", "x_s2", "x_s3", "x_l"]
+        assert list(f["design"].attrs["names"]) == ["x_r1", "x_r2", "x_r3", "x_n",
+                                                    "x_s1", "x_s2", "x_s3", "x_l"]
         assert np.array_equal(x, [1120e6] * 3 + [8, 6, 6, 4, 0])
         force = f["histories/contact_force"][()]
         zone = f["histories/in_force_zone"][()].astype(bool)
         energy = f["histories/sleeper_energy"][()]
         f_max = f["objectives"].attrs["F_max"]
         e_max = f["objectives"].attrs["E_max"]
-        assert len(force) == len(f["histories/wheel_position"][()]) == f["info"].attrs["n_steps"] + 1
+        n_steps = f["info"].attrs["n_steps"]
+        assert len(force) == len(f["histories/wheel_position"][()]) == n_steps + 1
         # what decides its floating point on this machine (lccopt/machine.py), recorded
         assert {k: f["info"].attrs[k] for k in machine.describe()} == machine.describe()
         assert "vehicle:" in f["info"].attrs["case"]
@@ -52,7 +57,8 @@ def test_simulate_writes_readable_histories_and_plots(reference_run):
     assert f_max == pytest.approx(force[zone].max() - force[zone].min())
     assert e_max == pytest.approx(energy.max() - energy.min())
     assert len(energy) == 20 and np.all(energy > 0)
-    printed = float(next(l for l in proc.stdout.splitlines() if l.strip().startswith("F_max")).split("=")[1].split()[0])
+    f_max_line = next(l for l in proc.stdout.splitlines() if l.strip().startswith("F_max"))
+    printed = float(f_max_line.split("=")[1].split()[0])
     assert printed == pytest.approx(f_max / 1e3, rel=1e-4)  # shown in kN
     for name in ("contact_force.png", "sleeper_energy.png", "displacement.png"):
         data = (out / name).read_bytes()
@@ -71,9 +77,11 @@ def test_simulate_another_design(run_cli, tmp_path):
 
 
 def test_simulate_rejects_a_bad_design(run_cli):
-    proc = run_cli("simulate", CONFIGS / "reference.yaml", "--design", "214,155,50,5,0.6,0.7,0.3,50")
+    proc = run_cli("simulate", CONFIGS / "reference.yaml",
+                   "--design", "214,155,50,5,0.6,0.7,0.3,50")
     assert proc.returncode == 2
-    assert proc.stderr.strip().splitlines() == ["lccopt: error: --design: x_l = 50 m is outside [0, 12] m"]
+    assert proc.stderr.strip().splitlines() == [
+        "lccopt: error: --design: x_l = 50 m is outside [0, 12] m"]
 
 
 def test_check_accepts_a_good_case(run_cli):
@@ -83,8 +91,8 @@ def test_check_accepts_a_good_case(run_cli):
 
 
 @pytest.mark.parametrize("old,new,expect", [
-    ("    reference: 8\n", "    reference: 21\n", ": design.strengthened_sleepers.reference: reference x_n = 21 "
-                                                  "is outside the bounds [0, 20]"),
+    ("    reference: 8\n", "    reference: 21\n",
+     ": design.strengthened_sleepers.reference: reference x_n = 21 is outside the bounds [0, 20]"),
     ("  run_in: 2.0", "  run_in: ten", ": simulation.run_in: expected a number, got 'ten'"),
     ("  speed: 140 km/h", "  speed: 140 km/h\n  colour: red", ": vehicle.colour: unknown key"),
 ])
@@ -111,10 +119,11 @@ def test_missing_file_and_usage_errors(run_cli, tmp_path):
 
 
 def test_design_is_given_in_mn_per_m_and_checked_in_those_units(run_cli, tmp_path):
-    proc = run_cli("simulate", CONFIGS / "reference.yaml", "--design", "214e6,155,50,5,0.6,0.7,0.3,0",
-                   "--out", tmp_path / "x")
+    proc = run_cli("simulate", CONFIGS / "reference.yaml",
+                   "--design", "214e6,155,50,5,0.6,0.7,0.3,0", "--out", tmp_path / "x")
     assert proc.returncode == 2
-    assert proc.stderr.strip() == "lccopt: error: --design: x_r1 = 2.14e+08 MN/m is outside [50, 1200] MN/m"
+    assert proc.stderr.strip() == (
+        "lccopt: error: --design: x_r1 = 2.14e+08 MN/m is outside [50, 1200] MN/m")
 
 
 def test_simulate_refuses_to_overwrite_without_force(run_cli, tmp_path):

@@ -42,14 +42,16 @@ def run_in_terminal(args, cwd, columns=80, timeout=300) -> str:
 
 def test_progress_fits_80_columns_and_names_objectives_in_engineering_units(tmp_path):
     case = write_case(tmp_path, name="tty", budget=8, initial=4)
-    out = run_in_terminal(["optimise", case, "--workers", "1", "--runs", tmp_path / "runs"], tmp_path)
+    out = run_in_terminal(["optimise", case, "--workers", "1", "--runs", tmp_path / "runs"],
+                          tmp_path)
     text = ANSI.sub("", out)
     screen_lines = [seg for line in text.split("\n") for seg in line.split("\r")]
     progress = [s for s in screen_lines if re.search(r"\b\d/8\b", s)]
     assert len(progress) >= 8, text           # redrawn in place: one segment per evaluation
     too_wide = [s for s in progress if len(s.rstrip()) > 80]
     assert not too_wide, too_wide
-    assert "8/8" in progress[-1] and "-:--:--" not in progress[-1], progress[-1]   # an ETA once known
+    # an ETA once known
+    assert "8/8" in progress[-1] and "-:--:--" not in progress[-1], progress[-1]
     assert re.search(r"F_max [0-9.]+ kN [+-]\d+%", progress[-1]), progress[-1]
     # the full best-design line is in the summary printed at the end
     assert re.search(r"F_max [0-9.]+ kN", text) and re.search(r"E_max [0-9.]+ J", text), text
@@ -60,18 +62,20 @@ def test_a_traffic_run_moves_per_condition_from_the_first_simulation(tmp_path):
     condition finishes, from the session's start (the reference design's time counts)."""
     conditions = ("conditions:\n  - {name: a, speed: 30.0}\n  - {name: b, speed: 35.0}\n"
                   "  - {name: c, speed: 38.88888888888889}\n")
-    case = write_case(tmp_path, name="ttr", budget=6, initial=4, worst=(90000.0, 9.0), extra=conditions)
+    case = write_case(tmp_path, name="ttr", budget=6, initial=4, worst=(90000.0, 9.0),
+                      extra=conditions)
     env_before = dict(os.environ)
     os.environ.update(LCCOPT_EVALUATOR="tests.engine.fakesim:evaluate", LCCOPT_FAKE_DELAY="0.3")
     try:
-        out = run_in_terminal(["optimise", case, "--workers", "1", "--runs", tmp_path / "runs"], tmp_path)
+        out = run_in_terminal(["optimise", case, "--workers", "1", "--runs", tmp_path / "runs"],
+                              tmp_path)
     finally:
         os.environ.clear()
         os.environ.update(env_before)
     text = ANSI.sub("", out)
     counts = [int(m.group(1)) for m in re.finditer(r"\b(\d+)/18\b", text)]
     assert counts and counts[0] == 0, text                # drawn before the first result
-    assert {1, 2} <= set(counts), counts                   # the reference design's conditions one by one
+    assert {1, 2} <= set(counts), counts   # the reference design's conditions one by one
     assert counts[-1] == 18 and counts == sorted(counts), counts
 
 
@@ -96,13 +100,16 @@ def _terminal_lines(args, cwd, env=None) -> tuple[int, list[str]]:
     proc.wait(timeout=60)
     os.close(master)
     text = ANSI.sub("", b"".join(chunks).decode("utf-8", errors="replace"))
-    return proc.returncode, [seg for line in text.split("\n") for seg in line.split("\r") if seg.strip()]
+    screen_lines = [seg for line in text.split("\n") for seg in line.split("\r") if seg.strip()]
+    return proc.returncode, screen_lines
 
 
 def test_error_messages_fit_an_80_column_terminal(tmp_path):
     long_name = "a-case-file-with-a-rather-long-name-for-my-crossing.yaml"   # a 56-character word
-    (tmp_path / long_name).write_text("extends: " + str(REFERENCE) + "\nname: t\nvehicle: {sped: 30}\n")
-    for args in (["optimse", "x.yaml"], ["check", long_name], ["optimise", "x.yaml", "--wrokers", "2"],
+    (tmp_path / long_name).write_text(
+        "extends: " + str(REFERENCE) + "\nname: t\nvehicle: {sped: 30}\n")
+    for args in (["optimse", "x.yaml"], ["check", long_name],
+                 ["optimise", "x.yaml", "--wrokers", "2"],
                  ["resume", "no-such-run-directory-here"]):
         code, lines = _terminal_lines(args, tmp_path)
         assert code == 2, lines

@@ -26,7 +26,8 @@ def test_an_item_longer_than_the_width_gets_a_line_of_its_own():
 
 
 def test_check_prints_lines_of_at_most_80_characters():
-    proc = subprocess.run([sys.executable, "-m", "lccopt", "check", str(ROOT / "configs" / "reference.yaml")],
+    reference = ROOT / "configs" / "reference.yaml"
+    proc = subprocess.run([sys.executable, "-m", "lccopt", "check", str(reference)],
                           capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0, proc.stderr
     lines = proc.stdout.splitlines()

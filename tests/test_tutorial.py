@@ -9,8 +9,6 @@ from __future__ import annotations
 import re
 import shlex
 
-import pytest
-
 from tests.conftest import ROOT
 
 TUTORIAL = ROOT / "docs" / "tutorial.md"

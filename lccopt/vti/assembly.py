@@ -42,7 +42,8 @@ def hermite(xi, length) -> np.ndarray:
     L = np.asarray(length, dtype=float)
     s = np.asarray(xi, dtype=float) / L
     s2, s3 = s * s, s * s * s
-    return np.stack([1 - 3 * s2 + 2 * s3, L * (s - 2 * s2 + s3), 3 * s2 - 2 * s3, L * (s3 - s2)], axis=-1)
+    return np.stack([1 - 3 * s2 + 2 * s3, L * (s - 2 * s2 + s3), 3 * s2 - 2 * s3, L * (s3 - s2)],
+                    axis=-1)
 
 
 class Assembler:

@@ -56,7 +56,8 @@ def contact_vectors(track: TrackLike, x) -> tuple[np.ndarray, np.ndarray, np.nda
     nx = track.node_x
     e = np.clip(np.searchsorted(nx, x, side="right") - 1, 0, len(nx) - 2)
     vals = hermite(x - nx[e], nx[e + 1] - nx[e])
-    idx = np.stack([track.rail_w[e], track.rail_th[e], track.rail_w[e + 1], track.rail_th[e + 1]], axis=1)
+    idx = np.stack([track.rail_w[e], track.rail_th[e], track.rail_w[e + 1], track.rail_th[e + 1]],
+                   axis=1)
     vals[idx < 0] = 0.0
     idx[idx < 0] = 0
     return e, idx, vals
@@ -137,7 +138,7 @@ def integrate(track: TrackLike, dt: float, speed: float, x_start: float, n_steps
     :func:`~lccopt.vti.unilateral.integrate_unilateral`. None: every support is linear.
     """
     if supports is not None:
-        from .unilateral import integrate_unilateral   # it builds on this module
+        from .unilateral import integrate_unilateral  # it builds on this module
 
         if initial is not None or vehicle_offset is not None:
             raise ValueError("unilateral supports start from static equilibrium only")
@@ -209,7 +210,8 @@ def integrate(track: TrackLike, dt: float, speed: float, x_start: float, n_steps
     ab, kd = to_upper_banded(K + a0 * M + a1 * C)
     chol, info = lapack.dpbtrf(ab, lower=0, overwrite_ab=1)
     if info != 0:
-        raise np.linalg.LinAlgError(f"effective track matrix is not positive definite (dpbtrf info={info})")
+        raise np.linalg.LinAlgError(
+            f"effective track matrix is not positive definite (dpbtrf info={info})")
     # The track state is kept as p = a0 u + a2 v + a, q = a1 u + v and u, so that the right-hand
     # side M(a0 u + a2 v + a) + C(a1 u + v) is one sparse product [M C] [p; q], and Newmark's
     # updates of v and a become (with a1 a2 = 2 a0) q' = 2 a1 u' - q, p' = 4 a0 u' - a2 q - p.
@@ -330,13 +332,14 @@ def _check_on_rail(track: TrackLike, positions) -> None:
     p = np.asarray(positions, dtype=float)
     lo, hi = float(track.node_x[0]), float(track.node_x[-1])
     if p.min() < lo - 1e-9 or p.max() > hi + 1e-9:
-        raise ValueError(f"a wheel runs from {p.min():.3f} m to {p.max():.3f} m, beyond the modelled rail "
-                         f"[{lo:g}, {hi:g}] m: lengthen the track or shorten the run")
+        raise ValueError(f"a wheel runs from {p.min():.3f} m to {p.max():.3f} m, beyond the "
+                         f"modelled rail [{lo:g}, {hi:g}] m: lengthen the track or shorten the run")
 
 
 def integrate_wheels(track: TrackLike, dt: float, speed: float, x_start: float, n_steps: int, *,
                      vehicle, irregularity: Callable[[float], float] | None = None,
-                     record_dofs: np.ndarray | None = None, vehicle_offset: np.ndarray | None = None,
+                     record_dofs: np.ndarray | None = None,
+                     vehicle_offset: np.ndarray | None = None,
                      on_step: Callable | None = None) -> History:
     """:func:`integrate` for a vehicle with k wheels on the rail (k moving rank-one contacts).
 
@@ -358,7 +361,8 @@ def integrate_wheels(track: TrackLike, dt: float, speed: float, x_start: float, 
     n = K.shape[0]
     record_dofs = np.asarray(record_dofs if record_dofs is not None else [], dtype=int)
     a0, a1, a2 = 4.0 / dt ** 2, 2.0 / dt, 4.0 / dt
-    Mv, Cv, Kv, fv = (np.asarray(a, dtype=float) for a in (vehicle.M, vehicle.C, vehicle.K, vehicle.weight_load))
+    Mv, Cv, Kv, fv = (np.asarray(a, dtype=float)
+                      for a in (vehicle.M, vehicle.C, vehicle.K, vehicle.weight_load))
     nv = Mv.shape[0]
     W = np.asarray(vehicle.wheel_dofs, dtype=int)
     k = len(W)
@@ -415,7 +419,8 @@ def integrate_wheels(track: TrackLike, dt: float, speed: float, x_start: float, 
     ab, kd = to_upper_banded(K + a0 * M + a1 * C)
     chol, info = lapack.dpbtrf(ab, lower=0, overwrite_ab=1)
     if info != 0:
-        raise np.linalg.LinAlgError(f"effective track matrix is not positive definite (dpbtrf info={info})")
+        raise np.linalg.LinAlgError(
+            f"effective track matrix is not positive definite (dpbtrf info={info})")
     chol = np.asfortranarray(chol)
     MC = sp.hstack([M, C]).tocsr()
     S = np.zeros((3, n))

@@ -292,7 +292,8 @@ def build_track(scenario: Scenario, design: TrackDesign) -> TrackModel:
         entry_sleeper_x=entry_x, entry_sleeper_dof=sleeper_dof[:n_entry],
         entry_support_damping=sl_c, entry_strengthened=strengthened, entry_pad_stiffness=pad_k,
         exit_sleeper_x=exit_x, type_ii_end=float(type_ii_end), info=info,
-        sleeper_x=sleeper_x, sleeper_dof=sleeper_dof, support_stiffness=all_k, support_damping=all_c)
+        sleeper_x=sleeper_x, sleeper_dof=sleeper_dof, support_stiffness=all_k,
+        support_damping=all_c)
 
 
 @dataclass

@@ -192,8 +192,8 @@ class MultiAxleVehicle(_Common):
     @classmethod
     def build(cls, type: str, *, carbody_mass, bogie_mass, wheelset_mass, primary_stiffness,
               primary_damping, secondary_stiffness, secondary_damping, wheelbase,
-              bogie_pitch_inertia, carbody_pitch_inertia=None, bogie_distance=None, speed=0.0, gravity=9.81,
-              hertz_constant=5.13e-8, hertz_load=100e3) -> "MultiAxleVehicle":
+              bogie_pitch_inertia, carbody_pitch_inertia=None, bogie_distance=None, speed=0.0,
+              gravity=9.81, hertz_constant=5.13e-8, hertz_load=100e3) -> "MultiAxleVehicle":
         """Per-wheel values as in a VehicleSpec (module docstring)."""
         if type == "bogie":
             names = ["carbody", "bogie", "bogie pitch", "wheel 1", "wheel 2"]

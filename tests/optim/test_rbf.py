@@ -23,7 +23,9 @@ def test_interpolates_data_exactly():
 def test_linear_function_reproduced_everywhere():
     rng = np.random.default_rng(1)
     X = rng.random((15, 3))
-    lin = lambda Z: 2.0 - Z @ np.array([1.0, -3.0, 0.5])
+    def lin(Z):
+        return 2.0 - Z @ np.array([1.0, -3.0, 0.5])
+
     s = CubicRBF().fit(X, lin(X))
     Xq = rng.random((50, 3)) * 2 - 0.5  # also outside the data's box
     np.testing.assert_allclose(s(Xq), lin(Xq), atol=1e-9)
@@ -123,8 +125,10 @@ def test_leave_one_out_residuals_are_those_of_fits_without_the_point():
     e_f, e_g = CubicRBF().fit(X, f).loo_residuals([f, g])
     for i in (0, 5, 17, 29):
         keep = np.arange(30) != i
-        assert e_f[i] == pytest.approx(f[i] - CubicRBF().fit(X[keep], f[keep])(X[i]), rel=1e-7, abs=1e-12)
-        assert e_g[i] == pytest.approx(g[i] - CubicRBF().fit(X[keep], g[keep])(X[i]), rel=1e-7, abs=1e-12)
+        loo_f = f[i] - CubicRBF().fit(X[keep], f[keep])(X[i])
+        loo_g = g[i] - CubicRBF().fit(X[keep], g[keep])(X[i])
+        assert e_f[i] == pytest.approx(loo_f, rel=1e-7, abs=1e-12)
+        assert e_g[i] == pytest.approx(loo_g, rel=1e-7, abs=1e-12)
 
 
 def _quadratic(Z, seed=7):

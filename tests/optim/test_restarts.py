@@ -9,9 +9,19 @@ from benchmarks import problems
 from lccopt.optim import strategy as strategy_module
 from lccopt.optim.settings import SIGMA_INIT, fail_tol
 from lccopt.optim.strategy import Strategy
-from tests.optim.helpers import (OFF_SWITCH_SPACE, ShortPhases, as_outputs, fingerprint,
-                                 off_switch, off_switch_elsewhere, off_switch_poor_subspace,
-                                 phases, run_delayed, run_serial, xs)
+from tests.optim.helpers import (
+    OFF_SWITCH_SPACE,
+    ShortPhases,
+    as_outputs,
+    fingerprint,
+    off_switch,
+    off_switch_elsewhere,
+    off_switch_poor_subspace,
+    phases,
+    run_delayed,
+    run_serial,
+    xs,
+)
 
 
 def _watch_phases(s, f, workers=1, outputs=False):

@@ -30,7 +30,8 @@ def test_a_smooth_dip_raises_the_force_and_a_deep_one_loses_contact(tmp_path):
     assert ev.info["contact_loss_steps"] == 0
     # before the dip nothing changed
     before = ev.histories["wheel_position"] < 94.4
-    assert np.allclose(ev.histories["contact_force"][before], base.histories["contact_force"][before])
+    assert np.allclose(ev.histories["contact_force"][before],
+                       base.histories["contact_force"][before])
     # a 10 mm dip over 0.2 m: the wheel flies; the force goes negative and it is reported
     xs = np.linspace(94.9, 95.1, 21)
     dip = 5e-3 * (1 - np.cos(2 * np.pi * (xs - 94.9) / 0.2))
@@ -44,7 +45,8 @@ def test_bad_profile_file_is_a_case_error(tmp_path):
     from lccopt.errors import CaseError
 
     (tmp_path / "profile.csv").write_text("1,0.002\n0,0.003\n")       # positions not increasing
-    (tmp_path / "c.yaml").write_text(REFERENCE.replace("  run_out: 3.0", "  run_out: 3.0\n  irregularity: profile.csv"))
+    (tmp_path / "c.yaml").write_text(
+        REFERENCE.replace("  run_out: 3.0", "  run_out: 3.0\n  irregularity: profile.csv"))
     with pytest.raises(CaseError, match=r"simulation\.irregularity: .*profile\.csv: line 2: "
                                         r"position 0 m does not increase"):
         load_case(tmp_path / "c.yaml")

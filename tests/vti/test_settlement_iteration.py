@@ -9,13 +9,19 @@ import pytest
 from lccopt.config import load_case
 from lccopt.degradation.iteration import _implicit_block, _Loads, predict_settlement
 from lccopt.degradation.laws import VarandasLaw
-from lccopt.degradation.loading import (Axles, Condition, Loading, SettlementZone, entry_zone,
-                                        vti_condition)
+from lccopt.degradation.loading import (
+    Axles,
+    Condition,
+    Loading,
+    SettlementZone,
+    entry_zone,
+    vti_condition,
+)
 from lccopt.degradation.statics import ZoneStatics
+from lccopt.vti.evaluate import build_vehicle
 from lccopt.vti.newmark import integrate
 from lccopt.vti.track import build_track
 from lccopt.vti.unilateral import sleeper_supports
-from lccopt.vti.evaluate import build_vehicle
 from tests.vti.test_voids import discrete_track
 
 YEARS = 10.0
@@ -66,7 +72,8 @@ def reference_setup(x=None, per_year=PER_YEAR):
     case = load_case("configs/reference.yaml").with_simulation(
         time_step=1e-3, element_length=0.1, run_in=2.0, run_out=1.0)
     case.data["vehicle"]["model"] = "quarter-car"     # no fixed point (docs/settlement.md)
-    tr = build_track(case.scenario(), case.track_design(case.reference if x is None else np.asarray(x, float)))
+    design = case.reference if x is None else np.asarray(x, float)
+    tr = build_track(case.scenario(), case.track_design(design))
     veh = build_vehicle(case.scenario().vehicle)
     x0, _, _, x1 = tr.window
     dt = case.simulation["time_step"]

@@ -20,15 +20,19 @@ def wheel_on_spring(kind):
     """The wheelset hung from its bogie by a 1 N/m spring (no damping, no gravity): on its own,
     a mass m_w on the Hertz spring k_w (k_s1/k_w = 3e-10)."""
     if kind == "three-dof":
-        return Vehicle(np.array([7047.25, 943.0, M_W]), 1.0, 0.0, 1.0, 0.0, 20.0, 0.0, G, P, "quarter-car")
-    return MultiAxleVehicle.build("bogie", carbody_mass=7047.25, bogie_mass=943.0, wheelset_mass=M_W,
-                                  primary_stiffness=1.0, primary_damping=0.0, secondary_stiffness=1.0,
-                                  secondary_damping=0.0, wheelbase=2.5, bogie_pitch_inertia=1400.0,
-                                  speed=20.0, gravity=0.0, hertz_constant=G, hertz_load=P)
+        return Vehicle(np.array([7047.25, 943.0, M_W]), 1.0, 0.0, 1.0, 0.0, 20.0, 0.0, G, P,
+                       "quarter-car")
+    return MultiAxleVehicle.build("bogie", carbody_mass=7047.25, bogie_mass=943.0,
+                                  wheelset_mass=M_W, primary_stiffness=1.0, primary_damping=0.0,
+                                  secondary_stiffness=1.0, secondary_damping=0.0, wheelbase=2.5,
+                                  bogie_pitch_inertia=1400.0, speed=20.0, gravity=0.0,
+                                  hertz_constant=G, hertz_load=P)
 
 
 @pytest.mark.parametrize("kind", ["three-dof", "bogie"])
-def test_sinusoidal_irregularity_drives_the_force_at_v_over_lambda_with_the_closed_form_amplitude(kind):
+def test_sinusoidal_irregularity_drives_the_force_at_v_over_lambda_with_the_closed_form_amplitude(
+    kind,
+):
     """Setting where the closed form applies: a rigid rail (Winkler foundation 1e15 N/m²: point
     stiffness 2e13 N/m, 5000x the Hertz spring) and the wheel as a free mass on the Hertz
     spring k_w. A dip r = r0 sin(2π x/λ) passed at v drives m z'' + k_w (z - r) = 0 at
@@ -49,7 +53,9 @@ def test_sinusoidal_irregularity_drives_the_force_at_v_over_lambda_with_the_clos
     beam = WinklerBeam.build(20.0, 0.1, EI, M_RAIL, 1e15)
     xs = np.arange(0.0, 20.0 + 1e-9, lam / 100)
     rs = r0 * np.sin(2 * np.pi * xs / lam)
-    r_of = lambda p: float(np.interp(p, xs, rs))
+    def r_of(p):
+        return float(np.interp(p, xs, rs))
+
     dt, periods = 1e-4, 20
     steps = int(round(periods * 2 * np.pi / omega / dt))          # 5000 steps, 10 m
     h = integrate(beam, dt, v, 6.0, steps, vehicle=veh, irregularity=r_of)
@@ -110,7 +116,8 @@ def test_spectrum_profile_has_the_spectrum_psd_in_its_band_and_nothing_outside(n
         est = (a ** 2 + b ** 2) / (2 * d_omega)
         assert np.max(np.abs(est[~inside])) < 1e-20 * np.max(est[inside]) + 1e-30
         ratios.append(est[inside] / erri(omega[inside], a_v))
-        assert abs(np.mean(p[:-1, 1])) < 1e-12 * np.std(p[:, 1])   # no zero-frequency content either
+        # no zero-frequency content either
+        assert abs(np.mean(p[:-1, 1])) < 1e-12 * np.std(p[:, 1])
     ratios = np.array(ratios)                         # seeds x harmonics in the band
     edges = np.geomspace(band[0], band[1], 4)
     for lo, hi in zip(edges[:-1], edges[1:]):
@@ -131,7 +138,8 @@ def test_fra_spectra_follow_their_formula_and_order():
     for name, a_v in (("fra-4", 0.5376), ("fra-5", 0.2095), ("fra-6", 0.0339)):
         s = 1e-4 * 0.25 * a_v * 0.8245 ** 2 / (omega ** 2 * (omega ** 2 + 0.8245 ** 2))
         assert np.allclose(psd(name, omega), s, rtol=1e-12)
-    assert np.all(psd("fra-4", omega) > psd("fra-5", omega)) and np.all(psd("fra-5", omega) > psd("fra-6", omega))
+    assert np.all(psd("fra-4", omega) > psd("fra-5", omega))
+    assert np.all(psd("fra-5", omega) > psd("fra-6", omega))
 
 
 def test_spectrum_generation_is_cheap():

@@ -20,7 +20,8 @@ DESIGNS = {
 @pytest.mark.parametrize("name", list(DESIGNS))
 def test_default_settings_match_the_method_before_issue_11(name):
     case = load_case("configs/reference.yaml")
-    x = case.reference if DESIGNS[name] is None else case.check_design(np.array(DESIGNS[name], float))
+    design = DESIGNS[name]
+    x = case.reference if design is None else case.check_design(np.array(design, float))
     new = evaluate(case, x)
     old = evaluate_legacy(case.with_simulation(**REFERENCE_SETTINGS), x)
     assert new.info["n_steps"] < old.info["n_steps"] / 3      # fewer steps: most of the speed-up

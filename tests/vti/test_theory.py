@@ -41,7 +41,7 @@ def test_static_point_load_matches_hetenyi():
     peak = exact.max()
     assert peak == pytest.approx(0.751e-3, rel=1e-3)                 # THEORY.md example
     assert w.max() == pytest.approx(peak, rel=0.01)
-    near = np.abs(x) < 3 / beta                                      # the shape, incl. the uplift lobes
+    near = np.abs(x) < 3 / beta                      # the shape, incl. the uplift lobes
     assert np.max(np.abs(w[near] - exact[near])) < 0.01 * peak
     # rotation dofs are the slope dw/dx of the same curve
     th = u[beam.rail_th[1:-1]]
@@ -62,15 +62,20 @@ def test_moving_load_at_half_critical_speed_matches_fryba():
     # start from the steady state in the moving frame s = x - x0 (THEORY.md's advice)
     x = beam.node_x
     h = 1e-5
-    w = lambda s: fryba(s, beta, alpha)
-    dw = lambda s: (w(s + h) - w(s - h)) / (2 * h)
+    def w(s):
+        return fryba(s, beta, alpha)
+
+    def dw(s):
+        return (w(s + h) - w(s - h)) / (2 * h)
+
     n = beam.K.shape[0]
     u0, v0 = np.zeros(n), np.zeros(n)
     free_w, free_th = beam.rail_w >= 0, beam.rail_th >= 0
     u0[beam.rail_w[free_w]] = w(x[free_w] - x0)
     u0[beam.rail_th[free_th]] = dw(x[free_th] - x0)
     v0[beam.rail_w[free_w]] = -speed * dw(x[free_w] - x0)
-    v0[beam.rail_th[free_th]] = -speed * (dw(x[free_th] - x0 + h) - dw(x[free_th] - x0 - h)) / (2 * h)
+    x_th = x[free_th] - x0
+    v0[beam.rail_th[free_th]] = -speed * (dw(x_th + h) - dw(x_th - h)) / (2 * h)
     hist = integrate(beam, dt, speed, x0, steps, load=P, initial=(u0, v0))
     peak = w(0.0)
     assert peak == pytest.approx(P * beta / (2 * K_FOUND * np.sqrt(1 - alpha ** 2)))
@@ -156,7 +161,8 @@ def test_newmark_energy_balance_is_exact_over_a_whole_run():
         return z[2] - float(vals @ u[idx])
 
     def on_step(k, u, v, a, z, zd, zdd, idx, vals, force):
-        cur = dict(u=u.copy(), v=v.copy(), z=z.copy(), zd=zd.copy(), idx=idx.copy(), vals=vals.copy())
+        cur = dict(u=u.copy(), v=v.copy(), z=z.copy(), zd=zd.copy(), idx=idx.copy(),
+                   vals=vals.copy())
         if prev:
             p = prev
             delta_new = g_dot(cur["idx"], cur["vals"], cur["u"], cur["z"])
@@ -164,7 +170,8 @@ def test_newmark_energy_balance_is_exact_over_a_whole_run():
 
             def energy(s, delta):
                 return (0.5 * s["v"] @ (M @ s["v"]) + 0.5 * s["zd"] @ Mv @ s["zd"]
-                        + 0.5 * s["u"] @ (K @ s["u"]) + 0.5 * s["z"] @ Kv @ s["z"] + 0.5 * kw * delta ** 2)
+                        + 0.5 * s["u"] @ (K @ s["u"]) + 0.5 * s["z"] @ Kv @ s["z"]
+                        + 0.5 * kw * delta ** 2)
 
             vbar, zbar = 0.5 * (p["v"] + cur["v"]), 0.5 * (p["zd"] + cur["zd"])
             dissipated = dt * (vbar @ (C @ vbar) + zbar @ Cv @ zbar)
@@ -180,6 +187,7 @@ def test_newmark_energy_balance_is_exact_over_a_whole_run():
     r = np.array(rows)
     residual = r[:, 0] + r[:, 1] - r[:, 2] - r[:, 3]
     scale = np.sum(np.abs(r[:, 1])) + np.sum(np.abs(r[:, 2])) + np.sum(np.abs(r[:, 3]))
-    assert np.sum(r[:, 1]) > 0 and np.sum(np.abs(r[:, 3])) > 0      # damping and moving work present
+    assert np.sum(r[:, 1]) > 0 and np.sum(np.abs(r[:, 3])) > 0   # damping and moving work present
     assert abs(residual.sum()) / scale < 1e-9
-    assert np.max(np.abs(residual)) / np.max(np.abs(r[:, 1])) < 1e-6   # step by step, round-off only
+    # step by step, round-off only
+    assert np.max(np.abs(residual)) / np.max(np.abs(r[:, 1])) < 1e-6

@@ -28,7 +28,8 @@ def test_sleeper_positions_follow_the_spans(case):
     # x_s3 = slab edge to sleeper 1, then x_s2, x_s1, then the standard 0.6 m
     assert t.entry_sleeper_x[:5] == pytest.approx([99.5, 99.2, 98.5, 97.9, 97.3])
     ref = build_track(case.scenario(), case.track_design(case.reference))
-    assert ref.entry_sleeper_x[:4] == pytest.approx([99.6, 99.0, 98.4, 97.8])   # first sleeper 0.4 m away
+    # the first sleeper 0.4 m away
+    assert ref.entry_sleeper_x[:4] == pytest.approx([99.6, 99.0, 98.4, 97.8])
     assert np.all(np.diff(ref.entry_sleeper_x[3:]) == pytest.approx(-0.6))
     assert ref.exit_sleeper_x[0] == pytest.approx(112.4)
     for track in (t, ref):                 # every sleeper sits on a rail node and on its pad
@@ -37,7 +38,8 @@ def test_sleeper_positions_follow_the_spans(case):
 
 
 def test_railpads_stiffness_and_damping_at_the_right_seats(case):
-    t = build_track(case.scenario(), case.track_design(design(case, x_r1=300e6, x_r2=200e6, x_r3=100e6)))
+    x = design(case, x_r1=300e6, x_r2=200e6, x_r3=100e6)
+    t = build_track(case.scenario(), case.track_design(x))
     pad_c_per_k = 120e3 / 1120e6
     expected = [100e6, 200e6, 300e6, 1120e6, 1120e6]      # sleeper 1 (nearest) carries x_r3
     for pos, dof, k in zip(t.entry_sleeper_x, t.entry_sleeper_dof, expected):
@@ -57,7 +59,8 @@ def test_strengthened_sleepers(case, n_strong):
         pad = -t.K[rail_dof_at(t, t.entry_sleeper_x[i]), dof]
         assert t.K[dof, dof] - pad == pytest.approx(ss["support_stiffness"] if strong
                                                    else std["support"]["stiffness"])
-        assert t.entry_support_damping[i] == (ss["support_damping"] if strong else std["support"]["damping"])
+        assert t.entry_support_damping[i] == (ss["support_damping"] if strong
+                                              else std["support"]["damping"])
     assert t.entry_strengthened.sum() == n_strong
 
 

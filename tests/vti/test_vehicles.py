@@ -19,8 +19,9 @@ from tests.conftest import CHEAP_SIMULATION, CONFIGS
 
 EI = 210e9 * 2.337e-5
 M_RAIL = 7800 * 6.977e-3
-PER_WHEEL = dict(carbody_mass=7047.25, bogie_mass=943.0, wheelset_mass=1819.0, primary_stiffness=2445e3,
-                 primary_damping=2e3, secondary_stiffness=1113.5e3, secondary_damping=25.05e3)
+PER_WHEEL = dict(carbody_mass=7047.25, bogie_mass=943.0, wheelset_mass=1819.0,
+                 primary_stiffness=2445e3, primary_damping=2e3, secondary_stiffness=1113.5e3,
+                 secondary_damping=25.05e3)
 
 
 def vehicle(kind, **over):
@@ -106,14 +107,17 @@ def direct_newmark(track, veh, dt, speed, x_start, steps, r_of):
 def test_woodbury_update_agrees_with_a_direct_solve_of_the_coupled_system(kind, speed):
     """The reference track (soft pads near the interface) with a 0.3 mm dip under the wheels'
     path: 60 steps of the factored k-contact update against the assembled coupled system."""
-    case = load_case(CONFIGS / "reference.yaml").with_simulation(element_length=0.1, far_element_length=0.6)
+    case = load_case(CONFIGS / "reference.yaml").with_simulation(element_length=0.1,
+                                                                 far_element_length=0.6)
     x = case.reference.copy()
     x[:3] = [300e6, 100e6, 60e6]
     track = build_track(case.scenario(), case.track_design(x))
     veh = vehicle(kind, speed=abs(speed))
     xs = np.linspace(90.0, 110.0, 401)
     dip = 0.15e-3 * (1 - np.cos(2 * np.pi * (xs - 90.0) / 1.3))
-    r_of = lambda p: float(np.interp(p, xs, dip, left=0.0, right=0.0))
+    def r_of(p):
+        return float(np.interp(p, xs, dip, left=0.0, right=0.0))
+
     dt, steps = 5e-4, 60
     x_start = 99.0 if speed > 0 else 96.0
     h = integrate(track, dt, speed, x_start, steps, vehicle=veh, irregularity=r_of)
@@ -146,8 +150,9 @@ def mirrored(track):
     x_start, zone_start, zone_end, x_end = track.window
     return dataclasses.replace(
         track, node_x=(L - track.node_x[::-1]), rail_w=track.rail_w[::-1].copy(),
-        rail_th=track.rail_th[::-1].copy(), M=(T @ track.M @ T).tocsr(), C=(T @ track.C @ T).tocsr(),
-        K=(T @ track.K @ T).tocsr(), window=(L - x_start, L - zone_start, L - zone_end, L - x_end),
+        rail_th=track.rail_th[::-1].copy(),
+        M=(T @ track.M @ T).tocsr(), C=(T @ track.C @ T).tocsr(), K=(T @ track.K @ T).tocsr(),
+        window=(L - x_start, L - zone_start, L - zone_end, L - x_end),
         interface=(L - track.interface[1], L - track.interface[0]),
         entry_sleeper_x=L - track.entry_sleeper_x, exit_sleeper_x=L - track.exit_sleeper_x)
 
@@ -178,8 +183,10 @@ def test_leave_on_a_mirrored_track_is_the_mirrored_enter(tmp_path, monkeypatch, 
     assert leave.info["n_wheels"] == enter.info["n_wheels"] == (4 if "half" in base else 1)
     f_in, f_out = enter.histories["contact_force_wheels"], leave.histories["contact_force_wheels"]
     assert np.max(np.abs(f_in - f_out)) < 1e-9 * np.abs(f_in).max()
-    assert np.allclose(leave.histories["wheel_positions"], L - enter.histories["wheel_positions"], atol=1e-9)
-    assert np.array_equal(leave.histories["in_force_zone_wheels"], enter.histories["in_force_zone_wheels"])
+    assert np.allclose(leave.histories["wheel_positions"], L - enter.histories["wheel_positions"],
+                       atol=1e-9)
+    assert np.array_equal(leave.histories["in_force_zone_wheels"],
+                          enter.histories["in_force_zone_wheels"])
     for k, v in enter.objectives.items():
         assert leave.objectives[k] == pytest.approx(v, rel=1e-9), k
 
@@ -196,16 +203,17 @@ def test_leave_window_crosses_the_whole_ers_and_ends_with_the_last_wheel_past_th
     track = build_track(case.scenario(), case.track_design(case.reference))
     x_start, zone_start, zone_end, x_end = track.window
     sim, length = case.simulation, 19.0 + 2.5
-    assert zone_end == pytest.approx(100.0 + 12.0 - 2.0)              # 2 m before the far edge
+    assert zone_end == pytest.approx(100.0 + 12.0 - 2.0)       # 2 m before the far edge
     assert zone_start == pytest.approx(track.entry_sleeper_x[19])
-    assert x_start == pytest.approx(112.0 + sim["run_in"])            # 100 m + 12 m of ERS
-    assert x_start + length > track.node_x[-1]                          # trailing wheels off the rail
+    assert x_start == pytest.approx(112.0 + sim["run_in"])     # 100 m + 12 m of ERS
+    assert x_start + length > track.node_x[-1]                 # trailing wheels off the rail
     assert x_end == pytest.approx(zone_start - sim["run_out"] - length)
     ev = evaluate(case, case.reference)
     pos = ev.histories["wheel_positions"]
     assert np.all(np.diff(pos[:, 0]) < 0)
-    assert pos[-1, -1] <= zone_start - sim["run_out"] + 1e-9          # the last wheel is run_out past
+    assert pos[-1, -1] <= zone_start - sim["run_out"] + 1e-9   # the last wheel is run_out past
     counts = ev.histories["in_force_zone_wheels"].sum(axis=0)
     assert counts.min() > 0 and counts.max() - counts.min() <= 1
     # the wheels off the rail at the start carry their static share on the rigid continuation
-    assert np.allclose(ev.histories["contact_force_wheels"][0], ev.info["static_wheel_load"], rtol=3e-3)
+    assert np.allclose(ev.histories["contact_force_wheels"][0], ev.info["static_wheel_load"],
+                       rtol=3e-3)

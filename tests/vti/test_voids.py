@@ -10,10 +10,10 @@ from scipy.sparse.linalg import spsolve
 
 from lccopt.config import load_case
 from lccopt.vti.assembly import Assembler, beam_stiffness, hermite_gram
+from lccopt.vti.evaluate import build_vehicle
 from lccopt.vti.newmark import contact_vector, integrate
 from lccopt.vti.track import build_track
 from lccopt.vti.unilateral import GRAVITY, rest_state, sleeper_supports
-from lccopt.vti.evaluate import build_vehicle
 
 EI = 210e9 * 2.337e-5
 M_RAIL = 7800 * 6.977e-3
@@ -47,7 +47,8 @@ def discrete_track(n_sleepers=60, spacing=0.6, element=0.1, k_pad=1120e6, c_pad=
     sx = (np.arange(n_sleepers) + 1) * spacing
     snode = np.rint(sx / element).astype(int)
     # dofs along the track: w, th per node, the sleeper after its node's rail dofs
-    keys = [(i, 0) for i in range(n_el + 1)] + [(i, 1) for i in range(n_el + 1)] + [(i, 2) for i in snode]
+    keys = ([(i, 0) for i in range(n_el + 1)] + [(i, 1) for i in range(n_el + 1)]
+            + [(i, 2) for i in snode])
     order = sorted(range(len(keys)), key=lambda j: keys[j])
     full = np.empty(len(keys), int)
     full[order] = np.arange(len(keys))

@@ -4,9 +4,9 @@ forces of a vehicle run converge as Δt halves (the contact switching does not s
 import numpy as np
 
 from lccopt.config import load_case
+from lccopt.vti.evaluate import build_vehicle
 from lccopt.vti.newmark import integrate
 from lccopt.vti.unilateral import sleeper_supports
-from lccopt.vti.evaluate import build_vehicle
 from tests.vti.test_voids import discrete_track
 
 

@@ -14,7 +14,6 @@ switch: it shrinks with Δt (halving Δt divides it by 2.8 here).
 """
 
 import numpy as np
-import pytest
 
 from lccopt.vti.newmark import integrate
 from lccopt.vti.unilateral import sleeper_supports
@@ -59,7 +58,8 @@ def run_balance(dt, speed=20.0, load=100e3):
             damper = 0.5 * c * (q["s"] * q["vs"] + cur["s"] * cur["vs"]) * dsup
             weight = -k * sup.rest * dsup
             switch = cur["s"] != q["s"]
-            r_switch = np.where(switch, 0.5 * k * q["p"] * cur["p"] * np.where(cur["s"], -1, 1), 0.0)
+            sign = np.where(cur["s"], -1, 1)
+            r_switch = np.where(switch, 0.5 * k * q["p"] * cur["p"] * sign, 0.0)
             rows.append((kin + strain + diss + support - work, kin, strain, diss, work,
                          np.sum(spring + damper + weight) - support, r_switch.sum(),
                          switch.sum(), np.abs(0.5 * k * q["p"] * cur["p"])[switch].sum()))

@@ -23,7 +23,8 @@ HERE = Path(__file__).resolve().parent
 ROOT = HERE.parents[2]
 # The floating point every x86-64 CPU with AVX2 repeats (OpenBLAS's Haswell kernels, numpy's
 # X86_V3 loops): the tests replay the runs with the same (tests/engine/conftest.py).
-PINNED = {"OPENBLAS_CORETYPE": "Haswell", "NPY_DISABLE_CPU_FEATURES": "X86_V4 AVX512_ICL AVX512_SPR",
+PINNED = {"OPENBLAS_CORETYPE": "Haswell",
+          "NPY_DISABLE_CPU_FEATURES": "X86_V4 AVX512_ICL AVX512_SPR",
           "OPENBLAS_NUM_THREADS": "1"}
 
 
@@ -44,11 +45,12 @@ def main(argv=None) -> int:
         if args.worst:
             text += f"  asf:\n    worst: [{args.worst[0]}, {args.worst[1]}]\n"
         case.write_text(text, encoding="utf-8")
-        env = {**os.environ, "PYTHONPATH": str(ROOT), "LCCOPT_EVALUATOR": "tests.engine.fakesim:evaluate",
-               **PINNED}
+        env = {**os.environ, "PYTHONPATH": str(ROOT),
+               "LCCOPT_EVALUATOR": "tests.engine.fakesim:evaluate", **PINNED}
         main_ = "import sys; from lccopt.cli import main; sys.exit(main())"
         r = subprocess.run([sys.executable, "-c", main_, "optimise", str(case), "--workers",
-                            str(args.workers), "--runs", tmp], env=env, capture_output=True, text=True)
+                            str(args.workers), "--runs", tmp],
+                           env=env, capture_output=True, text=True)
         if r.returncode != 0:
             raise SystemExit(r.stderr)
         run = Path(tmp) / args.name
