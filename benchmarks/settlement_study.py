@@ -23,8 +23,12 @@ import numpy as np
 from lccopt.config import load_case
 from lccopt.problem import evaluate
 from lccopt.report.data import BEST_COLOR, OKABE_ITO, REF_COLOR, load_run, read_history
-from lccopt.report.settlement import (Design, fig_settlement_history, fig_settlement_profile,
-                                      limit_of)
+from lccopt.report.settlement import (
+    Design,
+    fig_settlement_history,
+    fig_settlement_profile,
+    limit_of,
+)
 
 MOO = [214e6, 155e6, 50e6, 5, 6, 7, 3, 0]          # the paper's Table 7, spans in 0.1 m
 COLUMNS = ("differential_settlement", "F_max", "max_settlement", "max_void", "level_std",

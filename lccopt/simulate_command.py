@@ -20,8 +20,13 @@ from .config import design_items, load_case, parse_design
 from .config.describe import condition_lines, vehicle_line, zone_line
 from .store import write_evaluation
 from .terminal import wrap_items
-from .vti.response import (OBJECTIVE_DOC, PAPER_OBJECTIVES, SETTLEMENT_OBJECTIVES, Evaluation,
-                           objective_display)
+from .vti.response import (
+    OBJECTIVE_DOC,
+    PAPER_OBJECTIVES,
+    SETTLEMENT_OBJECTIVES,
+    Evaluation,
+    objective_display,
+)
 
 
 def _echo_design(case, case_path: Path, x) -> None:
@@ -173,8 +178,12 @@ def _simulate_settlement(case, case_path: Path, x, out: Path, plots: bool, evalu
                           {"case": case.resolved, **machine.describe()})
     typer.echo(f"histories: {h5}")
     if plots:
-        from .report.settlement import (Design, fig_settlement_history, fig_settlement_profile,
-                                        limit_of)
+        from .report.settlement import (
+            Design,
+            fig_settlement_history,
+            fig_settlement_profile,
+            limit_of,
+        )
         from .report.simulation import simulation_figures
 
         paths = simulation_figures(ev, case.name, out)

@@ -16,7 +16,8 @@ from lccopt.degradation.iteration import predict_settlement
 from lccopt.degradation.laws import VarandasLaw
 from lccopt.degradation.loading import entry_zone, vti_condition
 from lccopt.problem import Problem, evaluate
-from lccopt.vti.evaluate import build_vehicle, evaluate as simulate
+from lccopt.vti.evaluate import build_vehicle
+from lccopt.vti.evaluate import evaluate as simulate
 from lccopt.vti.response import SETTLEMENT_OBJECTIVES
 from lccopt.vti.track import build_track
 from tests.conftest import CONFIGS
