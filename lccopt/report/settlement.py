@@ -116,7 +116,7 @@ def at_years(h: dict, key: str, years) -> np.ndarray:
 
 
 def _plt():
-    from .figures import _plt as plt
+    from .plotting import pyplot as plt
 
     return plt()
 
@@ -298,7 +298,7 @@ def _years_text(t: float) -> str:
 
 
 def _save(fig, path: Path) -> Path:
-    from .figures import _save as save
+    from .plotting import save_figure as save
 
     fig.dpi = DPI
     return save(fig, path)

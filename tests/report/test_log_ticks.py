@@ -4,7 +4,7 @@ within one decade (e.g. 0.3-1.8 kN) still gets readable numbers."""
 import numpy as np
 import pytest
 
-from lccopt.report.figures import log_ticks
+from lccopt.report.plotting import log_ticks
 
 
 @pytest.mark.parametrize("lo, hi", [(0.3, 1.8), (2.6, 13.0), (0.05, 40.0), (1.0, 4.5), (1e3, 9e4)])

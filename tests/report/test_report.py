@@ -196,15 +196,15 @@ def test_pads_searched_on_a_log_scale_are_placed_in_ratios(run_dir, monkeypatch,
     # sits at ln(1120/50)/ln(1200/50) = 0.979 of the way, not (1120-50)/(1200-50) = 0.930.
     import numpy as np
 
-    from lccopt.report import figures
+    from lccopt.report import design
     from lccopt.report.data import load_run
 
     run, _ = run_dir
     data = load_run(run)
     assert [v.log for v in data.variables] == [True] * 3 + [False] * 5
     drawn = {}
-    monkeypatch.setattr(figures, "_save", lambda fig, path: drawn.setdefault("fig", fig) and path)
-    figures.fig_best_vs_reference(data, data.best_index(), data.ref_index(), tmp_path)
+    monkeypatch.setattr(design, "save_figure", lambda fig, path: drawn.setdefault("fig", fig) and path)
+    design.fig_best_vs_reference(data, data.best_index(), data.ref_index(), tmp_path)
     a2 = drawn["fig"].axes[1]
     ref = a2.collections[1].get_offsets()      # after the range lines: the reference diamonds
     np.testing.assert_allclose(ref[:3, 0], np.log(1120 / 50) / np.log(1200 / 50), rtol=1e-9)

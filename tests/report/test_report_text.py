@@ -5,7 +5,6 @@ from __future__ import annotations
 import json
 
 from lccopt.engine.runner import optimise
-
 from tests.engine.conftest import FAKE, cli_run, write_case
 
 CONDITIONS = """\
