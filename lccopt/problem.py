@@ -122,7 +122,7 @@ class Problem:
             seed=int(opt["seed"]),
             timeout=float(opt["timeout"]),
             rho=float(asf.get("rho", 0.05) if asf.get("rho") is not None else 0.05),
-            improvement=float(asf.get("improvement") if asf.get("improvement") is not None else 0.2),
+            improvement=float(0.2 if asf.get("improvement") is None else asf["improvement"]),
             worst=None if worst is None else tuple(float(w) for w in worst),
             conditions=conditions,
             weights=tuple(c.weight for c in case.conditions),
@@ -251,8 +251,9 @@ class Problem:
         for name, w, r in zip(self.objectives, self.worst_values(reference_objectives), point):
             if not w > r:
                 raise CaseError(f"{name}: optimisation.asf.worst = {w:g} must exceed the reference "
-                                f"point {r:g} (reference design {name} = {r / (1 - self.improvement):g} "
-                                f"improved by {self.improvement:.0%})")
+                                f"point {r:g} (reference design {name} = "
+                                f"{r / (1 - self.improvement):g} improved by "
+                                f"{self.improvement:.0%})")
         return point
 
     def objective_vector(self, objectives: dict) -> np.ndarray:
@@ -261,7 +262,8 @@ class Problem:
     def finite(self, objectives: dict) -> str | None:
         """None if every objective of the case is a finite number, else the reason."""
         bad = [f"{k}={objectives.get(k)!r}" for k in self.objectives
-               if not isinstance(objectives.get(k), (int, float)) or not math.isfinite(objectives[k])]
+               if not isinstance(objectives.get(k), (int, float))
+               or not math.isfinite(objectives[k])]
         return f"non-finite objectives: {', '.join(bad)}" if bad else None
 
     def value(self, objectives: dict, reference_point=None) -> float:
@@ -272,7 +274,8 @@ class Problem:
             raise ValueError("a multi-objective value needs the reference point")
         from .optim.scalarise import asf
 
-        return float(asf(self.objective_vector(objectives), reference_point, self.worst, rho=self.rho))
+        return float(asf(self.objective_vector(objectives), reference_point,
+                         self.worst, rho=self.rho))
 
     # -- traffic conditions ------------------------------------------------------------------
     def combine(self, per_condition: list[dict]) -> dict:

@@ -21,13 +21,33 @@ from ..errors import CaseError
 from ..vti.specs import ELEMENT_UNIT, Scenario, TrackDesign
 from . import build
 from . import overrides as set_values
-from .checks import (check_accuracy, check_design_size, check_layout_fits, check_mesh_units,
-                     check_optimisation, check_profile, simulation_size)
+from .checks import (
+    check_accuracy,
+    check_design_size,
+    check_layout_fits,
+    check_mesh_units,
+    check_optimisation,
+    check_profile,
+    simulation_size,
+)
 from .degradation import check_degradation, degradation_spec
-from .profiles import (MAX_CASE_PROFILE_POINTS, MAX_PROFILE_BYTES, ProfileError, ProfileText,
-                       parse_rows, rows_text)
-from .reading import (check_file_name, dotted, locate, read_case_text, read_input_bytes,
-                      read_with_base, shown)
+from .profiles import (
+    MAX_CASE_PROFILE_POINTS,
+    MAX_PROFILE_BYTES,
+    ProfileError,
+    ProfileText,
+    parse_rows,
+    rows_text,
+)
+from .reading import (
+    check_file_name,
+    dotted,
+    locate,
+    read_case_text,
+    read_input_bytes,
+    read_with_base,
+    shown,
+)
 from .schema import SAFE_NAME, SCHEMA, check
 from .zones import check_design_space, derive_strip_bounds, resolve_zone
 

@@ -166,8 +166,7 @@ def _check_law(law: dict, err) -> None:
     for key, value in law.items():
         if key != "name" and value is not None and key not in known:
             other = next(n for n, keys in LAW_PARAMETERS.items() if key in keys)
-            raise err(at + (key,), f"a parameter of the {other} law, not of {name} "
-                                   f"(law.name)")
+            raise err(at + (key,), f"a parameter of the {other} law, not of {name} (law.name)")
     for key, (_, default) in known.items():
         if law.get(key) is None:
             if default is None:

@@ -12,8 +12,19 @@ import sys
 from dataclasses import replace
 
 from . import units
-from .schema import (DEFAULT_FORCE_ZONE_END, SCHEMA, Items, Named, Num, NumList, Rows, Section,
-                     Str, StrList, TextOrSection)
+from .schema import (
+    DEFAULT_FORCE_ZONE_END,
+    SCHEMA,
+    Items,
+    Named,
+    Num,
+    NumList,
+    Rows,
+    Section,
+    Str,
+    StrList,
+    TextOrSection,
+)
 
 INTRO = """\
 # Case-file reference

@@ -17,8 +17,7 @@ from ..degradation.specs import LAW_NAMES, LIMIT_MEASURES
 from ..vti.irregularity import SPECTRA
 from ..vti.response import PAPER_OBJECTIVES, REPORTED_ONLY, SETTLEMENT_OBJECTIVES
 from ..vti.specs import VEHICLE_TYPES, ZONE_POINTS
-from .spec import (Items, Named, Num, NumList, Rows, Section, Str, StrList,  # noqa: F401
-                   TextOrSection)
+from .spec import Items, Named, Num, NumList, Rows, Section, Str, StrList, TextOrSection  # noqa: F401
 from .validate import MAX_MAGNITUDE, SAFE_NAME, check  # noqa: F401  (the schema's validator)
 
 # years_to_limit is listed so that asking to minimise it gets its own message (checks)

@@ -116,14 +116,16 @@ HISTORY_DOC = {
     "rail_displacement": "rail displacement under the wheel [m], downward positive",
     "carbody_displacement": "carbody displacement [m], downward positive",
     "in_force_zone": "1 where the wheel is inside the force zone, else 0",
-    "sleeper_position": "positions of the evaluation-zone sleepers [m], nearest the interface first",
+    "sleeper_position": "positions "
+                        "of the evaluation-zone sleepers [m], nearest the interface first",
     "sleeper_energy": "energy dissipated in the support under each zone sleeper [J], same order",
     "sleeper_strengthened": "1 for a strengthened zone sleeper, else 0, same order",
     "sleeper_displacement": "displacement of each zone sleeper [m] against time (steps x sleepers)",
     "wheel_positions": "position of every wheel [m] (steps x wheels), leading wheel first",
     "contact_force_wheels": "contact force of every wheel [N] (steps x wheels), same order",
     "in_force_zone_wheels": "1 where that wheel is inside the force zone, else 0 (steps x wheels)",
-    "irregularity_at_wheel": "rail irregularity (dip) under the leading wheel [m], when there is one",
+    "irregularity_at_wheel": "rail irregularity (dip) under the leading wheel [m], when there is "
+                             "one",
     # a settlement prediction (lccopt.degradation.evaluate): one row per block of load cycles,
     # row 0 the new track
     "settlement_years": "time at the end of each block [year]",

@@ -126,9 +126,8 @@ def test_conditions_on_other_meshes_settle_the_same_sleepers_together(tmp_path):
     mesh, and its simulations take the zone's gaps on its own supports. Both directions load
     the approach, so both together settle it more than the entering traffic alone."""
     deg = "  traffic: {enter: 2.5e5, leave: 2.5e5}\n" + ONE_YEAR
-    case = cheap_case(tmp_path, deg, "conditions: [{name: enter, vehicle: case},\n"
-                                     "             {name: leave, vehicle: case, "
-                                     "direction: leave}]\n")
+    case = cheap_case(tmp_path, deg, "conditions: [{name: enter, vehicle: case},\n             "
+                                     "{name: leave, vehicle: case, direction: leave}]\n")
     tracks = [build_track(case.condition_case(i).scenario(), case.track_design(case.reference))
               for i in range(2)]
     assert tracks[0].n_dofs != tracks[1].n_dofs                  # another mesh
@@ -146,8 +145,7 @@ def test_e_max_alone_fits_the_sleepers_energies_only_of_one_simulation(tmp_path)
     one = cheap_case(tmp_path, "  passages_per_year: 5.0e5\n",
                      "optimisation: {objectives: [E_max], budget: 10}\n", name="e1")
     two = cheap_case(tmp_path, "  traffic: {a: 1.0e5, b: 1.0e5}\n",
-                     "optimisation: {objectives: [E_max], budget: 10}\n"
-                     "conditions: [{name: a, vehicle: case}, {name: b, vehicle: case, "
-                     "speed: 100 km/h}]\n", name="e2")
+                     "optimisation: {objectives: [E_max], budget: 10}\nconditions: [{name: a, "
+                     "vehicle: case}, {name: b, vehicle: case, speed: 100 km/h}]\n", name="e2")
     assert Problem.from_case(one).surrogate == "sleeper-energies"
     assert Problem.from_case(two).surrogate == "scalar"      # E_max is the worst of two
