@@ -31,9 +31,9 @@ from lccopt.config import load_case
 from lccopt.degradation.iteration import predict_settlement
 from lccopt.degradation.laws import LogarithmicLaw, VarandasLaw
 from lccopt.degradation.loading import entry_zone, vti_condition
+from lccopt.vti.evaluate import build_vehicle
 from lccopt.vti.newmark import integrate
 from lccopt.vti.track import build_track
-from lccopt.vti.evaluate import build_vehicle
 
 # One bogie side of the VIRM (configs/traffic.yaml's values): two wheels, no fixed point, so a
 # settled track does not change its static wheel loads (the paper's 3-dof vehicle rests half

@@ -39,8 +39,9 @@ DEFAULT_WORST_FACTOR = 1.5
 
 
 def evaluate(case: Case, x):
-    """Simulate design ``x`` of ``case`` (one simulation: a case with traffic conditions gives
-    each condition's case by ``case.condition_case(i)``).
+    """Simulate design ``x`` of ``case``: one simulation (a case with traffic conditions gives
+    each condition's case by ``case.condition_case(i)``), or for a case with ``degradation:``
+    one settlement prediction under all its traffic (:mod:`lccopt.degradation.evaluate`).
 
     Parameters
     ----------
@@ -59,6 +60,10 @@ def evaluate(case: Case, x):
     ValueError
         x is not a valid design of the case.
     """
+    if case.degradation is not None:
+        from .degradation.evaluate import evaluate as predict
+
+        return predict(case.degradation_spec(), case.track_design(x))
     from .vti.evaluate import evaluate as simulate
 
     return simulate(case.scenario(), case.track_design(x))
@@ -83,6 +88,8 @@ class Problem:
     weights: tuple[float, ...] = ()
     condition_mode: str = "worst"
     log: tuple[bool, ...] = ()            # variables searched on a log scale (empty: none)
+    # conditions simulated inside one evaluation (a settlement prediction's traffic)
+    traffic: tuple[str, ...] = ()
 
     @classmethod
     def from_case(cls, case: Case) -> "Problem":
@@ -115,12 +122,14 @@ class Problem:
             seed=int(opt["seed"]),
             timeout=float(opt["timeout"]),
             rho=float(asf.get("rho", 0.05) if asf.get("rho") is not None else 0.05),
-            improvement=float(asf.get("improvement") if asf.get("improvement") is not None else 0.2),
+            improvement=float(0.2 if asf.get("improvement") is None else asf["improvement"]),
             worst=None if worst is None else tuple(float(w) for w in worst),
             conditions=conditions,
             weights=tuple(c.weight for c in case.conditions),
             condition_mode=mode,
             log=tuple(bool(v) for v in case.log) if case.log.any() else (),
+            traffic=(tuple(c.name for c in case.traffic) if case.degradation is not None
+                     else ()),
         )
 
     # -- design space -----------------------------------------------------------------------
@@ -133,7 +142,8 @@ class Problem:
         """What the optimiser's surrogate fits (recorded in the journal's first line):
 
         * ``composite``: two or more objectives, one RBF each, scored by the ASF;
-        * ``sleeper-energies``: E_max alone with no traffic conditions, one RBF per zone
+        * ``sleeper-energies``: E_max alone with no traffic conditions (one simulation's
+          energies), one RBF per zone
           sleeper's energy, scored by their max - min (E_max itself). Each sleeper's energy
           is smooth in the design where E_max has a kink wherever another sleeper becomes
           the highest or the lowest (benchmarks/RESULTS-optimiser.md has the measurement);
@@ -141,7 +151,7 @@ class Problem:
           over time, measured worse with its parts fitted apart; and every traffic case)."""
         if self.multi:
             return "composite"
-        if self.objectives == ("E_max",) and not self.conditions:
+        if self.objectives == ("E_max",) and not self.conditions and len(self.traffic) <= 1:
             return "sleeper-energies"
         return "scalar"
 
@@ -241,8 +251,9 @@ class Problem:
         for name, w, r in zip(self.objectives, self.worst_values(reference_objectives), point):
             if not w > r:
                 raise CaseError(f"{name}: optimisation.asf.worst = {w:g} must exceed the reference "
-                                f"point {r:g} (reference design {name} = {r / (1 - self.improvement):g} "
-                                f"improved by {self.improvement:.0%})")
+                                f"point {r:g} (reference design {name} = "
+                                f"{r / (1 - self.improvement):g} improved by "
+                                f"{self.improvement:.0%})")
         return point
 
     def objective_vector(self, objectives: dict) -> np.ndarray:
@@ -251,7 +262,8 @@ class Problem:
     def finite(self, objectives: dict) -> str | None:
         """None if every objective of the case is a finite number, else the reason."""
         bad = [f"{k}={objectives.get(k)!r}" for k in self.objectives
-               if not isinstance(objectives.get(k), (int, float)) or not math.isfinite(objectives[k])]
+               if not isinstance(objectives.get(k), (int, float))
+               or not math.isfinite(objectives[k])]
         return f"non-finite objectives: {', '.join(bad)}" if bad else None
 
     def value(self, objectives: dict, reference_point=None) -> float:
@@ -262,7 +274,8 @@ class Problem:
             raise ValueError("a multi-objective value needs the reference point")
         from .optim.scalarise import asf
 
-        return float(asf(self.objective_vector(objectives), reference_point, self.worst, rho=self.rho))
+        return float(asf(self.objective_vector(objectives), reference_point,
+                         self.worst, rho=self.rho))
 
     # -- traffic conditions ------------------------------------------------------------------
     def combine(self, per_condition: list[dict]) -> dict:

@@ -1,5 +1,6 @@
 """``lccopt simulate``: one design, its objectives on screen, histories in HDF5, PNG plots
-(drawn by ``lccopt.report.simulation``).
+(drawn by ``lccopt.report.simulation``; a case with ``degradation:`` predicts the design's
+settlement and draws it with ``lccopt.report.settlement``).
 
 The simulation is the workers' (``lccopt.problem.evaluate``, or the stand-in that
 ``LCCOPT_EVALUATOR`` names, as for ``optimise``). Objectives that are not finite numbers are
@@ -19,7 +20,13 @@ from .config import design_items, load_case, parse_design
 from .config.describe import condition_lines, vehicle_line, zone_line
 from .store import write_evaluation
 from .terminal import wrap_items
-from .vti.response import OBJECTIVE_DOC, Evaluation, objective_display
+from .vti.response import (
+    OBJECTIVE_DOC,
+    PAPER_OBJECTIVES,
+    SETTLEMENT_OBJECTIVES,
+    Evaluation,
+    objective_display,
+)
 
 
 def _echo_design(case, case_path: Path, x) -> None:
@@ -42,6 +49,8 @@ def run_simulate(case_path: Path, design: str | None, out: Path | None, plots: b
         raise UsageError(f"{out} already holds a simulation: choose another --out, or add --force "
                          f"to replace it")
     evaluate = _simulator()
+    if case.degradation is not None:
+        return _simulate_settlement(case, case_path, x, out, plots, evaluate)
     if case.conditions:
         return _simulate_conditions(case, case_path, x, out, plots, evaluate)
     t0 = time.perf_counter()
@@ -59,7 +68,7 @@ def run_simulate(case_path: Path, design: str | None, out: Path | None, plots: b
                f"{info['x_end']:.1f} m, {wall:.2f} s")
     for k, v in ev.objectives.items():
         scale, unit = objective_display(k)
-        typer.echo(f"  {k:<6} = {v * scale:10.5g} {unit:<2}  {OBJECTIVE_DOC[k]}")
+        typer.echo(f"  {k:<6} = {v * scale:10.5g} {unit:<2}  {OBJECTIVE_DOC.get(k, '')}")
     if info["contact_loss_steps"]:
         typer.echo(f"WARNING: contact lost (force <= 0) in {info['contact_loss_steps']} steps, "
                    f"first at {info['contact_loss_first_position']:.2f} m; the linear contact "
@@ -86,7 +95,7 @@ def _simulate_conditions(case, case_path: Path, x, out: Path, plots: bool, evalu
     _echo_design(case, case_path, x)
     typer.echo("\n".join(line[2:] for line in condition_lines(case)))
     typer.echo(zone_line(case))
-    keys = list(OBJECTIVE_DOC)
+    keys = list(PAPER_OBJECTIVES)
     head = "".join(f"{k + ' [' + objective_display(k)[1] + ']':>12}" for k in keys)
     typer.echo(f"{'condition':<22}{head}{'time':>7}")
     evs = []
@@ -95,7 +104,7 @@ def _simulate_conditions(case, case_path: Path, x, out: Path, plots: bool, evalu
         ev = evaluate(case.condition_case(i), x)
         _check_finite(ev.objectives, case, x, c.name)
         evs.append(ev)
-        vals = "".join(f"{v * objective_display(k)[0]:12.5g}" for k, v in ev.objectives.items())
+        vals = "".join(f"{ev.objectives[k] * objective_display(k)[0]:12.5g}" for k in keys)
         typer.echo(f"{c.name[:21]:<22}{vals}{time.perf_counter() - t0:6.2f}s")
         if ev.info.get("contact_loss_steps"):
             typer.echo(f"WARNING: {c.name}: contact lost (force <= 0) in "
@@ -120,6 +129,78 @@ def _simulate_conditions(case, case_path: Path, x, out: Path, plots: bool, evalu
             for p in simulation_figures(ev, case.name, out / c.name):
                 typer.echo(f"plot: {p}")
     return Evaluation(combined, evs[0].histories, evs[0].info)
+
+
+def _simulate_settlement(case, case_path: Path, x, out: Path, plots: bool, evaluate) -> Evaluation:
+    """A case with degradation: the paper's objectives on the new track and the settlement
+    prediction of the design; its histories and, with plots, the settlement figures."""
+    from .config.describe import degradation_lines
+
+    _echo_design(case, case_path, x)
+    if case.traffic:
+        typer.echo("\n".join(line[2:] for line in condition_lines(case)))
+    else:
+        typer.echo(f"vehicle: {vehicle_line(case.vehicle)}")
+    typer.echo(zone_line(case))
+    typer.echo("\n".join(line[2:] for line in degradation_lines(case)))
+    t0 = time.perf_counter()
+    ev = evaluate(case, x)
+    wall = time.perf_counter() - t0
+    _check_finite(ev.objectives, case, x)
+    info, o = ev.info, ev.objectives
+    typer.echo("the paper's objectives on the new track"
+               + (f" ({case.condition_mode} over the conditions):" if len(case.traffic) > 1
+                  else ":"))
+    for k in PAPER_OBJECTIVES:
+        scale, unit = objective_display(k)
+        typer.echo(f"  {k:<6} = {o[k] * scale:10.5g} {unit:<2}  {OBJECTIVE_DOC[k]}")
+    horizon = info.get("settlement_horizon_years", math.nan)
+    typer.echo(f"settlement after {horizon:g} year{'' if horizon == 1 else 's'}: "
+               f"{info.get('settlement_simulations', '?')} simulations, "
+               f"{info.get('settlement_blocks', '?')} blocks, {wall:.1f} s")
+    _echo_objectives(o, [k for k in (*SETTLEMENT_OBJECTIVES, "years_to_limit") if k in o])
+    if not info.get("settlement_limit_reached", True):
+        typer.echo(f"  (the limit, {info['settlement_limit_measure']} "
+                   f"{info['settlement_limit_value'] * 1e3:g} mm, is not reached within the "
+                   f"horizon)")
+    if info.get("settlement_budget_bound"):
+        typer.echo("note: the prediction used its whole budget of simulations "
+                   "(degradation.max_simulations): the loads between them were spread wider "
+                   "than the tolerance asks", err=True)
+    h = ev.histories
+    if "settlement_sleepers" in h:
+        s, v = h["settlement_sleepers"][-1] * 1e3, h["settlement_void"][-1] * 1e3
+        typer.echo("settlement and void [mm] at the horizon, from the sleeper next to the slab:")
+        typer.echo("\n".join(wrap_items([f"{a:.2f}" for a in s], "  settlement ")))
+        typer.echo("\n".join(wrap_items([f"{a:.2f}" for a in v], "  void       ")))
+    out.mkdir(parents=True, exist_ok=True)
+    h5 = write_evaluation(out / "simulation.h5", ev, x, case.names,
+                          {"case": case.resolved, **machine.describe()})
+    typer.echo(f"histories: {h5}")
+    if plots:
+        from .report.settlement import (
+            Design,
+            fig_settlement_history,
+            fig_settlement_profile,
+            limit_of,
+        )
+        from .report.simulation import simulation_figures
+
+        paths = simulation_figures(ev, case.name, out)
+        design = Design("design", h, info)
+        title = f"Settlement of '{case.name}' under its traffic"
+        paths.append(fig_settlement_history([design], out, title, limit_of(info)))
+        paths.append(fig_settlement_profile([design], out, title))
+        for p in paths:
+            typer.echo(f"plot: {p}")
+    return ev
+
+
+def _echo_objectives(objectives: dict, keys) -> None:
+    """One line per objective: name, value in engineering units, what it measures."""
+    for k in keys:
+        scale, unit = objective_display(k)
+        typer.echo(f"  {k:<23} {objectives[k] * scale:9.4g} {unit:<6} {OBJECTIVE_DOC.get(k, '')}")
 
 
 def _simulator():

@@ -5,12 +5,12 @@ import os
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
-import shutil
-import subprocess
-import sys
-from pathlib import Path
+import shutil  # noqa: E402  (after the thread settings, as every import below)
+import subprocess  # noqa: E402
+import sys  # noqa: E402
+from pathlib import Path  # noqa: E402
 
-import pytest
+import pytest  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 CONFIGS = ROOT / "configs"
@@ -85,5 +85,6 @@ def restart_starts(s):
     for r in range(1, s.restart + 1):
         first = next(rec for rec in h if rec["restart"] == r)
         lengths = [sum(rec["restart"] == q for rec in h[: first["id"]]) for q in range(r)]
-        out.append((r, first["id"], first["phase"], s.budget - first["id"] < sum(lengths) / len(lengths)))
+        out.append((r, first["id"], first["phase"],
+                    s.budget - first["id"] < sum(lengths) / len(lengths)))
     return out

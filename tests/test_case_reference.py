@@ -34,6 +34,8 @@ def _leaves(spec, path=""):
     if isinstance(spec, Section):
         for k, s in spec.fields.items():
             yield from _leaves(s, f"{path}.{k}" if path else k)
+    elif isinstance(spec, Named) and not isinstance(spec.item, Section):   # names -> values
+        yield f"{path}.<name>"
     elif isinstance(spec, Named):
         for k, s in spec.item.fields.items():
             yield from _leaves(s, f"{path}.<name>.{k}")

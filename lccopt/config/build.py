@@ -10,9 +10,21 @@ from __future__ import annotations
 import numpy as np
 
 from ..vti import irregularity as spectra
-from ..vti.specs import (ERS, Compound, EvaluationZones, Layout, Rail, Scenario,
-                         SimulationSettings, Slab, SpringDamper, StrengthenedSleeper,
-                         TrackDesign, TrackSpec, VehicleSpec)
+from ..vti.specs import (
+    ERS,
+    Compound,
+    EvaluationZones,
+    Layout,
+    Rail,
+    Scenario,
+    SimulationSettings,
+    Slab,
+    SpringDamper,
+    StrengthenedSleeper,
+    TrackDesign,
+    TrackSpec,
+    VehicleSpec,
+)
 from .profiles import profile_array
 from .zones import force_zone_end
 

@@ -21,12 +21,33 @@ from ..errors import CaseError
 from ..vti.specs import ELEMENT_UNIT, Scenario, TrackDesign
 from . import build
 from . import overrides as set_values
-from .checks import (check_accuracy, check_design_size, check_layout_fits, check_mesh_units,
-                     check_optimisation, check_profile, simulation_size)
-from .profiles import (MAX_CASE_PROFILE_POINTS, MAX_PROFILE_BYTES, ProfileError, ProfileText,
-                       parse_rows, rows_text)
-from .reading import (check_file_name, dotted, locate, read_case_text, read_input_bytes,
-                      read_with_base, shown)
+from .checks import (
+    check_accuracy,
+    check_design_size,
+    check_layout_fits,
+    check_mesh_units,
+    check_optimisation,
+    check_profile,
+    simulation_size,
+)
+from .degradation import check_degradation, degradation_spec
+from .profiles import (
+    MAX_CASE_PROFILE_POINTS,
+    MAX_PROFILE_BYTES,
+    ProfileError,
+    ProfileText,
+    parse_rows,
+    rows_text,
+)
+from .reading import (
+    check_file_name,
+    dotted,
+    locate,
+    read_case_text,
+    read_input_bytes,
+    read_with_base,
+    shown,
+)
 from .schema import SAFE_NAME, SCHEMA, check
 from .zones import check_design_space, derive_strip_bounds, resolve_zone
 
@@ -75,6 +96,12 @@ class Case:
     ``text`` is the case file as written; ``resolved`` is the whole case after ``extends``,
     ``--set`` values (``overrides``, as given) and defaults, as YAML: what a run directory
     keeps so that it stands on its own.
+
+    ``traffic`` holds the case's traffic conditions (its ``conditions:`` list). ``conditions``
+    are those a design is evaluated under one simulation each, which the run engine spreads
+    over its workers: the same, except for a case with ``degradation:``, whose one settlement
+    prediction per design simulates every condition on the track they settle together (so
+    ``conditions`` is empty and the prediction reads ``traffic``).
     """
     path: Path
     text: str
@@ -82,6 +109,7 @@ class Case:
     variables: tuple[Variable, ...] = ()
     conditions: tuple["Condition", ...] = ()
     overrides: tuple[str, ...] = ()
+    traffic: tuple["Condition", ...] = ()
 
     @cached_property
     def resolved(self) -> str:
@@ -150,11 +178,23 @@ class Case:
         """Variables the optimiser searches on a log scale."""
         return np.array([v.log for v in self.variables], dtype=bool)
 
+    @property
+    def degradation(self) -> dict | None:
+        """The ``degradation:`` section (checked, defaults filled in), or None."""
+        return self.data.get("degradation")
+
+    def degradation_spec(self):
+        """The settlement prediction's inputs
+        (:class:`lccopt.degradation.specs.DegradationSpec`) of a case with ``degradation:``."""
+        return degradation_spec(self.data, self.traffic)
+
     def with_simulation(self, **settings) -> "Case":
         """A copy with some simulation settings replaced (convergence studies, tests)."""
         data = {**self.data, "simulation": {**self.data["simulation"], **settings}}
-        conditions = tuple(c.with_simulation(settings) for c in self.conditions)
-        return Case(self.path, self.text, data, self.variables, conditions, self.overrides)
+        traffic = tuple(c.with_simulation(settings) for c in self.traffic)
+        conditions = () if self.degradation is not None else traffic
+        return Case(self.path, self.text, data, self.variables, conditions, self.overrides,
+                    traffic)
 
     @property
     def condition_mode(self) -> str:
@@ -162,8 +202,8 @@ class Case:
         return (self.optimisation or {}).get("conditions") or "worst"
 
     def condition_case(self, i: int) -> "Case":
-        """The case of condition i: one simulation, as the simulator runs it."""
-        return Case(self.path, self.text, self.conditions[i].data, self.variables)
+        """The case of traffic condition i: one simulation, as the simulator runs it."""
+        return Case(self.path, self.text, self.traffic[i].data, self.variables)
 
     def check_design(self, x) -> np.ndarray:
         """Return x as floats if it is a valid design vector, else raise ValueError."""
@@ -309,8 +349,10 @@ def load_case(path: str | Path, overrides=()) -> Case:
     conditions = _conditions(data, path, lines, err, rows)
     sims = [c.data for c in conditions] or [data]
     check_design_size([simulation_size(one) for one in sims], err)
-    return Case(path=path, text=text, data=data, variables=variables, conditions=conditions,
-                overrides=overrides)
+    check_degradation(data, conditions, err)
+    split = () if data.get("degradation") is not None else conditions
+    return Case(path=path, text=text, data=data, variables=variables, conditions=split,
+                overrides=overrides, traffic=conditions)
 
 
 def _profile_rows(value, path: Path, lines: dict, err, at: tuple):
@@ -397,7 +439,8 @@ def _conditions(data: dict, path: Path, lines: dict, err,
                                                        at + ("irregularity",)),
                                          at + ("irregularity",))
             sim["irregularity"] = c["irregularity"]
-        one = {k: v for k, v in data.items() if k not in ("vehicles", "conditions")}
+        one = {k: v for k, v in data.items()
+               if k not in ("vehicles", "conditions", "degradation")}
         one.update(vehicle=vehicle, simulation=sim)
 
         def cond_err(where, msg, at=at, name=c["vehicle"]):

@@ -8,10 +8,11 @@ add up to the real vehicle, shows before anything is simulated.
 
 from __future__ import annotations
 
-from ..terminal import wrap_items
+from ..terminal import WIDTH, wrap_items
 from ..vti.vehicle import build_vehicle
 from .build import vehicle_spec
 from .checks import simulation_size
+from .degradation import SINGLE_CONDITION, axles
 from .zones import force_zone_end, zone_end_x
 
 
@@ -61,15 +62,16 @@ def optimisation_line(case) -> str:
     if len(opt["objectives"]) > 1 or opt["conditions"] == "each":
         asf = ("\n  asf.worst: as given" if worst else
                "\n  asf.worst: 1.5 x the reference design's objectives (the default)")
-    return (f"optimisation: {', '.join(opt['objectives'])}; budget {opt['budget']}, "
-            f"{opt['initial_points']} initial points; histories: {case.histories}{asf}")
+    items = [*opt["objectives"][:-1], f"{opt['objectives'][-1]}; budget {opt['budget']}",
+             f"{opt['initial_points']} initial points; histories: {case.histories}"]
+    return "\n".join(wrap_items(items, "optimisation: ", width=WIDTH - 2)) + asf
 
 
 def condition_lines(case) -> list[str]:
     """The traffic conditions: vehicle (type, static wheel load), speed, direction."""
-    lines = [f"  {len(case.conditions)} traffic conditions, combined by "
+    lines = [f"  {len(case.traffic)} traffic conditions, combined by "
              f"'{case.condition_mode}' (vehicle: type, static wheel load):"]
-    for c in case.conditions:
+    for c in case.traffic:
         kind, speed, load = vehicle_facts(c.data["vehicle"])
         weight = f", weight {c.weight:g}" if case.condition_mode == "mean" else ""
         lines.append(f"    {c.name}: {c.vehicle} ({kind}, {load:.1f} kN), {speed:.4g} km/h, "
@@ -77,18 +79,79 @@ def condition_lines(case) -> list[str]:
     return lines
 
 
+def law_items(law: dict) -> list[str]:
+    """A settlement law's parameters as ``lccopt check`` shows them.
+
+    Parameters
+    ----------
+    law
+        the checked ``degradation.law`` section.
+
+    Returns
+    -------
+    list of str
+        e.g. ``["alpha 0.6", "beta 0.82", "gamma 10 mm", "reference_force 50 kN", ...]``.
+    """
+    shown = {"gamma": (1e3, " mm"), "first_cycle": (1e3, " mm"), "reference_force": (1e-3, " kN")}
+    return [f"{k} {v * shown.get(k, (1.0, ''))[0]:g}{shown.get(k, (1.0, ''))[1]}"
+            for k, v in law.items() if k != "name"]
+
+
+def degradation_lines(case) -> list[str]:
+    """The settlement prediction as ``lccopt check`` prints it: law,
+    traffic (axle passes and gross tonnage a year), horizon, limit and cost cap.
+
+    Parameters
+    ----------
+    case
+        a loaded case with a ``degradation:`` section.
+
+    Returns
+    -------
+    list of str
+        lines of at most 80 columns, indented by two.
+    """
+    deg = case.degradation
+    rows = [(c.name, deg["traffic"][c.name], c.data["vehicle"]) for c in case.traffic] or [
+        (SINGLE_CONDITION, deg["passages_per_year"], case.vehicle)]
+    per_year = tonnes = 0.0
+    items = []
+    for name, passages, vehicle in rows:
+        n = axles(vehicle)
+        per_year += passages * n
+        tonnes += passages * n * 2 * vehicle_facts(vehicle)[2] * 1e3 / 9.81 / 1e3   # t
+        items.append(f"{name} {passages:.3g}/year ({n} axles)")
+    horizon = deg["horizon_years"]
+    limit = deg["limit"]
+    simulated = sum(p > 0 for _, p, _ in rows)
+    lines = wrap_items(law_items(deg["law"]), f"  settlement: {deg['law']['name']} law: ")
+    lines += wrap_items(items, "    traffic: ")
+    lines.append(f"    {per_year:.3g} axle passes, about {tonnes / 1e6:.3g} million gross tonnes "
+                 f"a year")
+    lines.append(f"    horizon {horizon:.4g} year{'' if horizon == 1 else 's'} = "
+                 f"{horizon * per_year:.3g} axle passes; "
+                 f"{deg['settling_sleepers']} settling sleepers")
+    lines.append(f"    limit: {limit['measure']} {limit['value'] * 1e3:g} mm (years_to_limit, "
+                 f"maintenance_rate)")
+    lines.append(f"    per design: at most {deg['max_simulations']} simulations x {simulated} "
+                 f"condition(s), tolerance {deg['tolerance'] / 1e3:g} kN")
+    return lines
+
+
 def case_lines(case, file) -> list[str]:
     """What ``lccopt check`` prints for a valid case."""
     lines = [f"{file}: ok: case '{case.name}', {len(case.variables)} design variables:"]
     lines += wrap_items(variable_items(case), "  ")
-    if case.conditions:
+    if case.traffic:
         lines += condition_lines(case)
     else:
         lines.append(f"  vehicle: {vehicle_line(case.vehicle)}")
     lines.append(f"  {zone_line(case)}")
-    steps, dofs = max(simulation_size(one.data) for one in (case.conditions or [case]))
-    lines.append(f"  {'the longest simulation' if case.conditions else 'one simulation'}: at "
+    steps, dofs = max(simulation_size(one.data) for one in (case.traffic or [case]))
+    lines.append(f"  {'the longest simulation' if case.traffic else 'one simulation'}: at "
                  f"most {steps:,} steps of about {dofs:,} track dofs")
+    if case.degradation is not None:
+        lines += degradation_lines(case)
     lines += [f"  {line}" for line in optimisation_line(case).split("\n")]
     if case.overrides:
         lines += wrap_items([f"--set {o}" for o in case.overrides], "  with ")

@@ -118,7 +118,6 @@ def cover_problem(rows: np.ndarray, track_length: float) -> str | None:
     """Why the profile misses the modelled track [0, track_length] m, or None."""
     lo, hi = float(rows[0, 0]), float(rows[-1, 0])
     if hi <= 0.0 or lo >= track_length:
-        return (f"the profile covers [{lo:g}, {hi:g}] m, outside the modelled track "
-                f"[0, {track_length:g}] m (positions are in metres from the start of the entry "
-                f"track)")
+        return (f"the profile covers [{lo:g}, {hi:g}] m, outside the modelled track [0, "
+                f"{track_length:g}] m (positions are in metres from the start of the entry track)")
     return None

@@ -9,10 +9,22 @@ tests/test_case_reference.py fails when docs/case-reference.md and the schema di
 from __future__ import annotations
 
 import sys
+from dataclasses import replace
 
 from . import units
-from .schema import (DEFAULT_FORCE_ZONE_END, SCHEMA, Items, Named, Num, NumList, Rows, Section,
-                     Str, StrList, TextOrSection)
+from .schema import (
+    DEFAULT_FORCE_ZONE_END,
+    SCHEMA,
+    Items,
+    Named,
+    Num,
+    NumList,
+    Rows,
+    Section,
+    Str,
+    StrList,
+    TextOrSection,
+)
 
 INTRO = """\
 # Case-file reference
@@ -108,6 +120,9 @@ def _rows(spec, path: str) -> list[str]:
         for key, sub in spec.fields.items():
             out += _rows(sub, f"{path}.{key}" if path else key)
         return out
+    if isinstance(spec, Named) and not isinstance(spec.item, Section):   # names -> values
+        return [_row(f"{path}.<name>", replace(spec.item, doc=f"{spec.doc}: {spec.item.doc}",
+                                                required=False))]
     if isinstance(spec, Named):
         return [_row(f"{path}.<name>", spec)] + [
             r for k, s in spec.item.fields.items() for r in _rows(s, f"{path}.<name>.{k}")]

@@ -13,13 +13,15 @@ wrong unit, and the message proposes the unit that fits.
 
 from __future__ import annotations
 
+from ..degradation.specs import LAW_NAMES, LIMIT_MEASURES
 from ..vti.irregularity import SPECTRA
+from ..vti.response import PAPER_OBJECTIVES, REPORTED_ONLY, SETTLEMENT_OBJECTIVES
 from ..vti.specs import VEHICLE_TYPES, ZONE_POINTS
-from .spec import (Items, Named, Num, NumList, Rows, Section, Str, StrList,  # noqa: F401
-                   TextOrSection)
+from .spec import Items, Named, Num, NumList, Rows, Section, Str, StrList, TextOrSection  # noqa: F401
 from .validate import MAX_MAGNITUDE, SAFE_NAME, check  # noqa: F401  (the schema's validator)
 
-OBJECTIVES = ("F_rms", "F_max", "E_rms", "E_max")
+# years_to_limit is listed so that asking to minimise it gets its own message (checks)
+OBJECTIVES = PAPER_OBJECTIVES + SETTLEMENT_OBJECTIVES + REPORTED_ONLY
 CONDITION_MODES = ("worst", "mean", "each")
 HISTORIES = ("all", "best", "none")
 
@@ -241,7 +243,11 @@ _EVALUATION = Section({
 DEFAULT_INITIAL_POINTS = 20
 _OPTIMISATION = Section({
     "objectives": StrList("objectives to minimise; two or more are scalarised by the ASF "
-                          "(required by lccopt optimise)", OBJECTIVES, required=False),
+                          "(required by lccopt optimise). F_rms, F_max [N], E_rms, E_max [J]: "
+                          "the paper's; the others need degradation: (docs/settlement.md): "
+                          "differential_settlement, max_settlement, max_void, level_std [m], "
+                          "force_growth [-], maintenance_rate [1/year] (1 / years_to_limit, "
+                          "which is reported, not minimised)", OBJECTIVES, required=False),
     "budget": Num("evaluations in all, failures included (required by lccopt optimise)",
                   integer=True, ge=2, le=100_000, required=False),
     "initial_points": Num("initial design size, reference design included. Default: 20 (the "
@@ -262,7 +268,8 @@ _OPTIMISATION = Section({
                    required=False),
         "improvement": Num("reference point = reference design improved by this fraction",
                            ge=0, le=1, default=0.2, required=False),
-        "worst": NumList("worst obtainable value of each objective, in N (F_*) or J (E_*): "
+        "worst": NumList("worst obtainable value of each objective, in its SI unit (N for "
+                         "F_*, J for E_*, m for settlements, 1/year for maintenance_rate): "
                          "kappa_i = 1/(worst_i - ref_i). Default: 1.5 x the reference "
                          "design's value, set once evaluation #0 is in", gt=0,
                          max_length=len(OBJECTIVES) * 50, required=False),
@@ -292,6 +299,89 @@ _CONDITIONS = Items(Section({
                   default=1.0, required=False),
 }), "traffic conditions; without this list the case is one condition: its vehicle section")
 
+# The settlement prediction (lccopt/degradation, docs/settlement.md). Law parameters without a
+# default here get the chosen law's default from lccopt/config/degradation.py (the other law's
+# keys stay absent); sources in docs/settlement.md, "Parameters".
+_ROSE = "(ROSE, Deltares / TU Delft, citing Varandas et al. 2014; not checked against the paper)"
+_LAW = Section({
+    "name": Str("varandas: Varandas, Hölscher & Silva (2014), Proc IMechE F 228(3) 242-259, "
+                "doi:10.1177/0954409712471610, settlement from the load histogram; logarithmic: "
+                "S = s1 (F/F0)^m (1 + C ln N), Hettler's form, strain hardening",
+                LAW_NAMES, default="varandas", required=False),
+    "alpha": Num("varandas: load exponent (settlement grows as F^(alpha+1)). Default 0.6 "
+                 + _ROSE, gt=0, le=10.0, required=False, keep_absent=True),
+    "beta": Num("varandas: cycle exponent (under one load, settlement grows as about "
+                "N^(1-beta)). Default 0.82 " + _ROSE, gt=0, le=0.99, required=False,
+                keep_absent=True),
+    "gamma": Num("varandas: settlement after reference_cycles cycles of reference_force. "
+                 "Default 10 mm " + _ROSE, "m", gt=0, le=1.0, shown="mm", required=False,
+                 keep_absent=True),
+    "reference_force": Num("varandas, logarithmic: reference force F0 per rail seat. Default "
+                           "50 kN " + _ROSE, "N", gt=0, le=1e7, shown="kN", required=False,
+                           keep_absent=True),
+    "reference_cycles": Num("varandas: reference number of cycles N0. Default 1e6 " + _ROSE,
+                            ge=1, le=1e12, required=False, keep_absent=True),
+    "first_cycle": Num("logarithmic: settlement s1 after the first cycle of F0 (required: no "
+                       "published value could be found)", "m", gt=0, le=1.0, shown="mm",
+                       required=False, keep_absent=True),
+    "log_rate": Num("logarithmic: C (required: no published value could be found)", gt=0,
+                    le=1000.0, required=False, keep_absent=True),
+    "exponent": Num("logarithmic: load exponent m. Default 1.6 (Hettler's, as ROSE writes the "
+                    "law)", gt=0, le=10.0, required=False, keep_absent=True),
+}, "the settlement law, driven by the peak ballast force of each axle passing each sleeper",
+   required=False)
+_PASSAGES = dict(unit="1/year", le=1e8, why="a busy line carries some 10^5-10^6 passages a year")
+_DEGRADATION = Section({
+    "horizon_years": Num("the horizon: the settlement objectives are the track's state after "
+                         "this many years of the traffic. Default 10 years (when "
+                         "horizon_axle_passes is not given)", "year", gt=0, le=200.0,
+                         required=False, keep_absent=True),
+    "horizon_axle_passes": Num("the horizon in axle passes of the modelled rail, all "
+                               "conditions together (instead of horizon_years)", gt=0, le=1e10,
+                               required=False, keep_absent=True),
+    "passages_per_year": Num("a case without conditions: passages of its vehicle a year (a "
+                             "bogie: one bogie, 2 axles; a half car: one car, 4 axles; "
+                             "three-dof: one wheelset)", gt=0, required=False, keep_absent=True,
+                             **_PASSAGES),
+    "traffic": Named(Num("passages of the condition's vehicle a year (0: it counts for the "
+                         "paper's objectives only)", ge=0, **_PASSAGES),
+                     "a case with conditions: passages a year of each condition's vehicle, "
+                     "every condition named", keep_absent=True),
+    "law": _LAW,
+    "rail_seats": Num("the law's force = rail_seats x the modelled support force (one rail "
+                      "seat); 1 as ROSE applies the Varandas defaults", gt=0, le=10.0,
+                      default=1.0, required=False),
+    "settling_sleepers": Num("entry sleepers nearest the interface that settle by their own "
+                             "loads (at most evaluation.sleepers: the runs pass the whole "
+                             "vehicle over those)", integer=True, ge=1, le=500, default=20,
+                             required=False),
+    "follower_flat": Num("the entry sleepers beyond the settling ones settle as the farthest of "
+                         "them over this length (the open track)", "m", ge=0, le=500.0,
+                         default=10.0, required=False),
+    "follower_taper": Num("beyond follower_flat they taper to no settlement over this length "
+                          "(the rail's pinned end would otherwise hold the settled track up)",
+                          "m", gt=0,
+                          le=500.0, default=20.0, required=False),
+    "tolerance": Num("error allowed in the loads the law is fed between simulations: the "
+                     "accuracy and cost knob (2 kN: the 10-year profile within 0.02 mm of a "
+                     "4x finer run; benchmarks/RESULTS-settlement.md)", "N", gt=0, le=50e3,
+                     shown="kN", default=2.0e3, required=False),
+    "steps_per_decade": Num("blocks of load cycles per decade of cycles, at most", gt=0,
+                            le=100.0, default=8.0, required=False),
+    "max_simulations": Num("the most simulations of each condition in one prediction, the "
+                           "first and last included (the cost cap; about 13 are needed for "
+                           "10^7 axle passes at 2 kN)", integer=True, ge=2, le=1000, default=30,
+                           required=False),
+    "limit": Section({
+        "measure": Str("the measure the limit is on", LIMIT_MEASURES,
+                       default="differential_settlement", required=False),
+        "value": Num("the limit", "m", gt=0, le=1.0, shown="mm", default=3.0e-3,
+                     required=False),
+    }, "the limit that years_to_limit and maintenance_rate count to. Default: differential "
+       "settlement 3 mm (an assumption, not a standard's value)", required=False),
+}, "predict the settlement of each design under its traffic and judge it by the settlement "
+   "objectives (docs/settlement.md)", required=False, none_if_absent=True, keep_absent=True)
+
 SCHEMA = Section({
     "name": Str("case name, also the run directory name (letters, digits, - and _)"),
     "description": Str("free text", required=False, default=""),
@@ -303,4 +393,5 @@ SCHEMA = Section({
     "optimisation": _OPTIMISATION,
     "vehicles": _VEHICLES,
     "conditions": _CONDITIONS,
+    "degradation": _DEGRADATION,
 })

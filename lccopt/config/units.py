@@ -35,6 +35,9 @@ UNITS: dict[str, dict[str, float]] = {
     "m/s^2": {"m/s^2": 1.0},
     "kg m^2": {"kg m^2": 1.0, "t m^2": 1e3},
     "m/N^(2/3)": {"m/N^(2/3)": 1.0},
+    # a settlement prediction's horizon and traffic
+    "year": {"year": 1.0, "years": 1.0},
+    "1/year": {"1/year": 1.0, "/year": 1.0, "1/day": 365.0, "/day": 365.0},
 }
 
 _QUANTITY = re.compile(

@@ -19,8 +19,18 @@ from ..errors import CaseError
 from . import units
 from .profiles import ProfileError, ProfileText, pairs_rows, parse_rows, rows_text
 from .reading import dotted, locate
-from .spec import (Items, Named, Num, NumList, Rows, Section, Str, StrList, TextOrSection,
-                   _Collection)
+from .spec import (
+    Items,
+    Named,
+    Num,
+    NumList,
+    Rows,
+    Section,
+    Str,
+    StrList,
+    TextOrSection,
+    _Collection,
+)
 
 MAX_MAGNITUDE = 1e13        # no quantity of a case comes near it (Young's modulus of steel: 2.1e11)
 # A name is one path component of the run directory: never ".", "..", empty or hidden.

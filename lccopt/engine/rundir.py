@@ -38,7 +38,7 @@ RESULTS_VERSION = 1
 RUN_FORMAT = "lccopt-run"
 RUN_VERSION = 1
 MAX_META_BYTES = 1_000_000  # run.json is a few hundred bytes
-OBJECTIVE_NAMES = ("F_rms", "F_max", "E_rms", "E_max")
+OBJECTIVE_NAMES = ("F_rms", "F_max", "E_rms", "E_max")   # the paper's: always a column
 
 
 class RunError(Exception):
@@ -348,9 +348,36 @@ class Table:
         return {r["file"] for r in self.rows.values() if r["file"]}
 
 
+def objective_columns(rows: list[dict], objectives) -> list[str]:
+    """The objective columns of results.h5's /evaluations.
+
+    The paper's four, then the case's objectives, then every other objective an evaluation
+    returned (e.g. a settlement prediction's), in the order first met; a condition's own
+    values (``F_max@name``) go to /conditions instead.
+
+    Parameters
+    ----------
+    rows
+        the table's finished rows (each with an ``objectives`` dict).
+    objectives
+        the case's objectives.
+
+    Returns
+    -------
+    list of str
+    """
+    out = list(OBJECTIVE_NAMES)
+    for k in [*objectives, *(k for r in rows for k in r["objectives"])]:
+        if "@" not in k and k not in out:
+            out.append(k)
+    return out
+
+
 def write_results(path: Path, table: Table, *, case, problem, meta: dict) -> None:
-    """Write results.h5 (layout in the README section 'results.h5') to tmp, fsync, rename."""
+    """Write results.h5 (layout in docs/runs.md, 'results.h5') to tmp, fsync, rename."""
     import h5py
+
+    from ..vti.response import objective_unit
 
     path = Path(path)
     rows = table.done_rows()
@@ -400,10 +427,12 @@ def write_results(path: Path, table: Table, *, case, problem, meta: dict) -> Non
         e.create_dataset("id", data=np.array([r["id"] for r in rows], dtype=np.int64))
         x = e.create_dataset("x", data=np.array([r["x"] for r in rows], dtype=float).reshape(n, d))
         x.attrs["names"] = list(table.names)
-        for k in OBJECTIVE_NAMES:
+        columns = objective_columns(rows, problem.objectives)
+        a["objective_columns"] = columns
+        for k in columns:
             col = e.create_dataset(k, data=np.array([float(r["objectives"].get(k, math.nan))
                                                      for r in rows], dtype=float))
-            col.attrs["unit"] = "N" if k.startswith("F") else "J"
+            col.attrs["unit"] = objective_unit(k)
         if problem.conditions:  # every condition's objectives
             a["conditions"] = list(problem.conditions)
             a["condition_weights"] = np.array(problem.weights, dtype=float)
@@ -416,7 +445,7 @@ def write_results(path: Path, table: Table, *, case, problem, meta: dict) -> Non
                     col = g_c.create_dataset(k, data=np.array(
                         [float(r["objectives"].get(f"{k}@{c}", math.nan)) for r in rows],
                         dtype=float))
-                    col.attrs["unit"] = "N" if k.startswith("F") else "J"
+                    col.attrs["unit"] = objective_unit(k)
         e.create_dataset("value", data=np.array([r["value"] for r in rows], dtype=float))
         for k in ("status", "reason", "phase", "worker", "file"):
             e.create_dataset(k, data=[str(r[k]) for r in rows], dtype=sdt)

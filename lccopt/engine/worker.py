@@ -77,7 +77,7 @@ class Task:
 
 
 # Histories small enough to keep for every design (one value per sleeper, not per time step):
-# the sleeper-energy profile and the track's layout.
+# the sleeper-energy profile, the track's layout, and a settlement prediction's (settlement_*).
 PER_SLEEPER = ("sleeper_position", "sleeper_energy", "sleeper_strengthened",
                "entry_sleeper_position", "entry_pad_stiffness", "entry_strengthened")
 
@@ -88,7 +88,8 @@ def kept(ev, histories: bool):
         return ev
     from ..vti.response import Evaluation
 
-    per_sleeper = {k: v for k, v in (ev.histories or {}).items() if k in PER_SLEEPER}
+    per_sleeper = {k: v for k, v in (ev.histories or {}).items()
+                   if k in PER_SLEEPER or k.startswith("settlement_")}
     return Evaluation(ev.objectives, per_sleeper, ev.info)
 
 

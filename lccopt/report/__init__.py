@@ -17,6 +17,9 @@ Writes into ``RUN/report/`` (or ``--out DIR``):
     track-layout.png       drawing of the entry side next to the interface, best and reference
     sensitivity.png        variance-based (Sobol') indices of each objective over the design
                            space, from a cubic RBF of the run's evaluations
+    settlement-history.png settlement per sleeper against axle passes, best and reference (a
+                           case with degradation:; lccopt/report/settlement.py)
+    settlement-profile.png the settlement along the zone at chosen times, and the voids
     report.md / report.html  the summary (HTML self-contained: figures embedded as base64)
     summary.json           the key numbers, machine-readable
 
@@ -36,10 +39,18 @@ from pathlib import Path
 
 from ..atomic import atomic_write_text
 from ..safeio import UnsafeFile, check_owned_dir
+from .along_track import fig_contact_force, fig_sleeper_energy
 from .data import FIGURES, FORMATS, _usage, load_run, pct, read_history
-from .figures import (fig_best_vs_reference, fig_conditions, fig_contact_force, fig_objective_space,
-                      fig_search_history, fig_sensitivity, fig_sleeper_energy, fig_track_layout,
-                      sensitivity_of)
+from .design import fig_best_vs_reference, fig_conditions, fig_track_layout
+from .search import fig_objective_space, fig_search_history
+from .sensitivity import fig_sensitivity, sensitivity_of
+from .settlement import (
+    Design,
+    fig_settlement_history,
+    fig_settlement_profile,
+    has_settlement,
+    limit_of,
+)
 from .summary import build_summary, history_facts
 
 __all__ = ["write_report"]
@@ -48,7 +59,8 @@ __all__ = ["write_report"]
 REPORT_FILES = ("report.md", "report.html", "summary.json")
 
 
-def write_report(run: Path, format: str = "both", out: Path | None = None, force: bool = False) -> Path:
+def write_report(run: Path, format: str = "both", out: Path | None = None,
+                 force: bool = False) -> Path:
     """Write figures and the summary of run directory RUN into OUT (default RUN/report/);
     return that directory. A folder of the user's (``out``) that already holds a report's
     files is refused unless ``force``: a report replaces its own files only."""
@@ -74,7 +86,8 @@ def write_report(run: Path, format: str = "both", out: Path | None = None, force
     if out.exists() and not out.is_dir():
         raise _usage(f"--out {out} is a file, not a folder")
     if theirs and not force:
-        taken = [n for n in (*REPORT_FILES, *(f"{f}.png" for f in FIGURES)) if os.path.lexists(out / n)]
+        names = (*REPORT_FILES, *(f"{f}.png" for f in FIGURES))
+        taken = [n for n in names if os.path.lexists(out / n)]
         if taken:
             raise _usage(f"{out} already holds {taken[0]}{' and more' if len(taken) > 1 else ''}: "
                          f"choose another --out, or add --force to replace them")
@@ -108,7 +121,8 @@ def write_report(run: Path, format: str = "both", out: Path | None = None, force
         shown = {"contact-force": data.setting_condition("F_max", bi),
                  "sleeper-energy": data.setting_condition("E_max", bi), "track-layout": None}
         histories = {}
-        for key, fn in (("contact-force", fig_contact_force), ("sleeper-energy", fig_sleeper_energy),
+        for key, fn in (("contact-force", fig_contact_force),
+                        ("sleeper-energy", fig_sleeper_energy),
                         ("track-layout", fig_track_layout)):
             c = shown[key]
             if c not in histories:
@@ -124,19 +138,23 @@ def write_report(run: Path, format: str = "both", out: Path | None = None, force
                 if why and key != "track-layout":
                     notes[key] = why
             else:
-                notes[key] = why or "the evaluation files hold no such histories (e.g. a test evaluator)"
+                notes[key] = why or ("the evaluation files hold no such histories "
+                                     "(e.g. a test evaluator)")
         best, ref, _ = histories[shown["sleeper-energy"]]
         facts = history_facts(best, ref, shown["sleeper-energy"])
+        settlement = _settlement_figures(data, histories[None] if None in histories else None,
+                                         bi, out, figs)
     else:
-        facts = []
+        facts, settlement = [], None
     indices = sensitivity_of(data)
     p = fig_sensitivity(data, out, indices)
     if p is not None:
         figs["sensitivity"] = p
     else:
-        notes["sensitivity"] = "too few successful evaluations to fit a surrogate for the sensitivity indices"
+        notes["sensitivity"] = ("too few successful evaluations to fit a surrogate for the "
+                                "sensitivity indices")
 
-    doc, summary = build_summary(data, figs, notes, facts, indices)
+    doc, summary = build_summary(data, figs, notes, facts, indices, settlement)
     wrote = []
     if fmt_ in ("md", "both"):
         atomic_write_text(out / "report.md", doc.markdown())
@@ -155,4 +173,26 @@ def write_report(run: Path, format: str = "both", out: Path | None = None, force
     typer.echo(f"  {len(figs)} figures and {', '.join(p.name for p in wrote)} in {out} "
                f"({summary['seconds']:.1f} s)")
     return out
+
+
+def _settlement_figures(data, histories, bi: int, out: Path, figs: dict):
+    """The settlement figures of a run whose evaluations predicted settlement (best and
+    reference design); (designs, limit) for the summary, or None."""
+    if histories is None:
+        return None
+    (hb, ib), (hr, ir), _ = histories
+    designs = []
+    from .data import BEST_COLOR, REF_COLOR
+
+    if has_settlement(hr):
+        designs.append(Design("reference", hr, ir, REF_COLOR, "--"))
+    if has_settlement(hb):
+        designs.append(Design(f"best #{data.ids[bi]}", hb, ib, BEST_COLOR, "-"))
+    if not designs:
+        return None
+    limit = limit_of(designs[-1].info)
+    title = f"Settlement of '{data.name}' under its traffic"
+    figs["settlement-history"] = fig_settlement_history(designs, out, title, limit)
+    figs["settlement-profile"] = fig_settlement_profile(designs, out, title)
+    return designs, limit
 

@@ -12,10 +12,11 @@ from pathlib import Path
 import numpy as np
 
 from ..safeio import h5_open_owned, is_regular_file, read_owned
-from ..vti.response import OBJECTIVE_DOC, objective_display as obj_display  # noqa: F401 (re-exported)
+from ..vti.response import OBJECTIVE_DOC, improvement_sign  # noqa: F401 (re-exported)
+from ..vti.response import objective_display as obj_display
 
 FORMATS = ("md", "html", "both")
-OBJECTIVE_NAMES = ("F_rms", "F_max", "E_rms", "E_max")
+OBJECTIVE_NAMES = ("F_rms", "F_max", "E_rms", "E_max")   # the paper's
 # Okabe & Ito's colour-blind-safe palette (Color Universal Design, 2008): every pair stays
 # distinguishable under the common colour-vision deficiencies.
 OKABE_ITO = {"orange": "#E69F00", "sky": "#56B4E9", "green": "#009E73", "yellow": "#F0E442",
@@ -32,7 +33,8 @@ ZONE_COLOR, TYPE_II_COLOR = OKABE_ITO["yellow"], OKABE_ITO["purple"]
 DPI = 110
 
 FIGURES = ("search-history", "objective-space", "best-vs-reference", "conditions", "contact-force",
-           "sleeper-energy", "track-layout", "sensitivity")
+           "sleeper-energy", "track-layout", "sensitivity", "settlement-history",
+           "settlement-profile")
 
 
 
@@ -69,7 +71,7 @@ class RunData:
     variables: list[VarInfo]
     ids: np.ndarray
     x: np.ndarray
-    obj: dict                      # objective name -> array over evaluations
+    obj: dict                      # objective name -> array over evaluations (table order)
     value: np.ndarray
     status: np.ndarray
     reason: np.ndarray
@@ -119,7 +121,8 @@ class RunData:
     def setting_condition(self, objective: str, index: int | None) -> str | None:
         """The traffic condition whose value of ``objective`` is the largest for evaluation
         ``index``: the one that sets a worst case (None without conditions)."""
-        if not self.conditions or index is None or objective not in self.cond_obj.get(self.conditions[0], {}):
+        first = self.cond_obj.get(self.conditions[0], {}) if self.conditions else {}
+        if index is None or objective not in first:
             return None
         values = [float(self.cond_obj[c][objective][index]) for c in self.conditions]
         if not np.isfinite(values).any():
@@ -147,10 +150,12 @@ def _var_info(name: str, group: str, integer: bool, lo: float, hi: float, ref: f
                  "x_l": "type_ii_strip"}.get(name[:3].rstrip("0123456789"), "")
     if group == "railpad_stiffness":
         k = count - index  # x_rN nearest the interface = sleeper 1
-        return VarInfo(name, group, integer, lo, hi, ref, f"railpad stiffness, sleeper {k} from the interface",
+        return VarInfo(name, group, integer, lo, hi, ref,
+                       f"railpad stiffness, sleeper {k} from the interface",
                        "MN/m", 1e-6)
     if group == "strengthened_sleepers":
-        return VarInfo(name, group, integer, lo, hi, ref, "strengthened sleepers next to the interface",
+        return VarInfo(name, group, integer, lo, hi, ref,
+                       "strengthened sleepers next to the interface",
                        "sleepers", 1.0)
     if group == "sleeper_spans":
         k = count - index
@@ -196,9 +201,7 @@ def _load_case(run: Path, resolved_text: str | None):
 def _lock_state(run: Path) -> str:
     """'running' while a process holds the run's flock, else 'stopped' (a PID in the file
     could have been reused by another program; the kernel's lock cannot lie)."""
-    from ..engine.rundir import RunDir
-
-    from ..engine.rundir import RunError
+    from ..engine.rundir import RunDir, RunError
 
     try:
         return "running" if RunDir(run).locked_by_other() else "stopped"
@@ -235,10 +238,12 @@ def load_run(path: Path) -> RunData:
             events, _, _ = read_journal(run / "journal.jsonl")
         except (JournalError, OSError) as exc:
             if res is None:
-                raise _usage(f"{run}: cannot read the run: {res_error or 'no results.h5'}; {exc}") from None
+                raise _usage(f"{run}: cannot "
+                             f"read the run: {res_error or 'no results.h5'}; {exc}") from None
             journal_error = f"{exc}; the table is results.h5's, which may lag the run"
     if res is None and not events:
-        raise _usage(f"{run}: cannot read the run: {res_error or 'no results.h5 and an empty journal'}")
+        raise _usage(f"{run}: cannot read the run: "
+                     f"{res_error or 'no results.h5 and an empty journal'}")
 
     journal_seq = events[-1]["seq"] if events else -1
     notes = [journal_error] if journal_error else []
@@ -255,9 +260,10 @@ def load_run(path: Path) -> RunData:
         else:
             source = "journal.jsonl"
             if res is not None:
-                notes.append(f"results.h5 lags the journal (it is rebuilt every few seconds while a run goes, "
-                             f"and a killed run may not have rebuilt it); the table was read from the journal's "
-                             f"committed lines: {len(d['ids'])} evaluations, results.h5 had {len(res['ids'])}")
+                notes.append("results.h5 lags the journal (it is rebuilt every few seconds while a "
+                             "run goes, and a killed run may not have rebuilt it); the table was "
+                             f"read from the journal's committed lines: {len(d['ids'])} "
+                             f"evaluations, results.h5 had {len(res['ids'])}")
             elif res_error:
                 notes.append(res_error + "; the table was rebuilt from journal.jsonl")
     if len(d["ids"]) == 0:
@@ -285,7 +291,8 @@ def load_run(path: Path) -> RunData:
         stems = [n.rstrip("0123456789") for n in names]
         for i, n in enumerate(names):
             same = [j for j, s in enumerate(stems) if s == stems[i]]
-            variables.append(_var_info(n, "", False, math.nan, math.nan, float(d["ref_x"][i]), len(same),
+            variables.append(_var_info(n, "", False, math.nan, math.nan,
+                                       float(d["ref_x"][i]), len(same),
                                        same.index(i)))
 
     lock = _lock_state(run)
@@ -295,19 +302,21 @@ def load_run(path: Path) -> RunData:
     return RunData(
         path=run, name=d["name"] or run.name, objectives=list(d["objectives"]),
         scalarisation=d["scalarisation"], budget=int(d["budget"]), names=names, variables=variables,
-        ids=d["ids"], x=d["x"], obj=d["obj"], value=d["value"], status=d["status"], reason=d["reason"],
+        ids=d["ids"], x=d["x"], obj=d["obj"], value=d["value"], status=d["status"],
+        reason=d["reason"],
         phase=d["phase"], restart=d["restart"], file=d["file"], wall_time=d["wall_time"],
-        pareto=d["pareto"], ref_x=d["ref_x"], ref_objectives=d["ref_objectives"], ref_point=d["ref_point"],
+        pareto=d["pareto"], ref_x=d["ref_x"], ref_objectives=d["ref_objectives"],
+        ref_point=d["ref_point"],
         worst=d["worst"], rho=d["rho"], improvement=d["improvement"], n_pending=int(d["n_pending"]),
         finished=bool(d["finished"]), state=state, source=source, case=case, case_note=case_note,
-        notes=notes, warnings=[journal_error] if journal_error else [], created=created, updated=d.get("updated", ""),
+        notes=notes, warnings=[journal_error] if journal_error else [], created=created,
+        updated=d.get("updated", ""),
         sessions_wall=float(sum(sessions)) if sessions else math.nan,
         conditions=list(d.get("conditions", [])), cond_obj=d.get("cond_obj", {}))
 
 
 def _read_results(path: Path) -> dict:
     """Everything the report needs from results.h5, read at once into memory."""
-    import h5py
 
     with h5_open_owned(path) as f:
         a = f.attrs
@@ -315,21 +324,25 @@ def _read_results(path: Path) -> dict:
         ids = e["id"][()].astype(int)
         n = len(ids)
         names = [_s(v) for v in e["x"].attrs.get("names", e.attrs.get("names", []))]
-        strs = {k: np.array([_s(v) for v in e[k][()]], dtype=object) if n else np.array([], dtype=object)
+        strs = {k: np.array([_s(v) for v in e[k][()]], dtype=object) if n else np.array([],
+                                                                                        dtype=object)
                 for k in ("status", "reason", "phase", "file")}
         ref = f["reference"]
         objectives = [_s(v) for v in a["objectives"]]
+        columns = [_s(v) for v in a.get("objective_columns", OBJECTIVE_NAMES)]
         worst = np.asarray(a.get("worst", []), dtype=float)
         return {
             "name": _s(a.get("case_name", "")), "objectives": objectives,
-            "scalarisation": _s(a.get("scalarisation", "single")), "budget": int(a.get("budget", n)),
+            "scalarisation": _s(a.get("scalarisation", "single")),
+            "budget": int(a.get("budget", n)),
             "names": names, "ids": ids, "x": e["x"][()].reshape(n, len(names)),
-            "obj": {k: e[k][()].astype(float) for k in OBJECTIVE_NAMES if k in e},
+            "obj": {k: e[k][()].astype(float) for k in columns if k in e},
             "value": e["value"][()].astype(float), **strs,
             "restart": e["restart"][()].astype(int), "wall_time": e["wall_time"][()].astype(float),
             "pareto": e["pareto"][()].astype(bool) if "pareto" in e else np.zeros(n, bool),
             "ref_x": ref["x"][()].astype(float),
-            "ref_objectives": {k: float(v) for k, v in ref["objectives"].attrs.items()} if "objectives" in ref else {},
+            "ref_objectives": ({k: float(v) for k, v in ref["objectives"].attrs.items()}
+                               if "objectives" in ref else {}),
             "ref_point": ref["point"][()].astype(float) if "point" in ref else None,
             "worst": worst if worst.size else None, "rho": float(a.get("rho", math.nan)),
             "improvement": float(a.get("improvement", math.nan)),
@@ -365,10 +378,13 @@ def _from_journal(run: Path, events: list[dict], res: dict | None) -> dict:
         table.apply(ev)
     rows = table.done_rows()
     n = len(rows)
+    from ..engine.rundir import objective_columns
+
     obj = {k: np.array([float(r["objectives"].get(k, math.nan)) for r in rows], dtype=float)
-           for k in OBJECTIVE_NAMES}
+           for k in objective_columns(rows, objectives)}
     status = np.array([r["status"] for r in rows], dtype=object)
-    conditions = list(dict.fromkeys(k.split("@", 1)[1] for r in rows for k in r["objectives"] if "@" in k))
+    conditions = list(dict.fromkeys(k.split("@", 1)[1] for r in rows for k in r["objectives"]
+                                    if "@" in k))
     cond_obj = {c: {k: np.array([float(r["objectives"].get(f"{k}@{c}", math.nan)) for r in rows])
                     for k in OBJECTIVE_NAMES} for c in conditions}
     F = np.column_stack([obj[k] for k in objectives]) if n else np.zeros((0, len(objectives)))
@@ -376,11 +392,13 @@ def _from_journal(run: Path, events: list[dict], res: dict | None) -> dict:
     F[status != "ok"] = math.nan
     ref = table.reference or {}
     ref_x = np.asarray(ref.get("x") or (res or {}).get("ref_x") if (ref.get("x") or res) else
-                       (rows[0]["x"] if rows and rows[0]["id"] == 0 else [math.nan] * d), dtype=float)
+                       (rows[0]["x"] if rows and rows[0]["id"] == 0 else [math.nan] * d),
+                       dtype=float)
     worst = ref.get("worst") or ((res or {}).get("worst"))
     return {
         "name": (res or {}).get("name") or _case_name(run), "objectives": objectives,
-        "scalarisation": "asf" if len(objectives) > 1 else "single", "budget": budget, "names": names,
+        "scalarisation": "asf" if len(objectives) > 1 else "single",
+        "budget": budget, "names": names,
         "ids": np.array([r["id"] for r in rows], dtype=int),
         "x": np.array([r["x"] for r in rows], dtype=float).reshape(n, d), "obj": obj,
         "value": np.array([r["value"] for r in rows], dtype=float), "status": status,
@@ -393,7 +411,8 @@ def _from_journal(run: Path, events: list[dict], res: dict | None) -> dict:
         "ref_x": ref_x, "ref_objectives": dict(ref.get("objectives") or {}),
         "ref_point": np.asarray(ref["point"], float) if ref.get("point") is not None else None,
         "worst": np.asarray(worst, float) if worst is not None else None,
-        "rho": float(ref.get("rho", math.nan) or math.nan), "improvement": float(ref.get("improvement", math.nan)
+        "rho": float(ref.get("rho", math.nan) or math.nan),
+        "improvement": float(ref.get("improvement", math.nan)
                                                                                    or math.nan),
         "n_pending": len(table.pending_ids()), "finished": table.finished,
         "created": head.get("time", ""), "updated": events[-1].get("time", "") if events else "",
@@ -413,7 +432,8 @@ def _names_from_case_yaml(run: Path) -> list[str] | None:
 
 def _case_name(run: Path) -> str:
     try:
-        return json.loads(read_owned(run / "run.json", 1_000_000).decode("utf-8")).get("name", run.name)
+        meta = json.loads(read_owned(run / "run.json", 1_000_000).decode("utf-8"))
+        return meta.get("name", run.name)
     except (OSError, ValueError):
         return run.name
 
@@ -434,7 +454,8 @@ def read_history(run: RunData, index: int | None, condition: str | None = None
     p = run.path / f
     problem = evaluation_problem(p, int(run.ids[index]), run.x[index])
     if problem is not None:
-        return None, {}, f"{f} is {problem}" if problem in ("missing", "incomplete") else f"{f} {problem}"
+        why = f"{f} is {problem}" if problem in ("missing", "incomplete") else f"{f} {problem}"
+        return None, {}, why
     try:
         ev = read_conditions(p).get(condition) if condition else read_evaluation(p)[1]
     except Exception as exc:  # noqa: BLE001 - a damaged file is a note, not a crash
@@ -445,10 +466,6 @@ def read_history(run: RunData, index: int | None, condition: str | None = None
 
 
 # ================================================================================ formatting
-
-def obj_unit(k: str) -> str:
-    return "N" if k.startswith("F") else "J"
-
 
 def fnum(v: float, sig: int = 5) -> str:
     if v is None or not np.isfinite(v):

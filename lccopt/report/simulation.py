@@ -1,8 +1,8 @@
 """Figures of one simulation (``lccopt simulate``): contact force along the track, energy per
 zone sleeper, wheel and rail displacement (matplotlib, Agg).
 
-Drawn in the report's colours and with its marks (``figures.range_bracket``,
-``figures.sleeper_ticks``), so that a simulation and a run's report read alike.
+Drawn in the report's colours and with its marks (``plotting.range_bracket``,
+``plotting.sleeper_ticks``), so that a simulation and a run's report read alike.
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ import numpy as np
 
 from ..vti.response import Evaluation
 from .data import OKABE_ITO, TYPE_II_COLOR, ZONE_COLOR
-from .figures import range_bracket, sleeper_ticks, speed_text
+from .plotting import range_bracket, sleeper_ticks, speed_text
 
 
 def simulation_figures(ev: Evaluation, name: str, out: Path) -> list[Path]:

@@ -10,8 +10,23 @@ from pathlib import Path
 
 import numpy as np
 
-from .data import (OBJECTIVE_DOC, OBJECTIVE_NAMES, PHASE_STYLE, RunData, fnum, obj_display, obj_unit, pct,
-                   var_value)
+from ..vti.response import objective_unit
+from .data import (
+    OBJECTIVE_DOC,
+    OBJECTIVE_NAMES,
+    PHASE_STYLE,
+    RunData,
+    fnum,
+    improvement_sign,
+    obj_display,
+    pct,
+    var_value,
+)
+
+
+def _table_unit(k: str) -> tuple[float, str]:
+    """(scale, unit) of objective k in the report's tables: SI, but lengths in mm."""
+    return (1e3, "mm") if objective_unit(k) == "m" else (1.0, objective_unit(k))
 
 
 class Doc:
@@ -76,22 +91,28 @@ class Doc:
             elif b[0] == "table":
                 _, head, rows, al = b
                 cls = lambda a: ' class="r"' if a == "r" else ""  # noqa: E731
-                t = ["<table><thead><tr>" + "".join(f"<th{cls(a)}>{inline(c)}</th>" for c, a in zip(head, al))
-                     + "</tr></thead><tbody>"]
-                t += ["<tr>" + "".join(f"<td{cls(a)}>{inline(c)}</td>" for c, a in zip(r, al)) + "</tr>"
-                      for r in rows]
+                th = "".join(f"<th{cls(a)}>{inline(c)}</th>" for c, a in zip(head, al))
+                t = ["<table><thead><tr>" + th + "</tr></thead><tbody>"]
+                t += ["<tr>" + "".join(f"<td{cls(a)}>{inline(c)}</td>" for c, a in zip(r, al))
+                      + "</tr>" for r in rows]
                 body.append("".join(t) + "</tbody></table>")
             elif b[0] == "fig":
                 data = base64.b64encode(b[1].read_bytes()).decode("ascii")
-                body.append(f'<figure><img alt="{html.escape(b[1].name)}" src="data:image/png;base64,{data}">'
+                body.append(f'<figure><img alt="{html.escape(b[1].name)}" '
+                            f'src="data:image/png;base64,{data}">'
                             f"<figcaption>{inline(b[2])}</figcaption></figure>")
-        style = ("body{font-family:system-ui,-apple-system,Segoe UI,Roboto,sans-serif;max-width:1100px;"
+        style = ("body{font-family:system-ui,-apple-system,Segoe "
+                 "UI,Roboto,sans-serif;max-width:1100px;"
                  "margin:2em auto;padding:0 1em;color:#222;line-height:1.45}"
-                 "table{border-collapse:collapse;margin:0.8em 0}th,td{border:1px solid #ccc;padding:3px 8px}"
+                 "table{border-collapse:collapse;margin:0.8em 0}th,td{border:1px solid "
+                 "#ccc;padding:3px 8px}"
                  "th{background:#f3f3f3}td.r,th.r{text-align:right}img{max-width:100%;height:auto}"
-                 "figure{margin:1em 0}figcaption{color:#555;font-size:0.9em}code{background:#f3f3f3;padding:0 3px}")
-        return (f"<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>{html.escape(title)}"
-                f"</title><style>{style}</style></head><body>\n" + "\n".join(body) + "\n</body></html>\n")
+                 "figure{margin:1em "
+                 "0}figcaption{color:#555;font-size:0.9em}code{background:#f3f3f3;padding:0 3px}")
+        return ("<!DOCTYPE html>\n<html lang=\"en\"><head><meta "
+                f"charset=\"utf-8\"><title>{html.escape(title)}"
+                f"</title><style>{style}</style></head><body>\n" + "\n".join(body)
+                + "\n</body></html>\n")
 
 
 def history_facts(best: tuple, ref: tuple, condition: str | None = None) -> list[str]:
@@ -103,15 +124,18 @@ def history_facts(best: tuple, ref: tuple, condition: str | None = None) -> list
     er = None if hr is None else hr.get("sleeper_energy")
     if eb is not None and er is not None and len(eb) and len(er):
         eb, er = np.asarray(eb, float), np.asarray(er, float)
-        under = f"In condition {condition} (which sets the best design's worst E_max), u" if condition else "U"
-        out.append(f"{under}nder sleeper 1, next to the interface, the ballast dissipates {fnum(eb[0], 4)} J instead of "
-                   f"{fnum(er[0], 4)} J ({pct(eb[0], er[0])}); the most loaded zone sleeper is number "
-                   f"{int(np.argmax(eb)) + 1} ({fnum(eb.max(), 4)} J) instead of number {int(np.argmax(er)) + 1} "
-                   f"({fnum(er.max(), 4)} J), and the spread max - min (E_max) is {fnum(eb.max() - eb.min(), 4)} J "
-                   f"instead of {fnum(er.max() - er.min(), 4)} J.")
+        under = (f"In condition {condition} (which sets the best design's worst E_max), u"
+                 if condition else "U")
+        out.append(f"{under}nder sleeper 1, next to the interface, the ballast dissipates "
+                   f"{fnum(eb[0], 4)} J instead of {fnum(er[0], 4)} J ({pct(eb[0], er[0])}); the "
+                   f"most loaded zone sleeper is number {int(np.argmax(eb)) + 1} "
+                   f"({fnum(eb.max(), 4)} J) instead of number {int(np.argmax(er)) + 1} "
+                   f"({fnum(er.max(), 4)} J), and the spread max - min (E_max) is "
+                   f"{fnum(eb.max() - eb.min(), 4)} J instead of {fnum(er.max() - er.min(), 4)} J.")
     peaks = []
     for h, i in ((hb, ib), (hr, ir)):
-        if h is None or "contact_force" not in h or "wheel_position" not in h or "interface_entry" not in i:
+        if (h is None or "contact_force" not in h or "wheel_position" not in h
+                or "interface_entry" not in i):
             return out
         x, f = np.asarray(h["wheel_position"]), np.asarray(h["contact_force"])
         m = (x >= i["interface_entry"] - 1.0) & (x <= i["interface_entry"] + 3.0)
@@ -119,45 +143,56 @@ def history_facts(best: tuple, ref: tuple, condition: str | None = None) -> list
             return out
         peaks.append((float(f[m].max()), float(x[m][np.argmax(f[m])] - i["interface_entry"])))
     (pb, xb), (pr, xr) = peaks
-    out.append(f"Around the interface (1 m before to 3 m after it) the contact force peaks at {fnum(pb / 1e3, 4)} kN "
-               f"{abs(xb):.2f} m {'after' if xb >= 0 else 'before'} the slab edge, against {fnum(pr / 1e3, 4)} kN "
-               f"{abs(xr):.2f} m {'after' if xr >= 0 else 'before'} it for the reference design.")
+    out.append("Around the interface (1 m before to 3 m after it) the contact force peaks at "
+               f"{fnum(pb / 1e3, 4)} kN {abs(xb):.2f} m {'after' if xb >= 0 else 'before'} the "
+               f"slab edge, against {fnum(pr / 1e3, 4)} kN {abs(xr):.2f} m "
+               f"{'after' if xr >= 0 else 'before'} it for the reference design.")
     return out
 
 
 def build_summary(run: RunData, figs: dict, notes: dict, facts: list[str] | None = None,
-                  indices: dict | None = None) -> tuple[Doc, dict]:
+                  indices: dict | None = None, settlement=None) -> tuple[Doc, dict]:
+    """The summary document and summary.json's numbers; ``settlement``: (designs, limit) of a
+    run that predicted settlement (``lccopt.report.settlement``)."""
     doc = Doc()
     bi, ri = run.best_index(), run.ref_index()
     n_failed = int((run.status == "failed").sum())
     restarts = sorted(int(r) for r in np.unique(run.restart) if r > 0)
     state = {"finished": "finished",
-             "running": f"still running ({run.n_pending} evaluation(s) in flight when this was read)",
+             "running": f"still running ({run.n_pending} evaluation(s) in flight when this was "
+                        "read)",
              "interrupted": f"interrupted (carry on with `lccopt resume {run.path}`)"}[run.state]
     doc.h(1, f"Run '{run.name}'")
-    doc.p(f"**{run.n} of {run.budget} evaluations**, {n_failed} failed, {len(restarts)} restart(s); the run is "
-          f"{state}. Read from `{run.source}` on {_dt.datetime.now().astimezone().isoformat(timespec='seconds')}.")
+    doc.p(f"**{run.n} of {run.budget} evaluations**, {n_failed} failed, {len(restarts)} "
+          f"restart(s); the run is {state}. Read from `{run.source}` on "
+          f"{_dt.datetime.now().astimezone().isoformat(timespec='seconds')}.")
     for note in run.notes:
         doc.p(f"Note: {note}")
 
     # --- what was searched
     doc.h(2, "What was searched")
     if run.multi:
-        pt = ", ".join(f"{k} = {fnum(v)} {obj_unit(k)}" for k, v in zip(run.objectives, run.ref_point)) \
+        def shown(k, v):
+            return f"{k} = {fnum(v * _table_unit(k)[0])} {_table_unit(k)[1]}"
+
+        pt = ", ".join(shown(k, v) for k, v in zip(run.objectives, run.ref_point)) \
             if run.ref_point is not None else "not set yet"
-        wst = ", ".join(f"{k} = {fnum(v)} {obj_unit(k)}" for k, v in zip(run.objectives, run.worst)) \
+        wst = ", ".join(shown(k, v) for k, v in zip(run.objectives, run.worst)) \
             if run.worst is not None else "–"
-        doc.p(f"Minimise {', '.join(f'**{k}** ({OBJECTIVE_DOC.get(k, k)})' for k in run.objectives)} together, "
-              f"scalarised by the augmented Chebyshev achievement function (paper Eq. 7, ρ = {run.rho:g}). "
-              f"Reference point f^r ({run.improvement:.0%} better than the reference design): {pt}; "
-              f"worst values: {wst}. The value is 0 on the reference point and negative beyond it.")
+        doc.p("Minimise "
+              f"{', '.join(f'**{k}** ({OBJECTIVE_DOC.get(k, k)})' for k in run.objectives)} "
+              "together, scalarised by the augmented Chebyshev achievement function (paper Eq. 7, "
+              f"ρ = {run.rho:g}). Reference point f^r ({run.improvement:.0%} better than the "
+              f"reference design): {pt}; worst values: {wst}. The value is 0 on the reference "
+              "point and negative beyond it.")
     else:
         k = run.objectives[0]
-        doc.p(f"Minimise **{k}**: {OBJECTIVE_DOC.get(k, k)} [{obj_unit(k)}].")
+        doc.p(f"Minimise **{k}**: {OBJECTIVE_DOC.get(k, k)} [{_table_unit(k)[1]}].")
     rows = []
     for v in run.variables:
         rng = f"{var_value(v, v.lower)} … {var_value(v, v.upper)}" if np.isfinite(v.lower) else "–"
-        rows.append([f"`{v.name}`", v.label, v.unit or "–", rng, "integer" if v.integer else "continuous",
+        rows.append([f"`{v.name}`", v.label, v.unit or "–", rng,
+                     "integer" if v.integer else "continuous",
                      var_value(v, v.reference)])
     doc.table(["variable", "meaning", "unit", "bounds", "kind", "reference design"], rows, "llllll")
     if run.case is None and run.case_note:
@@ -166,37 +201,46 @@ def build_summary(run: RunData, figs: dict, notes: dict, facts: list[str] | None
     # --- how the search went
     doc.h(2, "How the search went")
     if "search-history" in figs:
-        doc.fig(figs["search-history"], "Value of every evaluation by number, by phase; failed evaluations as red "
-                "crosses at the bottom; the green line is the best value so far; dashed lines mark restarts "
-                "(paper Figs. 6, 7, 10).")
-    phase_counts = {ph: int((run.phase == ph).sum()) for ph in PHASE_STYLE if (run.phase == ph).any()}
-    items = ["evaluations by phase: " + ", ".join(f"{PHASE_STYLE[p][0]} {c}" for p, c in phase_counts.items())]
+        doc.fig(figs["search-history"],
+                "Value of every evaluation by number, by phase; failed evaluations as red crosses "
+                "at the bottom; the green line is the best value so far; dashed lines mark "
+                "restarts (paper Figs. 6, 7, 10).")
+    phase_counts = {ph: int((run.phase == ph).sum()) for ph in PHASE_STYLE
+                    if (run.phase == ph).any()}
+    items = ["evaluations "
+             "by phase: " + ", ".join(f"{PHASE_STYLE[p][0]} {c}" for p, c in phase_counts.items())]
     if bi is not None:
-        items.append(f"best value {fnum(run.value[bi])} at evaluation #{run.ids[bi]} ({run.phase[bi]}, restart "
-                     f"{run.restart[bi]}); the best value was within 1 % of it from evaluation "
-                     f"#{_first_near_best(run)} on")
+        items.append(f"best value {fnum(run.value[bi])} at evaluation #{run.ids[bi]} "
+                     f"({run.phase[bi]}, restart {run.restart[bi]}); the best value was within 1 % "
+                     f"of it from evaluation #{_first_near_best(run)} on")
     if restarts:
         starts = [int(run.ids[run.restart == r].min()) for r in restarts]
-        items.append("restarts (fresh initial design after the step size collapsed or evaluations kept failing) at "
+        items.append("restarts (fresh initial design after the step size collapsed or evaluations "
+                     "kept failing) at "
                      + ", ".join(f"#{s}" for s in starts))
     if n_failed:
         reasons: dict = {}
         for r in run.reason[run.status == "failed"]:
             reasons[r or "no reason given"] = reasons.get(r or "no reason given", 0) + 1
         fids = [f"#{i}" for i in run.ids[run.status == "failed"]]
-        items.append(f"{n_failed} failed evaluation(s) ({', '.join(fids[:12])}{' …' if len(fids) > 12 else ''}): "
+        items.append(f"{n_failed} failed evaluation(s) "
+                     f"({', '.join(fids[:12])}{' …' if len(fids) > 12 else ''}): "
                      + "; ".join(
             f"{c}× {r}" for r, c in sorted(reasons.items(), key=lambda t: -t[1])[:5]))
     wt = run.wall_time[np.isfinite(run.wall_time)]
     if len(wt):
-        items.append(f"simulation wall time per evaluation: median {np.median(wt):.2f} s, max {wt.max():.2f} s"
-                     + (f"; run sessions took {run.sessions_wall / 60:.1f} min" if np.isfinite(run.sessions_wall)
+        items.append(f"simulation wall time per evaluation: median {np.median(wt):.2f} s, max "
+                     f"{wt.max():.2f} s"
+                     + ("; run sessions "
+                        f"took {run.sessions_wall / 60:.1f} min" if np.isfinite(run.sessions_wall)
                         else ""))
     doc.ul(items)
 
     summary = {"run": str(run.path), "name": run.name, "state": run.state, "evaluations": run.n,
-               "budget": run.budget, "failed": n_failed, "restarts": len(restarts), "objectives": run.objectives,
-               "source": run.source, "figures": {k: p.name for k, p in figs.items()}, "notes": dict(notes)}
+               "budget": run.budget, "failed": n_failed, "restarts": len(restarts),
+               "objectives": run.objectives,
+               "source": run.source, "figures": {k: p.name for k, p in figs.items()},
+               "notes": dict(notes)}
     if bi is None:
         doc.h(2, "Best design")
         doc.p("No evaluation has succeeded yet: there is no best design.")
@@ -205,50 +249,61 @@ def build_summary(run: RunData, figs: dict, notes: dict, facts: list[str] | None
     # --- best design vs reference
     doc.h(2, "Best design against the reference design")
     lab = "chosen compromise (lowest ASF value)" if run.multi else f"lowest {run.objectives[0]}"
-    doc.p(f"The best design is evaluation **#{run.ids[bi]}**, the {lab}. Changes are relative to the "
-          f"reference design (evaluation #0); negative is better for every objective (paper Tables 5-7).")
+    longer = [k for k in run.obj if improvement_sign(k) < 0]
+    doc.p(f"The best design is evaluation **#{run.ids[bi]}**, the {lab}. Changes are relative to "
+          "the reference design (evaluation #0); negative is better for every objective (paper "
+          "Tables 5-7)"
+          + (f" but {', '.join(longer)}, a life (longer is better)." if longer else "."))
     rows = []
     for j, v in enumerate(run.variables):
         xr, xb = run.ref_x[j], run.x[bi, j]
         rows.append([f"`{v.name}`", v.label, v.unit or "–", var_value(v, xr), var_value(v, xb),
                      pct(xb, xr) if not v.integer else
                      (f"{(xb - xr) * v.scale:+.3g}" if xb != xr else "0")])
-    doc.table(["variable", "meaning", "unit", "reference", f"best #{run.ids[bi]}", "change"], rows, "lllrrr")
+    doc.table(["variable", "meaning", "unit", "reference", f"best #{run.ids[bi]}", "change"],
+              rows, "lllrrr")
     rows = []
-    for k in OBJECTIVE_NAMES:
-        if k not in run.obj:
-            continue
+    for k in run.obj:
         r = run.ref_objectives.get(k, run.obj[k][ri] if ri is not None else math.nan)
         b = float(run.obj[k][bi])
+        if k not in OBJECTIVE_NAMES and not (np.isfinite(b) or np.isfinite(r)):
+            continue
+        s_, unit = _table_unit(k)
         tgt = ""
         if run.multi and run.ref_point is not None and k in run.objectives:
             t = run.ref_point[run.objectives.index(k)]
-            tgt = f"{fnum(t)} ({'reached' if b <= t else 'not reached'})"
-        rows.append([f"**{k}**" if k in run.objectives else k, obj_unit(k), fnum(r), fnum(b), pct(b, r)]
-                    + ([tgt] if run.multi else []))
+            tgt = f"{fnum(t * s_)} ({'reached' if b <= t else 'not reached'})"
+        rows.append([f"**{k}**" if k in run.objectives else k, unit, fnum(r * s_),
+                     fnum(b * s_), pct(b, r)] + ([tgt] if run.multi else []))
     doc.table(["objective", "unit", "reference", f"best #{run.ids[bi]}", "change"]
               + (["target f^r"] if run.multi else []), rows)
     doc.p(f"Value minimised: reference {fnum(run.value[ri]) if ri is not None else '–'}, best "
           f"{fnum(run.value[bi])}.")
     if "best-vs-reference" in figs:
-        doc.fig(figs["best-vs-reference"], "Change of every objective (left) and where the design variables sit "
+        doc.fig(figs["best-vs-reference"],
+                "Change of every objective (left) and where the design variables sit "
                 "within their bounds (right), best against reference.")
 
     if run.conditions and ri is not None:
         _conditions_section(doc, run, bi, ri, figs)
+    if settlement is not None:
+        _settlement_section(doc, run, *settlement, figs)
 
     # --- why
     doc.h(2, "Why it is better")
     doc.p(_why_text(run, bi, ri, notes))
     for fact in facts or []:
         doc.p(fact)
-    for key, cap in (("contact-force", "Wheel-rail contact force against wheel position, best and reference "
-                                       "design; grey: ERS, orange: evaluation zone of the force objectives."),
-                     ("sleeper-energy", "Energy dissipated in the ballast/subgrade under each sleeper of the "
-                                        "evaluation zone, sleeper 1 next to the interface (paper Fig. 11)."),
-                     ("track-layout", "The designed track next to the interface: sleepers (standard or "
-                                      "strengthened), railpad stiffness by colour, spans next to the slab, "
-                                      "the Type II strip and the slab edge; reference above, best below.")):
+    for key, cap in (("contact-force",
+                      "Wheel-rail contact force against wheel position, best and reference design; "
+                      "grey: ERS, orange: evaluation zone of the force objectives."),
+                     ("sleeper-energy",
+                      "Energy dissipated in the ballast/subgrade under each sleeper of the "
+                      "evaluation zone, sleeper 1 next to the interface (paper Fig. 11)."),
+                     ("track-layout",
+                      "The designed track next to the interface: sleepers (standard or "
+                      "strengthened), railpad stiffness by colour, spans next to the slab, the "
+                      "Type II strip and the slab edge; reference above, best below.")):
         if key in figs:
             doc.fig(figs[key], cap)
             if key in notes:  # drawn from what was there (e.g. the reference only)
@@ -259,7 +314,8 @@ def build_summary(run: RunData, figs: dict, notes: dict, facts: list[str] | None
     # --- objective space and sensitivity
     doc.h(2, "Objective space")
     if "objective-space" in figs:
-        doc.fig(figs["objective-space"], "All evaluations in objective space with the Pareto front, the reference "
+        doc.fig(figs["objective-space"],
+                "All evaluations in objective space with the Pareto front, the reference "
                 "design, the reference point and the chosen compromise (paper Fig. 9).")
     if notes.get("objective-space"):
         doc.p(notes["objective-space"])
@@ -274,16 +330,19 @@ def build_summary(run: RunData, figs: dict, notes: dict, facts: list[str] | None
             "total": dict(zip(run.names, map(float, ind.total))),
             "first": dict(zip(run.names, map(float, ind.first))), "loo_error": ind.loo_error}
     if "sensitivity" in figs:
-        doc.fig(figs["sensitivity"], "Variance-based (Sobol') indices of each objective over the whole design "
-                "space: the share of its variance a variable explains alone (first order) and with its "
+        doc.fig(figs["sensitivity"],
+                "Variance-based (Sobol') indices of each objective over the whole design space: "
+                "the share of its variance a variable explains alone (first order) and with its "
                 "interactions (total effect), from a cubic RBF fitted to the run's evaluations.")
     elif notes.get("sensitivity"):
         doc.p(f"No sensitivity figure: {notes['sensitivity']}.")
     doc.h(2, "Files")
-    doc.ul([f"results table: `{run.path / 'results.h5'}`; commit log: `{run.path / 'journal.jsonl'}`",
+    doc.ul([f"results table: `{run.path / 'results.h5'}`; commit log: "
+            f"`{run.path / 'journal.jsonl'}`",
             f"histories of the best design: `{run.path / run.file[bi]}`" if run.file[bi] else
             "the best design has no histories file",
-            f"histories of the reference design: `{run.path / run.file[ri]}`" if ri is not None and run.file[ri]
+            "histories of "
+            f"the reference design: `{run.path / run.file[ri]}`" if ri is not None and run.file[ri]
             else "the reference design has no histories file"])
 
     summary["best"] = {"id": int(run.ids[bi]), "value": float(run.value[bi]),
@@ -320,7 +379,8 @@ def _why_text(run: RunData, bi: int, ri: int | None, notes: dict) -> str:
                 parts.append(f"{name} is unchanged at {fnum(r * s, 4)} {u}")
             else:
                 word = "falls" if b < r else "rises"
-                parts.append(f"{name} {word} from {fnum(r * s, 4)} to {fnum(b * s, 4)} {u} ({pct(b, r)})")
+                parts.append(f"{name} {word} from {fnum(r * s, 4)} to {fnum(b * s, 4)} {u} "
+                             f"({pct(b, r)})")
     text = "Against the reference design, " + "; ".join(parts) + "." if parts else ""
     diffs = []
     for j, v in enumerate(run.variables):
@@ -351,16 +411,58 @@ def _conditions_section(doc: Doc, run: RunData, bi: int, ri: int, figs: dict) ->
     rows = []
     for c in run.conditions:
         a = about.get(c)
-        row = [c, a.vehicle if a else "–", f"{a.speed * 3.6:.0f}" if a else "–", a.direction if a else "–",
+        row = [c, a.vehicle if a else "–", f"{a.speed * 3.6:.0f}" if a else "–",
+               a.direction if a else "–",
                f"{a.weight:g}" if a else "–"]
         for k in ("F_max", "E_max"):
             r, b = float(run.cond_obj[c][k][ri]), float(run.cond_obj[c][k][bi])
             s_, _ = obj_display(k)
             row.append(f"{fnum(r * s_, 3)} → {fnum(b * s_, 3)} ({pct(b, r)})")
         rows.append(row)
-    doc.table(["condition", "vehicle", "km/h", "direction", "weight", "F_max [kN]", "E_max [J]"], rows,
+    doc.table(["condition", "vehicle", "km/h", "direction", "weight", "F_max "
+                                                                      "[kN]", "E_max [J]"], rows,
               "lrrlrrr")
     if "conditions" in figs:
-        doc.fig(figs["conditions"], "Each condition's objectives, reference design against the best design; "
+        doc.fig(figs["conditions"],
+                "Each condition's objectives, reference design against the best design; "
                 "dashed: the combined value.")
 
+
+
+def _settlement_section(doc: Doc, run: RunData, designs: list, limit, figs: dict) -> None:
+    """What the settlement prediction assumed, what its objectives mean, and what it shows."""
+    from .settlement import facts, meaning_items
+
+    doc.h(2, "Settlement over the horizon")
+    info = designs[-1].info
+    horizon = info.get("settlement_horizon_years")
+    deg = run.case.degradation if run.case is not None else None
+    what = (f"over {horizon:g} year{'' if horizon == 1 else 's'}" if horizon
+            else "over its horizon")
+    if deg is not None:
+        from ..config.describe import law_items
+
+        traffic = (", ".join(f"{k} {v:.3g} passages a year" for k, v in deg["traffic"].items())
+                   if deg.get("traffic") else f"{deg['passages_per_year']:.3g} passages a year")
+        what += (f" of the traffic ({traffic}), by the {deg['law']['name']} law "
+                 f"({', '.join(law_items(deg['law']))}), {deg['settling_sleepers']} settling "
+                 f"sleepers next to the slab")
+    doc.p(f"Every design's settlement was predicted {what} (docs/settlement.md): blocks of load "
+          f"cycles, each sleeper's ballast settling by the law from the peak force of every axle, "
+          f"the track re-simulated as it settles. The objectives at the horizon:")
+    doc.ul(meaning_items(limit))
+    for d in designs:
+        doc.p(facts(d))
+    captions = {
+        "settlement-history": "Top: settlement of every settling sleeper against axle passes "
+                              "(colour: distance from the slab; ticks: the simulated passages). "
+                              "Bottom: the limit's measure and the largest void against axle "
+                              "passes and years.",
+        "settlement-profile": "Top: the ballast's lowering under each sleeper (markers) and the "
+                              "rail's level at rest (thin) along the approach at chosen times; "
+                              "bottom: the voids under the sleepers. Solid: the best design, "
+                              "dashed: the reference design.",
+    }
+    for key, cap in captions.items():
+        if key in figs:
+            doc.fig(figs[key], cap)

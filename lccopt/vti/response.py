@@ -1,4 +1,6 @@
-"""Response of one simulation: time histories and the paper's four objectives (Sec. 2.2.2)."""
+"""Response of one simulation: time histories and the paper's four objectives (Sec. 2.2.2);
+the names, units and meaning of every objective an evaluation can return (the paper's and
+those of a settlement prediction, :mod:`lccopt.degradation.evaluate`)."""
 
 from __future__ import annotations
 
@@ -6,18 +8,86 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-OBJECTIVE_UNITS = {"F_rms": "N", "F_max": "N", "E_rms": "J", "E_max": "J"}
+PAPER_OBJECTIVES = ("F_rms", "F_max", "E_rms", "E_max")
+# Objectives of a settlement prediction over the case's horizon (docs/settlement.md). All are
+# minimised but years_to_limit, which is reported only: its minimisable form is
+# maintenance_rate = 1 / years_to_limit (positive, smaller is better, so the ASF's reference
+# point 0.8 x f(x_ref) and worst values 1.5 x f(x_ref) keep their meaning).
+SETTLEMENT_OBJECTIVES = ("differential_settlement", "max_settlement", "max_void", "level_std",
+                         "force_growth", "maintenance_rate")
+REPORTED_ONLY = ("years_to_limit",)
+OBJECTIVE_UNITS = {"F_rms": "N", "F_max": "N", "E_rms": "J", "E_max": "J",
+                   "differential_settlement": "m", "max_settlement": "m", "max_void": "m",
+                   "level_std": "m", "force_growth": "-", "maintenance_rate": "1/year",
+                   "years_to_limit": "year"}
 OBJECTIVE_DOC = {  # short enough for one line of `lccopt simulate` on 80 columns
     "F_rms": "rms of the wheel-rail contact forces in the force zone",
     "F_max": "max - min of the contact forces in the force zone",
     "E_rms": "rms of the energy dissipated per zone sleeper",
     "E_max": "max - min of the energy dissipated per zone sleeper",
+    # settlement (lccopt simulate prints these after 43 columns: at most 37 characters)
+    "differential_settlement": "max - min over the settling sleepers",
+    "max_settlement": "the largest: the step from the slab",
+    "max_void": "largest void under a sleeper",
+    "level_std": "std of the rail level, zone +- 3 m",
+    "force_growth": "wheel force: at the horizon / new",
+    "maintenance_rate": "1 / years_to_limit",
+    "years_to_limit": "until the limit (or the horizon)",
 }
+# Display: (factor from SI, unit) people read each SI unit in.
+_DISPLAY = {"N": (1e-3, "kN"), "J": (1.0, "J"), "m": (1e3, "mm"), "-": (1.0, ""),
+            "1/year": (1.0, "/year"), "year": (1.0, "years")}
+
+
+def objective_unit(k: str) -> str:
+    """The SI unit of an objective.
+
+    Parameters
+    ----------
+    k
+        an objective's name; ``F_max@name`` (a condition's) has F_max's unit.
+
+    Returns
+    -------
+    str
+        e.g. ``"N"``, ``"J"``, ``"m"``, ``"1/year"``.
+    """
+    base = k.split("@")[0]
+    return OBJECTIVE_UNITS.get(base, "N" if base.startswith("F") else "J")
 
 
 def objective_display(k: str) -> tuple[float, str]:
-    """(scale, unit) in which people read objective k: forces in kN, energies in J."""
-    return (1e-3, "kN") if OBJECTIVE_UNITS.get(k, "N" if k.startswith("F") else "J") == "N" else (1.0, "J")
+    """The scale and unit people read an objective in: forces in kN,
+    energies in J, settlements in mm.
+
+    Parameters
+    ----------
+    k
+        an objective's name.
+
+    Returns
+    -------
+    tuple of (float, str)
+        (factor from SI, unit).
+    """
+    return _DISPLAY.get(objective_unit(k), (1.0, objective_unit(k)))
+
+
+def improvement_sign(k: str) -> float:
+    """Which way an objective improves.
+
+    Parameters
+    ----------
+    k
+        an objective's name.
+
+    Returns
+    -------
+    float
+        +1 where smaller is better (every objective the optimiser may minimise), -1 for the
+        reported-only ``years_to_limit``.
+    """
+    return -1.0 if k.split("@")[0] in REPORTED_ONLY else 1.0
 
 
 @dataclass
@@ -27,7 +97,9 @@ class Evaluation:
     objectives: F_rms, F_max [N] of the contact forces of all wheels, each while that wheel is
                 in the force zone (F_max also at each wheel's zone ends);
                 E_rms, E_max [J] over the energies dissipated under the zone's sleepers
-                during the whole run (until the last wheel is run_out past the zone).
+                during the whole run (until the last wheel is run_out past the zone);
+                with a settlement prediction also SETTLEMENT_OBJECTIVES and years_to_limit
+                (``OBJECTIVE_UNITS``).
     histories:  named arrays in SI units (see ``HISTORY_DOC``).
     info:       scalars describing the run (static load, contact stiffness, contact loss, ...).
     """
@@ -44,14 +116,31 @@ HISTORY_DOC = {
     "rail_displacement": "rail displacement under the wheel [m], downward positive",
     "carbody_displacement": "carbody displacement [m], downward positive",
     "in_force_zone": "1 where the wheel is inside the force zone, else 0",
-    "sleeper_position": "positions of the evaluation-zone sleepers [m], nearest the interface first",
+    "sleeper_position": "positions "
+                        "of the evaluation-zone sleepers [m], nearest the interface first",
     "sleeper_energy": "energy dissipated in the support under each zone sleeper [J], same order",
     "sleeper_strengthened": "1 for a strengthened zone sleeper, else 0, same order",
     "sleeper_displacement": "displacement of each zone sleeper [m] against time (steps x sleepers)",
     "wheel_positions": "position of every wheel [m] (steps x wheels), leading wheel first",
     "contact_force_wheels": "contact force of every wheel [N] (steps x wheels), same order",
     "in_force_zone_wheels": "1 where that wheel is inside the force zone, else 0 (steps x wheels)",
-    "irregularity_at_wheel": "rail irregularity (dip) under the leading wheel [m], when there is one",
+    "irregularity_at_wheel": "rail irregularity (dip) under the leading wheel [m], when there is "
+                             "one",
+    # a settlement prediction (lccopt.degradation.evaluate): one row per block of load cycles,
+    # row 0 the new track
+    "settlement_years": "time at the end of each block [year]",
+    "settlement_axle_passes": "axle passes at the end of each block, all conditions [-]",
+    "settlement_sleeper_x": "positions of the settling sleepers [m], nearest the interface first",
+    "settlement_sleepers": "settlement of each settling sleeper's ballast [m] (blocks x sleepers)",
+    "settlement_void": "void under each settling sleeper at rest [m] (blocks x sleepers)",
+    "settlement_level": "rail level at rest, downward positive [m] (blocks x points)",
+    "settlement_level_x": "positions of the rail level's points [m]",
+    "settlement_peak_force": "largest ballast force of an axle in the block [N] (blocks x "
+                             "conditions x sleepers), simulated where settlement_simulated",
+    "settlement_wheel_force_max": "largest wheel-rail force of a simulated passage [N] (blocks x "
+                                  "conditions), NaN where not simulated",
+    "settlement_simulated": "1 where every condition was simulated at the block's end",
+    "settlement_load_errors": "largest error of the predicted loads at each re-simulation [N]",
 }
 # wheel_position, contact_force, wheel_displacement, rail_displacement and in_force_zone are
 # those of the leading wheel (the only one of the three-dof vehicle).

@@ -10,7 +10,8 @@ from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[2]
 REFERENCE = REPO / "configs" / "reference.yaml"
-FIGURES = ("search-history", "objective-space", "best-vs-reference", "contact-force", "sleeper-energy",
+FIGURES = ("search-history", "objective-space", "best-vs-reference", "contact-force",
+           "sleeper-energy",
            "track-layout", "sensitivity")
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 

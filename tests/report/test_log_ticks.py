@@ -4,7 +4,7 @@ within one decade (e.g. 0.3-1.8 kN) still gets readable numbers."""
 import numpy as np
 import pytest
 
-from lccopt.report.figures import log_ticks
+from lccopt.report.plotting import log_ticks
 
 
 @pytest.mark.parametrize("lo, hi", [(0.3, 1.8), (2.6, 13.0), (0.05, 40.0), (1.0, 4.5), (1e3, 9e4)])
@@ -18,4 +18,5 @@ def test_every_wide_range_gets_at_least_four_labels_inside_it(lo, hi):
 
 
 def test_wide_ranges_thin_out_to_one_two_five():
-    assert log_ticks(0.01, 100.0) == [0.01, 0.02, 0.05, 0.1, 0.2, 0.5, 1.0, 2.0, 5.0, 10.0, 20.0, 50.0, 100.0]
+    assert log_ticks(0.01, 100.0) == [0.01, 0.02, 0.05, 0.1, 0.2, 0.5, 1.0, 2.0, 5.0, 10.0,
+                                      20.0, 50.0, 100.0]

@@ -1,4 +1,5 @@
-"""`lccopt report` on a small real multi-objective run (real simulator, cheap mesh), as a user runs it."""
+"""`lccopt report` on a small real multi-objective run (real simulator, cheap mesh), as a user
+runs it."""
 
 from __future__ import annotations
 
@@ -61,7 +62,8 @@ def test_summary_best_values_equal_results_h5(run_dir):
     for k in ("F_max", "E_max"):  # the objectives table row: name, unit, reference, best, change
         row = next(l for l in md.splitlines() if l.startswith(f"| **{k}** |"))
         cells = [c.strip() for c in row.strip("|").split("|")]
-        assert cells[2] == fnum(ref[k]) and cells[3] == fnum(best[k]) and cells[4] == pct(best[k], ref[k]), row
+        assert cells[2] == fnum(ref[k]) and cells[3] == fnum(best[k]), row
+        assert cells[4] == pct(best[k], ref[k]), row
     # the design table has the best design's value of every variable
     for n in names:
         assert any(l.startswith(f"| `{n}` |") for l in md.splitlines())
@@ -87,7 +89,8 @@ def test_format_option_picks_the_summary(run_dir, tmp_path):
     shutil.copytree(run, copy, ignore=shutil.ignore_patterns("report"))
     proc = lccopt("report", copy, "--format", "md")
     assert proc.returncode == 0, proc.stderr
-    assert (copy / "report" / "report.md").is_file() and not (copy / "report" / "report.html").exists()
+    assert (copy / "report" / "report.md").is_file()
+    assert not (copy / "report" / "report.html").exists()
     proc = lccopt("report", copy, "--format", "html")
     assert proc.returncode == 0, proc.stderr
     assert (copy / "report" / "report.html").is_file()
@@ -108,7 +111,8 @@ def test_out_writes_elsewhere_and_never_cleans_a_users_folder(run_dir, tmp_path)
     (mine / "notes.txt").write_text("keep me")
     proc = lccopt("report", copy, "--out", mine / "report", "--format", "html")
     assert proc.returncode == 0, proc.stderr
-    assert (mine / "report" / "report.html").is_file() and (mine / "report" / "contact-force.png").is_file()
+    assert (mine / "report" / "report.html").is_file()
+    assert (mine / "report" / "contact-force.png").is_file()
     assert not (copy / "report").exists()
     assert (mine / "sensitivity.png").read_bytes() == b"a user's own file"
     assert (mine / "notes.txt").read_text() == "keep me"
@@ -181,7 +185,8 @@ def test_paper_phases_accounts_for_every_evaluation(run_dir):
         ev = f["evaluations"]
         n, best = len(ev["id"]), float(ev["value"][()][ev["status"][()] == b"ok"].min())
     proc = subprocess.run([sys.executable, str(REPO / "benchmarks" / "paper_phases.py"), str(run),
-                           "--reference", "1", "--best", str(best)], capture_output=True, text=True, timeout=120)
+                           "--reference", "1", "--best", str(best)], capture_output=True,
+                           text=True, timeout=120)
     assert proc.returncode == 0, proc.stderr
     line = proc.stdout.splitlines()[0].split()
     assert line[0] == run.name and float(line[1]) == pytest.approx(best, rel=1e-4)
@@ -196,15 +201,16 @@ def test_pads_searched_on_a_log_scale_are_placed_in_ratios(run_dir, monkeypatch,
     # sits at ln(1120/50)/ln(1200/50) = 0.979 of the way, not (1120-50)/(1200-50) = 0.930.
     import numpy as np
 
-    from lccopt.report import figures
+    from lccopt.report import design
     from lccopt.report.data import load_run
 
     run, _ = run_dir
     data = load_run(run)
     assert [v.log for v in data.variables] == [True] * 3 + [False] * 5
     drawn = {}
-    monkeypatch.setattr(figures, "_save", lambda fig, path: drawn.setdefault("fig", fig) and path)
-    figures.fig_best_vs_reference(data, data.best_index(), data.ref_index(), tmp_path)
+    monkeypatch.setattr(design, "save_figure",
+                        lambda fig, path: drawn.setdefault("fig", fig) and path)
+    design.fig_best_vs_reference(data, data.best_index(), data.ref_index(), tmp_path)
     a2 = drawn["fig"].axes[1]
     ref = a2.collections[1].get_offsets()      # after the range lines: the reference diamonds
     np.testing.assert_allclose(ref[:3, 0], np.log(1120 / 50) / np.log(1200 / 50), rtol=1e-9)

@@ -40,7 +40,8 @@ def test_the_run_has_failures_and_a_restart(run_dir):
         ids = f["evaluations/id"][()]
     assert status.count("failed") == 8
     assert restart.max() == 1
-    assert not any((run / "evals" / f"{i:06d}.h5").exists() for i, s in zip(ids, status) if s == "failed")
+    failed = [i for i, s in zip(ids, status) if s == "failed"]
+    assert not any((run / "evals" / f"{i:06d}.h5").exists() for i in failed)
 
 
 
@@ -56,7 +57,8 @@ def test_report_shows_failures_and_the_restart(run_dir):
     assert s["best"]["id"] == best["id"] and s["best"]["value"] == best["value"]
     md = (run / "report" / "report.md").read_text()
     assert "8 failed" in md and "8× RuntimeError: injected failure" in md
-    assert f"restarts (fresh initial design after the step size collapsed or evaluations kept failing) at #{first}" in md
+    assert ("restarts (fresh initial design after the step size collapsed or evaluations kept "
+            f"failing) at #{first}") in md
     for name in FIGURES:
         png_size(run / "report" / f"{name}.png")
 

@@ -5,7 +5,6 @@ from __future__ import annotations
 import json
 
 from lccopt.engine.runner import optimise
-
 from tests.engine.conftest import FAKE, cli_run, write_case
 
 CONDITIONS = """\
@@ -22,7 +21,8 @@ def test_a_traffic_report_names_the_condition_that_sets_each_worst_case(tmp_path
     r = cli_run("report", run)
     assert r.returncode == 0, r.stderr
     text = (run / "report" / "report.md").read_text()
-    assert "F_max (worst case, set by fast)" in text and "E_max (worst case, set by fast)" in text, text
+    assert "F_max (worst case, set by fast)" in text, text
+    assert "E_max (worst case, set by fast)" in text, text
     assert "In condition fast (which sets the best design's worst E_max)" in text, text
 
 
@@ -39,5 +39,6 @@ def test_a_best_design_equal_to_the_reference_is_said_to_be_unchanged(tmp_path):
     r = cli_run("report", run)
     assert r.returncode == 0, r.stderr
     text = (run / "report" / "report.md").read_text()
-    assert "F_max is unchanged at" in text and "The best design is the reference design" in text, text
+    assert "F_max is unchanged at" in text, text
+    assert "The best design is the reference design" in text, text
     assert "rises from" not in text and "+0.0 %" not in text   # an equal value is "0 %"

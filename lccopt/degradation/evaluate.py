@@ -1,0 +1,233 @@
+"""One design judged by its settlement under its traffic: the evaluation of a case with a
+``degradation:`` section (docs/settlement.md).
+
+``evaluate(spec, design)`` runs, for one design,
+
+* the paper's simulation of every traffic condition on the new track
+  (:func:`lccopt.vti.evaluate.evaluate`): F_rms, F_max, E_rms and E_max, combined over the
+  conditions by the case's rule (worst or weighted mean), and the time histories of the first
+  condition's (the report's contact-force and sleeper-energy figures);
+* one settlement prediction (:func:`~lccopt.degradation.iteration.predict_settlement`) in
+  which every condition with passages simulates at every simulation point, all on the same
+  settling track: the settlement objectives (``lccopt.vti.response.SETTLEMENT_OBJECTIVES``)
+  and the settlement histories (``settlement_*``, one row per block).
+
+The whole prediction is one evaluation (one worker task): its conditions are coupled through
+the track they settle together, so they cannot be split over workers the way the paper's
+independent simulations are.
+
+Its typed inputs (:mod:`lccopt.degradation.specs`) are built by the config layer from a
+validated case; this module imports nothing from it.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from ..vti.evaluate import evaluate as simulate_passage
+from ..vti.response import PAPER_OBJECTIVES, Evaluation
+from ..vti.specs import TrackDesign
+from ..vti.track import build_track
+from ..vti.vehicle import build_vehicle
+from .iteration import SettlementResult, predict_settlement
+from .laws import LAWS
+from .loading import Condition, entry_zone, vti_condition
+from .specs import DegradationSpec, LawSpec, Limit, Traffic
+
+
+def evaluate(spec: DegradationSpec, design: TrackDesign) -> Evaluation:
+    """The paper's objectives on the new track and the settlement of ``design`` over
+    ``spec``'s horizon.
+
+    Parameters
+    ----------
+    spec
+        the traffic, the law and the iteration's settings.
+    design
+        the design of the entry side (checked by the caller, as for the paper's simulation).
+
+    Returns
+    -------
+    lccopt.vti.response.Evaluation
+        objectives: the paper's four (combined over the conditions; each condition's also as
+        ``F_max@name`` etc. when there are several) and the settlement objectives; histories:
+        the first condition's time histories and the ``settlement_*`` histories; info: the
+        first condition's facts and the prediction's (``settlement_*``).
+    """
+    t0 = time.perf_counter()
+    passages = [simulate_passage(t.scenario, design) for t in spec.traffic]
+    objectives = _paper_objectives(spec, [p.objectives for p in passages])
+    result = predict(spec, design)
+    objectives.update(settlement_objectives(result, spec.limit))
+    first = passages[0]
+    histories = {**first.histories, **settlement_histories(result)}
+    info = {**first.info, **_settlement_info(result, spec)}
+    info["paper_wall_time"] = float(sum(p.info.get("wall_time", 0.0) for p in passages))
+    info["wall_time"] = time.perf_counter() - t0
+    return Evaluation(objectives, histories, info)
+
+
+def predict(spec: DegradationSpec, design: TrackDesign) -> SettlementResult:
+    """The settlement prediction of ``design`` under the conditions with passages.
+
+    Each condition simulates on its own track model (the mesh follows its vehicle's run), all
+    on the gaps of one settling zone; the statics are those of the first condition's track.
+
+    Parameters
+    ----------
+    spec
+        the traffic, the law and the iteration's settings.
+    design
+        the design of the entry side.
+
+    Returns
+    -------
+    lccopt.degradation.iteration.SettlementResult
+    """
+    conditions, tracks = [], []
+    for t in spec.settling_traffic:
+        track = build_track(t.scenario, design)
+        tracks.append(track)
+        conditions.append(_condition(t, track, spec))
+    track = tracks[0]
+    zone = entry_zone(track, spec.settling_sleepers, spec.follower_flat, spec.follower_taper)
+    return predict_settlement(track, zone, conditions, horizon_years=spec.horizon_years,
+                              law=law(spec.law), tolerance=spec.tolerance,
+                              steps_per_decade=spec.steps_per_decade,
+                              max_simulations=spec.max_simulations,
+                              rail_seats=spec.rail_seats)
+
+
+def law(spec: LawSpec):
+    """The settlement law of ``spec``.
+
+    Parameters
+    ----------
+    spec
+        the law's name (``LAW_NAMES``) and its class's arguments.
+
+    Returns
+    -------
+    VarandasLaw or LogarithmicLaw
+        an instance of ``lccopt.degradation.laws.LAWS[spec.name]``.
+    """
+    return LAWS[spec.name](**dict(spec.parameters))
+
+
+def _condition(traffic: Traffic, track, spec: DegradationSpec) -> Condition:
+    """A condition of the prediction: ``traffic``'s passage over ``track`` (run as
+    :func:`lccopt.vti.evaluate.evaluate` runs it), on the gaps the iteration gives for the
+    settling zone, applied to this track's own supports of the same sleepers."""
+    sc = traffic.scenario
+    vehicle = build_vehicle(sc.vehicle)
+    dt = sc.settings.time_step
+    x_start, _, _, x_end = track.window
+    speed = -vehicle.speed if x_end < x_start else vehicle.speed
+    n_steps = int(np.ceil(abs(x_end - x_start) / (vehicle.speed * dt)))
+    irregularity = None
+    if sc.irregularity is not None:
+        px, pr = sc.irregularity[:, 0], sc.irregularity[:, 1]
+
+        def irregularity(pos: float) -> float:
+            return float(np.interp(pos, px, pr, left=0.0, right=0.0))
+    own = entry_zone(track, spec.settling_sleepers, spec.follower_flat,
+                     spec.follower_taper).supports
+    base = vti_condition(traffic.name, traffic.passages_per_year, track, vehicle, dt=dt,
+                         speed=speed, x_start=x_start, n_steps=n_steps,
+                         irregularity=irregularity)
+
+    def simulate(supports):
+        if supports.x.shape != own.x.shape or not np.allclose(supports.x, own.x):
+            raise ValueError(f"condition {traffic.name}: its track's settling sleepers are "
+                             f"not those of the prediction's zone")
+        return base.simulate(own.with_gaps(supports.gap))
+    return Condition(base.name, base.passes_per_year, simulate, base.axles)
+
+
+def _paper_objectives(spec: DegradationSpec, per_condition: list[dict]) -> dict:
+    """The paper's four objectives, combined over the conditions (worst: the largest;
+    mean: the weighted mean), and each condition's as ``F_max@name`` when there are several."""
+    if len(per_condition) == 1:
+        return {k: float(per_condition[0][k]) for k in PAPER_OBJECTIVES}
+    w = np.array([t.weight for t in spec.traffic], dtype=float)
+    out = {}
+    for k in PAPER_OBJECTIVES:
+        v = np.array([float(o[k]) for o in per_condition])
+        out[k] = float(w @ v / w.sum()) if spec.condition_mode == "mean" else float(v.max())
+    for t, o in zip(spec.traffic, per_condition):
+        for k in PAPER_OBJECTIVES:
+            out[f"{k}@{t.name}"] = float(o[k])
+    return out
+
+
+def settlement_objectives(result: SettlementResult, limit: Limit) -> dict:
+    """The settlement objectives at the horizon and ``years_to_limit``.
+
+    Years and axle passes are proportional (the traffic is the same every year), so the
+    passes until the limit become years; ``years_to_limit`` is the horizon if the limit is
+    never reached.
+
+    Parameters
+    ----------
+    result
+        the prediction.
+    limit
+        the measure and value that ``years_to_limit`` counts to.
+
+    Returns
+    -------
+    dict
+        ``SETTLEMENT_OBJECTIVES`` and ``years_to_limit`` -> float, SI units.
+    """
+    o = result.objectives(limit.measure, limit.value)
+    per_year = result.axle_passes[-1] / result.years[-1]
+    years = o.pop("passes_to_limit") / per_year
+    o["maintenance_rate"] = 1.0 / years
+    o["years_to_limit"] = years
+    return {k: float(v) for k, v in o.items()}
+
+
+def settlement_histories(result: SettlementResult) -> dict:
+    """The prediction's histories as an evaluation file keeps them.
+
+    Parameters
+    ----------
+    result
+        the prediction.
+
+    Returns
+    -------
+    dict
+        ``settlement_*`` -> array, one row per block (``lccopt.vti.response.HISTORY_DOC``).
+    """
+    return {
+        "settlement_years": result.years,
+        "settlement_axle_passes": result.axle_passes,
+        "settlement_sleeper_x": result.sleeper_x,
+        "settlement_sleepers": result.settlement,
+        "settlement_void": result.void,
+        "settlement_level": result.level.astype(np.float32),   # sub-micrometre: enough
+        "settlement_level_x": result.level_x,
+        "settlement_peak_force": result.peak_force,
+        "settlement_wheel_force_max": result.wheel_force_max,
+        "settlement_simulated": result.simulated.astype(np.int8),
+        "settlement_load_errors": np.asarray(result.info["load_errors"], dtype=float),
+    }
+
+
+def _settlement_info(result: SettlementResult, spec: DegradationSpec) -> dict:
+    limit = spec.limit
+    reached = bool(np.any(result.measure(limit.measure) >= limit.value))
+    return {
+        "settlement_simulations": int(result.n_simulations),
+        "settlement_blocks": int(result.info["blocks"]),
+        "settlement_budget_bound": bool(result.info["budget_bound"]),
+        "settlement_law": str(result.info["law"]),
+        "settlement_conditions": ",".join(result.conditions),
+        "settlement_horizon_years": float(spec.horizon_years),
+        "settlement_limit_measure": limit.measure,
+        "settlement_limit_value": float(limit.value),
+        "settlement_limit_reached": reached,
+    }

@@ -1,0 +1,218 @@
+"""A settlement case through the command line as a user runs it: check, simulate, optimise,
+status, report, and a run killed with kill -9 and resumed, which ends as the uninterrupted
+run ends. A coarse, short case (1 ms steps, 0.1 m elements, 2 x 10^5 axle passes, 8 settling
+sleepers): about half a second a design."""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import signal
+import subprocess
+import time
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+
+from lccopt.engine.journal import read_journal
+from tests.conftest import CONFIGS, lccopt_command
+
+BOGIE = (CONFIGS / "vehicles" / "virm-bogie.yaml").as_posix()
+SETTLEMENT = ("differential_settlement", "max_settlement", "max_void", "level_std",
+              "force_growth", "maintenance_rate", "years_to_limit")
+
+
+def write_settlement_case(directory: Path, name: str = "s", budget: int = 8) -> Path:
+    p = Path(directory) / f"{name}.yaml"
+    p.write_text(f"""extends: {BOGIE}
+name: {name}
+simulation: {{time_step: 1.0e-3, element_length: 0.1, far_element_length: 0.6, run_in: 2.0,
+             run_out: 1.0}}
+degradation:
+  passages_per_year: 5.0e5
+  horizon_axle_passes: 2.0e5
+  settling_sleepers: 8
+  tolerance: 4 kN
+  max_simulations: 8
+  limit: {{measure: max_void, value: 1 mm}}
+optimisation:
+  objectives: [differential_settlement, F_max]
+  budget: {budget}
+  initial_points: 5
+  seed: 2
+  timeout: 120
+""", encoding="utf-8")
+    return p
+
+
+def cli(*args, cwd, **kw) -> subprocess.CompletedProcess:
+    return subprocess.run(lccopt_command() + [str(a) for a in args], cwd=cwd, capture_output=True,
+                          text=True, timeout=600, env={**os.environ, "MPLBACKEND": "Agg"}, **kw)
+
+
+@pytest.fixture(scope="module")
+def run(tmp_path_factory):
+    """One finished run of the settlement case: two workers, then its report."""
+    base = tmp_path_factory.mktemp("settlement")
+    case = write_settlement_case(base)
+    r = cli("optimise", case, "--workers", 2, cwd=base)
+    assert r.returncode == 0, r.stderr[-3000:]
+    rep = cli("report", base / "runs" / "s", cwd=base)
+    assert rep.returncode == 0, rep.stderr[-3000:]
+    return base, case, r, rep
+
+
+def test_check_and_simulate_say_what_the_prediction_does(tmp_path):
+    case = write_settlement_case(tmp_path)
+    r = cli("check", case, cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert "horizon 0.2 years = 2e+05 axle passes; 8 settling sleepers" in r.stdout
+    r = cli("simulate", case, cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    out = r.stdout
+    assert all(len(line) <= 80 for line in out.splitlines()[1:]), out
+    for k in SETTLEMENT:
+        assert f"\n  {k} " in out, k
+    assert "settlement after 0.2 years" in out and " mm " in out
+    sim = tmp_path / "runs" / "s-simulate"
+    for png in ("contact_force", "sleeper_energy", "displacement", "settlement-history",
+                "settlement-profile"):
+        assert (sim / f"{png}.png").stat().st_size > 10_000, png
+    with h5py.File(sim / "simulation.h5", "r") as f:
+        d = f["objectives"].attrs["differential_settlement"]
+        s = f["histories/settlement_sleepers"][()]
+        assert f["objectives"].attrs["differential_settlement_unit"] == "m"
+        assert s.shape[1] == 8 and d == pytest.approx(np.ptp(s[-1]))
+        assert f["histories/settlement_axle_passes"][-1] == pytest.approx(2.0e5)
+
+
+def test_results_h5_carries_every_objective_with_its_unit(run):
+    base, _, r, _ = run
+    path = base / "runs" / "s"
+    events = read_journal(path / "journal.jsonl")[0]
+    done = {e["id"]: e["objectives"] for e in events if e["event"] == "evaluated"}
+    assert len(done) == 8
+    with h5py.File(path / "results.h5", "r") as f:
+        columns = list(f.attrs["objective_columns"].astype(str)) if hasattr(
+            f.attrs["objective_columns"], "astype") else list(f.attrs["objective_columns"])
+        assert columns == ["F_rms", "F_max", "E_rms", "E_max", *SETTLEMENT]
+        e = f["evaluations"]
+        ids = e["id"][()]
+        for k in columns:
+            np.testing.assert_array_equal(e[k][()], [done[i][k] for i in ids], err_msg=k)
+        assert e["max_void"].attrs["unit"] == "m" and e["F_max"].attrs["unit"] == "N"
+        assert e["maintenance_rate"].attrs["unit"] == "1/year"
+        assert list(f.attrs["objectives"]) == ["differential_settlement", "F_max"]
+    assert "differential_settlement" in r.stdout and " mm " in r.stdout
+
+
+def test_every_design_keeps_its_settlement_histories(run):
+    """optimisation.histories: best keeps the time histories of the reference and the best
+    design only, but every design's settlement histories (a few tens of kB)."""
+    base = run[0]
+    files = sorted((base / "runs" / "s" / "evals").glob("*.h5"))
+    assert len(files) == 8
+    with_time = []
+    for p in files:
+        with h5py.File(p, "r") as f:
+            h = f["histories"]
+            assert "settlement_sleepers" in h and "settlement_void" in h, p.name
+            if "contact_force" in h:
+                with_time.append(p.name)
+    best = json.loads((base / "runs" / "s" / "report" / "summary.json").read_text())["best"]["id"]
+    assert set(with_time) == {"000000.h5", f"{best:06d}.h5"}
+
+
+def test_status_and_report_speak_settlement(run):
+    base = run[0]
+    r = cli("status", base / "runs" / "s", cwd=base)
+    assert r.returncode == 0, r.stderr
+    assert "finished, 8/8 evaluations" in r.stdout and "differential_settlement" in r.stdout
+    rep = base / "runs" / "s" / "report"
+    for png in ("settlement-history", "settlement-profile", "objective-space",
+                "best-vs-reference", "contact-force"):
+        assert (rep / f"{png}.png").stat().st_size > 10_000, png
+    md = (rep / "report.md").read_text()
+    assert "## Settlement over the horizon" in md
+    assert "**maintenance_rate**: 1 / years_to_limit" in md
+    assert "the limit: max_void reaching 1 mm" in md
+    assert "| **differential_settlement** | mm |" in md
+    s = json.loads((rep / "summary.json").read_text())
+    assert set(SETTLEMENT) <= set(s["best"]["objectives"])
+    assert s["figures"]["settlement-profile"] == "settlement-profile.png"
+
+
+def _n_done(run: Path) -> int:
+    try:
+        return sum(e["event"] in ("evaluated", "failed")
+                   for e in read_journal(run / "journal.jsonl")[0])
+    except Exception:  # noqa: BLE001 - being written
+        return 0
+
+
+def _table(run: Path) -> dict:
+    with h5py.File(run / "results.h5", "r") as f:
+        e = f["evaluations"]
+        return {k: e[k][()] for k in ("id", "x", "value", "differential_settlement", "F_max",
+                                      "max_void", "years_to_limit")}
+
+
+def test_a_settlement_run_killed_mid_run_resumes_to_the_uninterrupted_end(tmp_path, run):
+    base = run[0]
+    reference = _table(base / "runs" / "s")
+    case = write_settlement_case(tmp_path)
+    path = tmp_path / "runs" / "s"
+    p = subprocess.Popen(lccopt_command() + ["optimise", str(case), "--workers", "2"],
+                         cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                         start_new_session=True, env={**os.environ, "MPLBACKEND": "Agg"})
+    t0 = time.monotonic()
+    while _n_done(path) < 3 and p.poll() is None:
+        assert time.monotonic() - t0 < 300, "the run did not get going"
+        time.sleep(0.05)
+    assert p.poll() is None, "finished before it could be killed"
+    os.kill(p.pid, signal.SIGKILL)             # the lccopt process only: workers die with it
+    p.communicate(timeout=60)
+    assert _n_done(path) < 8
+    r = cli("resume", path, "--workers", 2, cwd=tmp_path)
+    assert r.returncode == 0, r.stderr[-3000:]
+    got = _table(path)
+    for k, v in reference.items():
+        np.testing.assert_array_equal(got[k], v, err_msg=k)
+
+
+def test_the_papers_three_dof_vehicle_is_refused_in_one_line(tmp_path):
+    """The paper's vehicle under a settlement prediction: exit 2, one line naming the file,
+    the line and the key to change, and what to use instead; nothing is written."""
+    case = tmp_path / "d3.yaml"
+    case.write_text(f"extends: {(CONFIGS / 'reference.yaml').as_posix()}\nname: d3\n"
+                    "degradation: {passages_per_year: 5.0e5}\n", encoding="utf-8")
+    for command in ("check", "optimise"):
+        r = cli(command, case, cwd=tmp_path)
+        assert r.returncode == 2, r.stderr
+        lines = r.stderr.strip().splitlines()
+        assert len(lines) == 1 and "Traceback" not in r.stderr, r.stderr
+        assert re.search(r"reference\.yaml:\d+: vehicle\.type: the paper's three-dof vehicle "
+                         r"cannot carry a settlement prediction", lines[0]), lines[0]
+        assert "use type: bogie or half-car" in lines[0]
+    assert not (tmp_path / "runs").exists()
+
+
+def test_a_settlement_objective_alone_is_what_the_run_minimises(tmp_path):
+    """max_void alone: a single-objective run whose value column is each design's largest
+    void, and whose best design is the one with the smallest."""
+    case = write_settlement_case(tmp_path, name="v", budget=6)
+    text = case.read_text().replace("[differential_settlement, F_max]", "[max_void]")
+    case.write_text(text.replace("initial_points: 5", "initial_points: 4"), encoding="utf-8")
+    r = cli("optimise", case, "--workers", 1, cwd=tmp_path)
+    assert r.returncode == 0, r.stderr[-3000:]
+    with h5py.File(tmp_path / "runs" / "v" / "results.h5", "r") as f:
+        e = f["evaluations"]
+        void, value = e["max_void"][()], e["value"][()]
+        assert list(f.attrs["objectives"]) == ["max_void"] and len(void) == 6
+        np.testing.assert_array_equal(value, void)
+        assert np.all(void > 0) and np.ptp(void) > 1e-5     # the designs differ
+    r = cli("status", tmp_path / "runs" / "v", cwd=tmp_path)
+    assert r.returncode == 0 and "max_void" in r.stdout, r.stdout + r.stderr

@@ -1,0 +1,151 @@
+"""A case with degradation: evaluated as the optimiser's workers evaluate it
+(lccopt.problem.evaluate -> lccopt.degradation.evaluate): the paper's objectives are those of
+the plain simulation, the settlement objectives those of predict_settlement called by hand,
+two identical conditions of half the traffic settle as one of all of it, and conditions that
+run the other way (another mesh) settle the same sleepers together. Coarse, short versions
+(1 ms steps, 0.1 m elements, one year, 10 settling sleepers)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from lccopt.config import load_case
+from lccopt.degradation.evaluate import settlement_objectives
+from lccopt.degradation.iteration import predict_settlement
+from lccopt.degradation.laws import VarandasLaw
+from lccopt.degradation.loading import entry_zone, vti_condition
+from lccopt.problem import Problem, evaluate
+from lccopt.vti.evaluate import build_vehicle
+from lccopt.vti.evaluate import evaluate as simulate
+from lccopt.vti.response import SETTLEMENT_OBJECTIVES
+from lccopt.vti.track import build_track
+from tests.conftest import CONFIGS
+
+BOGIE = (CONFIGS / "vehicles" / "virm-bogie.yaml").as_posix()
+CHEAP = """simulation: {time_step: 1.0e-3, element_length: 0.1, far_element_length: 0.6,
+             run_in: 2.0, run_out: 1.0}
+"""
+
+
+def cheap_case(tmp_path, degradation: str, extra: str = "", name: str = "c"):
+    p = tmp_path / f"{name}.yaml"
+    p.write_text(f"extends: {BOGIE}\nname: {name}\n{CHEAP}degradation:\n{degradation}{extra}",
+                 encoding="utf-8")
+    return load_case(p)
+
+
+ONE_YEAR = """  horizon_years: 1
+  settling_sleepers: 10
+  tolerance: 4 kN
+"""
+
+
+@pytest.fixture(scope="module")
+def single(tmp_path_factory):
+    case = cheap_case(tmp_path_factory.mktemp("single"),
+                      "  passages_per_year: 5.0e5\n" + ONE_YEAR)
+    return case, evaluate(case, case.reference)
+
+
+def test_a_case_evaluation_is_the_simulation_and_the_prediction_it_says(single):
+    case, ev = single
+    plain = simulate(case.scenario(), case.track_design(case.reference))
+    for k in ("F_rms", "F_max", "E_rms", "E_max"):
+        assert ev.objectives[k] == plain.objectives[k]
+    np.testing.assert_array_equal(ev.histories["contact_force"], plain.histories["contact_force"])
+    # the prediction by hand, as benchmarks/settlement.py builds it
+    tr = build_track(case.scenario(), case.track_design(case.reference))
+    veh = build_vehicle(case.scenario().vehicle)
+    x0, _, _, x1 = tr.window
+    dt = case.simulation["time_step"]
+    cond = vti_condition("vehicle", 5.0e5, tr, veh, dt=dt, speed=veh.speed, x_start=x0,
+                         n_steps=int(np.ceil((x1 - x0) / (veh.speed * dt))))
+    r = predict_settlement(tr, entry_zone(tr, 10), [cond], horizon_years=1.0, law=VarandasLaw(),
+                           tolerance=4e3)
+    np.testing.assert_array_equal(ev.histories["settlement_sleepers"], r.settlement)
+    np.testing.assert_array_equal(ev.histories["settlement_void"], r.void)
+    np.testing.assert_array_equal(ev.histories["settlement_axle_passes"], r.axle_passes)
+    o = r.objectives("differential_settlement", 3e-3)
+    for k in SETTLEMENT_OBJECTIVES[:5]:
+        assert ev.objectives[k] == o[k]
+    assert ev.objectives["years_to_limit"] == pytest.approx(o["passes_to_limit"] / 1.0e6)
+    assert ev.info["settlement_simulations"] == r.n_simulations
+    assert ev.info["settlement_conditions"] == "vehicle"
+
+
+def test_years_to_limit_is_when_the_measure_reaches_the_limit(single):
+    """Linear between blocks; maintenance_rate is its inverse; the horizon when the limit is
+    never reached."""
+    case, ev = single
+    h = ev.histories
+    d = np.ptp(h["settlement_sleepers"], axis=1)
+    years = h["settlement_years"]
+    o = ev.objectives
+    assert o["maintenance_rate"] * o["years_to_limit"] == pytest.approx(1.0)
+    below = d[-1] < 3e-3
+    assert ev.info["settlement_limit_reached"] == (not below)
+    if below:
+        assert o["years_to_limit"] == pytest.approx(1.0)
+    # a limit it does reach: the first block past it brackets the time
+    from lccopt.degradation.iteration import SettlementResult
+    from lccopt.degradation.specs import Limit
+
+    r = SettlementResult(years=years, axle_passes=h["settlement_axle_passes"],
+                         settlement=h["settlement_sleepers"], void=h["settlement_void"],
+                         level=h["settlement_level"], level_x=h["settlement_level_x"],
+                         peak_force=h["settlement_peak_force"],
+                         wheel_force_max=h["settlement_wheel_force_max"],
+                         simulated=h["settlement_simulated"].astype(bool),
+                         sleeper_x=h["settlement_sleeper_x"], conditions=("vehicle",),
+                         n_simulations=1)
+    half = 0.5 * d[-1]
+    got = settlement_objectives(r, Limit("differential_settlement", half))["years_to_limit"]
+    i = int(np.flatnonzero(d >= half)[0])
+    assert years[i - 1] < got <= years[i]
+
+
+def test_two_identical_conditions_of_half_the_traffic_settle_as_one(tmp_path, single):
+    """Both conditions load every sleeper as the one did, half as often: the law sees the same
+    load histogram, so the settlement is the same; each simulation point simulates both."""
+    _, one = single
+    case = cheap_case(tmp_path, "  traffic: {a: 2.5e5, b: 2.5e5}\n" + ONE_YEAR,
+                      "conditions: [{name: a, vehicle: case}, {name: b, vehicle: case}]\n")
+    assert case.conditions == () and len(case.traffic) == 2
+    two = evaluate(case, case.reference)
+    np.testing.assert_allclose(two.histories["settlement_sleepers"][-1],
+                               one.histories["settlement_sleepers"][-1], atol=1e-6)
+    assert two.info["settlement_simulations"] == 2 * one.info["settlement_simulations"]
+    assert two.histories["settlement_peak_force"].shape[1] == 2
+    assert two.objectives["F_max"] == one.objectives["F_max"]
+    assert two.objectives["F_max@a"] == two.objectives["F_max@b"] == one.objectives["F_max"]
+
+
+def test_conditions_on_other_meshes_settle_the_same_sleepers_together(tmp_path):
+    """A bogie leaving the crossing runs from beyond the slab: its track model has another
+    mesh, and its simulations take the zone's gaps on its own supports. Both directions load
+    the approach, so both together settle it more than the entering traffic alone."""
+    deg = "  traffic: {enter: 2.5e5, leave: 2.5e5}\n" + ONE_YEAR
+    case = cheap_case(tmp_path, deg, "conditions: [{name: enter, vehicle: case},\n             "
+                                     "{name: leave, vehicle: case, direction: leave}]\n")
+    tracks = [build_track(case.condition_case(i).scenario(), case.track_design(case.reference))
+              for i in range(2)]
+    assert tracks[0].n_dofs != tracks[1].n_dofs                  # another mesh
+    ev = evaluate(case, case.reference)
+    h = ev.histories
+    sim = h["settlement_simulated"].astype(bool)
+    assert np.all(np.isfinite(h["settlement_wheel_force_max"][sim]))   # both, every time
+    assert np.all(h["settlement_peak_force"][-1] > 10e3)
+    alone = cheap_case(tmp_path, "  passages_per_year: 2.5e5\n" + ONE_YEAR, name="alone")
+    base = evaluate(alone, alone.reference)
+    assert np.all(h["settlement_sleepers"][-1] > base.histories["settlement_sleepers"][-1])
+
+
+def test_e_max_alone_fits_the_sleepers_energies_only_of_one_simulation(tmp_path):
+    one = cheap_case(tmp_path, "  passages_per_year: 5.0e5\n",
+                     "optimisation: {objectives: [E_max], budget: 10}\n", name="e1")
+    two = cheap_case(tmp_path, "  traffic: {a: 1.0e5, b: 1.0e5}\n",
+                     "optimisation: {objectives: [E_max], budget: 10}\nconditions: [{name: a, "
+                     "vehicle: case}, {name: b, vehicle: case, speed: 100 km/h}]\n", name="e2")
+    assert Problem.from_case(one).surrogate == "sleeper-energies"
+    assert Problem.from_case(two).surrogate == "scalar"      # E_max is the worst of two
