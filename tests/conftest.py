@@ -65,10 +65,12 @@ simulation:
 
 def write_case(directory: Path, name: str = "t", objectives=("F_max", "E_max"), budget: int = 12,
                initial: int = 5, seed: int = 1, timeout: float = 60.0, worst=(60000.0, 5.0),
-               cheap: bool = True, extra: str = "") -> Path:
+               cheap: bool = True, extra: str = "", per_fit: int | None = None) -> Path:
     lines = [f"extends: {REFERENCE}", f"name: {name}", "optimisation:",
              f"  objectives: [{', '.join(objectives)}]", f"  budget: {budget}",
              f"  initial_points: {initial}", f"  seed: {seed}", f"  timeout: {timeout}"]
+    if per_fit is not None:
+        lines.append(f"  proposals_per_fit: {per_fit}")
     if len(objectives) > 1:
         lines += ["  asf:", f"    worst: [{', '.join(str(w) for w in worst)}]"]
     text = "\n".join(lines) + "\n" + (CHEAP_SIMULATION if cheap else "") + extra

@@ -154,6 +154,12 @@ class Case:
         return (self.optimisation or {}).get("histories") or "best"
 
     @property
+    def proposals_per_fit(self) -> int:
+        """Designs proposed from one surrogate fit (default 1; the engine caps it by the
+        worker count)."""
+        return int((self.optimisation or {}).get("proposals_per_fit") or 1)
+
+    @property
     def names(self) -> list[str]:
         return [v.name for v in self.variables]
 

@@ -259,6 +259,11 @@ _OPTIMISATION = Section({
                       "over conditions), mean (weighted mean) or each (every condition's "
                       "objective is an objective of its own, named like F_max@name)",
                       CONDITION_MODES, default="worst", required=False),
+    "proposals_per_fit": Num(
+        "designs proposed from one surrogate fit, at most the worker count. 1: each proposal "
+        "sees every result the schedule allows (the best designs per evaluation); more keeps "
+        "many workers busy when evaluations take well under a second, at a cost in quality "
+        "(docs/runs.md, Scale)", integer=True, ge=1, le=1024, default=1, required=False),
     "histories": Str("time histories an optimisation keeps in evals/: all (every design's), "
                      "best (the reference design's and the best design's; the other files "
                      "hold the design, objectives and facts) or none. Default: best",

@@ -578,7 +578,8 @@ class Engine:
         self._ahead: int | None = None   # id asked ahead, waiting for a free worker
         # proposal n sees exactly the results 0 .. n-lag-1 (schedule.py); lag = the workers
         self.lag = max(1, int(executor.slots))
-        self.batch = batch_size(self.lag)  # proposals per surrogate fit (schedule.py)
+        # proposals per surrogate fit (schedule.py)
+        self.batch = batch_size(self.lag, getattr(case, "proposals_per_fit", 1))
         self.strategy.set_batch(self.batch)
         self.stop = False
         self.abort = False

@@ -16,15 +16,16 @@ interrupted and resumed or not. ``k`` running plus one proposed ahead is the mos
 anyway (the engine asks one point ahead while every worker is busy), so a worker waits only
 when an evaluation takes longer than the ones started after it have taken together.
 
-Blocks: with more than two workers the optimiser computes its proposals in blocks of ``q``
-points (``batch_size``: q = k), one surrogate fit and one scored candidate set per block
-(``Strategy.set_batch``). A proposal that opens a block obeys the rule above; the others of
-the block were computed with it and are handed out at once, waiting for nothing. So block
+Blocks: with ``optimisation.proposals_per_fit`` above 1 the optimiser computes its proposals
+in blocks of ``q`` points (``batch_size``: q = that setting, at most k), one surrogate fit
+and one scored candidate set per block (``Strategy.set_batch``). A proposal that opens a
+block obeys the rule above; the others of the block were computed with it and are handed
+out at once, waiting for nothing. So block
 ``b`` starting at proposal ``n`` is computed from exactly the results ``0 .. n-k-1``, and
 its last point sees nothing newer (a lag of up to ``k + q - 1``): the price of one fit per
-``q`` points, measured in benchmarks/RESULTS-scale.md. The block size is a function of the
-worker count alone, never of timing; with one or two workers the proposals are those of
-one point per fit.
+``q`` points, measured in benchmarks/RESULTS-scale.md (worse designs at the same number of
+evaluations, so 1 is the default). The block size is a function of the case and the worker
+count alone, never of timing.
 
 Multi-objective cases: the reference design (evaluation 0) fixes the ASF reference point, so
 its result is told as soon as it is there, and proposals 1, 2, ... wait for it.
@@ -43,10 +44,10 @@ from typing import Callable, Optional
 Result = Optional[tuple]
 
 
-def batch_size(lag: int) -> int:
-    """Points per block with ``lag`` workers (designs in flight): 1 with one or two (the
-    proposals of one point per fit), else one block per round of the workers."""
-    return 1 if lag <= 2 else int(lag)
+def batch_size(lag: int, per_fit: int = 1) -> int:
+    """Points per block: the case's ``optimisation.proposals_per_fit``, at most ``lag`` (the
+    workers, designs in flight)."""
+    return max(1, min(int(per_fit), int(lag)))
 
 
 def asks_over(strategy) -> bool:

@@ -122,12 +122,12 @@ def test_kill_9_at_random_moments_then_resume_equals_an_uninterrupted_run(tmp_pa
 
 
 def test_kill_9_mid_block_then_resume_equals_an_uninterrupted_run(tmp_path):
-    """Four workers: proposals come in blocks of four (one fit each), handed out as workers
-    free up; a kill -9 lands between a block's computation and its last point's start (its
-    points not yet handed out are nowhere but in the lost process), and the resumed run still
-    equals the uninterrupted one."""
+    """Four workers, proposals_per_fit 4: proposals come in blocks of four (one fit each),
+    handed out as workers free up; a kill -9 lands between a block's computation and its last
+    point's start (its points not yet handed out are nowhere but in the lost process), and the
+    resumed run still equals the uninterrupted one."""
     env = {"LCCOPT_EVALUATOR": FAKE, "LCCOPT_FAKE_DELAY": "0.05", "LCCOPT_FAKE_SPREAD": "0.9"}
-    case = write_case(tmp_path, "k9b", budget=36, initial=6, seed=5)
+    case = write_case(tmp_path, "k9b", budget=36, initial=6, seed=5, per_fit=4)
     first = cli_run("optimise", case, "--workers", "4", "--runs", tmp_path / "uninterrupted",
                     env=env)
     assert first.returncode == 0, first.stderr

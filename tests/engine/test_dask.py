@@ -78,8 +78,9 @@ def test_a_dask_worker_writes_the_file_only_where_it_sees_the_run_directory(tmp_
 def test_a_real_scheduler_with_eight_worker_processes_runs_an_optimisation(tmp_path):
     """As on a cluster: `dask scheduler` and `dask worker ADDRESS --nworkers 8 --nthreads 1`
     as processes of their own, then `lccopt optimise CASE --scheduler ADDRESS` as a user runs
-    it. Eight workers give a lag and a block of eight, every worker takes part, and the run's
-    evaluations are those of the local pool with eight workers (the same schedule)."""
+    it. Eight workers (proposals_per_fit 8) give a lag and a block of eight, every worker
+    takes part, and the run's evaluations are those of the local pool with eight workers (the
+    same schedule)."""
     import json
     import os
     import subprocess
@@ -111,7 +112,7 @@ def test_a_real_scheduler_with_eight_worker_processes_runs_an_optimisation(tmp_p
                                       stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
         with distributed.Client(address, timeout="20s") as client:
             client.wait_for_workers(8, timeout=90)  # the lag is the worker threads at the start
-        case = write_case(tmp_path, "cluster", budget=32, initial=8, seed=9)
+        case = write_case(tmp_path, "cluster", budget=32, initial=8, seed=9, per_fit=8)
         r = cli_run("optimise", case, "--scheduler", address, "--runs", tmp_path / "dask",
                     env={"LCCOPT_EVALUATOR": FAKE, "LCCOPT_FAKE_DELAY": "0.05"}, timeout=120)
         assert r.returncode == 0, r.stderr

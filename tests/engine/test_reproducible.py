@@ -21,7 +21,6 @@ from lccopt.config import load_case
 from lccopt.engine.journal import JournalError, read_journal
 from lccopt.engine.rundir import RunDir
 from lccopt.engine.runner import optimise, recorded_settings, restore, resume
-from lccopt.engine.schedule import batch_size
 from lccopt.optim.settings import Settings
 from lccopt.problem import Problem
 
@@ -71,12 +70,14 @@ def test_the_same_case_twice_with_the_real_simulator_and_two_workers_gives_ident
 
 @pytest.mark.parametrize("workers", [2, 3, 6])
 def test_results_arriving_out_of_order_do_not_change_the_run(tmp_path, monkeypatch, workers):
-    """With 3 and 6 workers the proposals come in blocks of 3 and 6 (one fit each)."""
+    """With 2 workers one proposal per fit; with 3 and 6 workers and proposals_per_fit of 3
+    and 6, blocks of 3 and 6 (one fit each)."""
     # evaluation times between 0.1x and 1.9x of 40 ms, a fixed function of x: the workers
     # finish in an order that differs from the ids (checked below) and from run to run
     monkeypatch.setenv("LCCOPT_FAKE_DELAY", "0.04")
     monkeypatch.setenv("LCCOPT_FAKE_SPREAD", "0.9")
-    case = write_case(tmp_path, "ooo", budget=24, initial=6, seed=3)
+    per_fit = 1 if workers == 2 else workers
+    case = write_case(tmp_path, "ooo", budget=24, initial=6, seed=3, per_fit=per_fit)
     runs = [optimise(case, workers=workers, runs=tmp_path / f"r{k}", evaluator=FAKE, progress=False)
             for k in range(2)]
     for run in runs[1:]:
@@ -86,7 +87,7 @@ def test_results_arriving_out_of_order_do_not_change_the_run(tmp_path, monkeypat
                if e["event"] in ("evaluated", "failed")]
     assert arrived != sorted(arrived), "the test needs results that arrive out of order"
     schedule = [e for e in _events(runs[0]) if e["event"] == "schedule"]
-    assert [(e["lag"], e["batch"]) for e in schedule] == [(workers, batch_size(workers))]
+    assert [(e["lag"], e["batch"]) for e in schedule] == [(workers, per_fit)]
 
 
 def test_a_resume_with_another_worker_count_is_replayed_exactly(tmp_path):

@@ -1,7 +1,7 @@
 """The schedule rule (lccopt/engine/schedule.py) without processes: an event-driven stand-in
 for the engine with k workers and random evaluation times. Whatever the times, the optimiser
 gets the same calls in the same order, proposal n (the first of a block, with blocks of
-q = batch_size(k) points) sees exactly the results 0..n-k-1, and a replay of the journal the
+q = batch_size(k, k) = k points) sees exactly the results 0..n-k-1, and a replay of the journal the
 stand-in writes rebuilds the optimiser exactly."""
 
 from __future__ import annotations
@@ -69,7 +69,7 @@ def engine(strategy, fun, k, multi, timing_seed):
         release(strategy, k, multi, results.get)
         return p
 
-    q = batch_size(k)
+    q = batch_size(k, k)
     strategy.set_batch(q)
     log("schedule", lag=k, batch=q)
     while True:
@@ -122,7 +122,7 @@ def test_same_calls_whatever_the_timing(k, multi):
         journal = engine(s, p, k, multi, timing)
         assert s.done and s.n_told == 45 and not s.pending
         blocks = told_before_each_ask(s.calls, k, multi)
-        q = batch_size(k)
+        q = batch_size(k, k)
         assert blocks < 45 if q > 1 else blocks == 45  # blocks of q: fewer fits than points
         # what the proposals depend on: each block's call with the results it saw, the tells
         # (in id order) and the points; a point handed out of a block may come before or
