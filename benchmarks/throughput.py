@@ -189,8 +189,11 @@ def run_once(case: Path, budget: int, initial: int, workers: int, root: Path, ar
     path = root / f"{name}.yaml"
     # the worst over several conditions lies above the one-condition case's ASF worst values
     worst = "  asf:\n    worst: [50000.0, 5.0]\n" if conditions > 1 else ""
+    # blocks of one round of the workers (--per-fit 0, the default here) or of --per-fit
+    per_fit = args.per_fit or workers
     path.write_text(f"extends: {case.resolve()}\nname: {name}\noptimisation:\n"
-                    f"  budget: {budget}\n  initial_points: {initial}\n" + worst
+                    f"  budget: {budget}\n  initial_points: {initial}\n"
+                    f"  proposals_per_fit: {per_fit}\n" + worst
                     + (CHEAP if args.cheap else "") + conditions_yaml(conditions), encoding="utf-8")
     evaluator = STANDIN if args.standin else None
     env = {"LCCOPT_STANDIN_SECONDS": str(args.standin)} if args.standin else {}
@@ -351,6 +354,8 @@ def main() -> None:
     ap.add_argument("--standin", type=float, default=0.0,
                     help="the stand-in evaluator of this duration [s] instead of the simulator")
     ap.add_argument("--dask", action="store_true", help="a Dask scheduler and worker processes")
+    ap.add_argument("--per-fit", type=int, default=0,
+                    help="optimisation.proposals_per_fit (0: the worker count, as measured)")
     ap.add_argument("--from", dest="start", type=int, default=0,
                     help="marginal throughput from this committed evaluation on")
     ap.add_argument("--profile", action="store_true", help="cProfile of the engine process")
