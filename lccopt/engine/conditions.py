@@ -9,7 +9,7 @@ when all its conditions are in: the conditions' objectives combined by the case'
 Files, per design i and condition c: the condition's result is written (atomically) to
 ``evals/00000i.c<c>.h5`` as it arrives; once all are in they are merged into
 ``evals/00000i.h5`` and the parts are removed. A part that exists is complete (written to a
-temporary name and renamed; not fsynced, as every evaluation file: runner.py), so a run
+temporary name and renamed; not fsynced, as every evaluation file: loop.py), so a run
 stopped half-way through a design's conditions (kill -9, Ctrl-C, a full disk) keeps the
 conditions already computed: on resume the design runs again for the missing ones only (and
 for a part a power cut damaged).

@@ -111,7 +111,7 @@ class RunDir:
                         "seed": problem.seed, "versions": meta["versions"],
                         # what the surrogate fits (Problem.surrogate: the objectives, the
                         # sleeper energies or the value) and the optimiser's settings: a
-                        # resume rebuilds the optimiser from these (runner.restore)
+                        # resume rebuilds the optimiser from these (replay.restore)
                         "surrogate": problem.surrogate,
                         "optimiser": problem.optimiser_settings().to_dict()}
                 fh.write((json.dumps(line, separators=(",", ":")) + "\n").encode())

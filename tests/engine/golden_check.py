@@ -14,7 +14,7 @@ from pathlib import Path
 
 from lccopt.config import load_case
 from lccopt.engine.journal import line_mark
-from lccopt.engine.runner import restore
+from lccopt.engine.replay import restore
 from lccopt.problem import Problem
 
 GOLDEN = Path(__file__).resolve().parents[1] / "data" / "golden"

@@ -12,8 +12,9 @@ import pytest
 from lccopt.cli import UsageError
 from lccopt.config import design_items, load_case
 from lccopt.engine.journal import Journal, JournalError, line_mark, read_journal
+from lccopt.engine.replay import restore
 from lccopt.engine.rundir import RunDir
-from lccopt.engine.runner import optimise, restore, resume
+from lccopt.engine.runner import optimise, resume
 from lccopt.errors import CaseError
 from lccopt.optim.settings import Settings
 from lccopt.problem import Problem
@@ -221,7 +222,7 @@ def test_multi_objective_runs_use_the_composite_surrogate_and_replay_it(tmp_path
     """The engine tells each result with its objective vector and sets the ASF as the aggregate;
     the replay of the journal does the same (from the journal's objectives and reference line),
     so without the objectives the replay no longer reproduces the run."""
-    from lccopt.engine.runner import Replay
+    from lccopt.engine.replay import Replay
     from lccopt.optim.scalarise import ASF
 
     case = write_case(tmp_path, "composite", budget=16, initial=5)
@@ -252,7 +253,7 @@ def test_e_max_alone_fits_the_sleepers_energies_and_replays_them(tmp_path):
     """E_max alone: the evaluated lines carry the sleepers' energies, the optimiser is told
     them and scores by their max - min; a replay needs them (without: other proposals), and a
     journal that names the scalar surrogate (a run of lccopt before) is carried on with it."""
-    from lccopt.engine.runner import Replay
+    from lccopt.engine.replay import Replay
     from lccopt.problem import sleeper_energy_spread
 
     case = write_case(tmp_path, "energies", objectives=("E_max",), budget=16, initial=5)

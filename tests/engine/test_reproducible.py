@@ -19,8 +19,9 @@ import pytest
 
 from lccopt.config import load_case
 from lccopt.engine.journal import JournalError, read_journal
+from lccopt.engine.replay import recorded_settings, restore
 from lccopt.engine.rundir import RunDir
-from lccopt.engine.runner import optimise, recorded_settings, restore, resume
+from lccopt.engine.runner import optimise, resume
 from lccopt.optim.settings import Settings
 from lccopt.problem import Problem
 

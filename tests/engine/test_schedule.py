@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from benchmarks import problems
-from lccopt.engine.runner import Replay
+from lccopt.engine.replay import Replay
 from lccopt.engine.schedule import batch_size, may_ask, release
 from lccopt.optim.space import DesignSpace
 from lccopt.optim.strategy import Strategy

@@ -1,0 +1,217 @@
+"""The optimiser rebuilt from a run's journal: a snapshot (``state.json``) plus a replay of the
+journal lines after it, and the settings a run recorded.
+
+The optimiser calls are a fixed function of the journal lines (``Replay``: each ``asked`` or
+``exhausted`` line is an ask, a result is told as the schedule rule allows after each line,
+with the lag of the session's ``schedule`` line), so the optimiser state after any committed
+line is the snapshot plus a replay of the lines after it (``ask`` must give back the logged
+point, which is checked). With the same worker count the sequence of calls, and so the run,
+is the same as without the interruption, and the same from one run to the next.
+"""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+
+from ..problem import Problem
+from .journal import JournalError, line_mark
+from .rundir import (
+    Table,
+)
+from .schedule import release
+
+
+def restore(problem: Problem, events: list[dict], snapshot: dict | None):
+    """Optimiser and table after the journal's events (snapshot + replay of the rest).
+
+    The optimiser is built with the settings the run recorded (``recorded_settings``). The
+    snapshot is a cache: one made with other settings, or that does not replay (stale,
+    foreign, from another version), is dropped and the whole journal replayed."""
+    seq = snapshot.get("seq") if isinstance(snapshot, dict) else None
+    if (isinstance(seq, int) and 0 <= seq < len(events)
+            and snapshot.get("mark") == line_mark(events[seq])):
+        try:
+            strategy, table = _restore(problem, events, snapshot)
+            if _agrees(strategy, table):
+                return strategy, table
+        except JournalError:
+            pass
+    return _restore(problem, events, None)
+
+
+def _agrees(strategy, table: Table) -> bool:
+    """The optimiser restored from a snapshot holds exactly the journal's proposals, and the
+    results it was told are the journal's (a snapshot that claims a line it does not reflect
+    would otherwise carry on from another state)."""
+    history = strategy.history
+    if len(history) != len(table.rows):
+        return False
+    for rec in history:
+        row = table.rows.get(rec["id"])
+        if row is None or not np.array_equal(np.asarray(row["x"], dtype=float), rec["x"]):
+            return False
+        if rec["status"] != "pending" and (rec["status"] != row["status"] or (
+                row["status"] == "ok" and rec["value"] != row["value"])):
+            return False
+    return True
+
+
+def _restore(problem: Problem, events: list[dict], snapshot: dict | None):
+    from ..optim.strategy import Strategy
+
+    table = Table(list(problem.names), list(problem.objectives))
+    for ev in events:
+        try:
+            table.apply(ev)
+        except (KeyError, TypeError, ValueError, IndexError) as exc:
+            seq = ev.get("seq")
+            line = seq + 1 if isinstance(seq, int) else "?"
+            raise JournalError(f"journal line {line} is not a valid event "
+                               f"({type(exc).__name__}: {exc}); the journal was changed by "
+                               f"something other than lccopt") from None
+    first = events[0] if events else {}
+    settings = recorded_settings(problem, first) if events else problem.optimiser_settings()
+    strategy, start = None, 0
+    if snapshot is not None and 0 <= snapshot["seq"] < len(events):
+        try:
+            strategy = Strategy.from_state(snapshot["strategy"])
+            start = int(snapshot["seq"]) + 1
+        except Exception:  # noqa: BLE001 - a stale or foreign snapshot: replay everything
+            strategy = None
+        if strategy is not None and strategy.settings != settings:
+            strategy = None
+    if strategy is None:
+        strategy = problem.strategy(budget=first.get("budget", problem.budget), settings=settings)
+        start = 0
+    elif not problem.multi:  # not part of the state (for E_max alone: sleeper_energy_spread)
+        strategy.set_aggregate(problem.aggregate(None))
+    replayer = Replay(strategy, problem.multi, problem)
+    for ev in events[:start]:  # what the snapshot already reflects: results held back, the lag
+        replayer.note(ev)
+    for ev in events[start:]:
+        replayer(ev)
+    return strategy, table
+
+
+# A first line with "optimiser": 12 (a number instead of the settings) was written by the last
+# lccopt that did not record its settings; today's defaults make the proposals of its runs.
+_UNRECORDED_DEFAULTS = 12
+
+
+def recorded_settings(problem: Problem, first: dict):
+    """The optimiser settings of the run whose journal's first line is ``first``.
+
+    The line records them (``"optimiser"``: the settings' dict); a line that says
+    ``"optimiser": 12`` instead means today's default settings for the recorded surrogate.
+    Any other run (another number, no settings, or settings this lccopt does not have)
+    raises JournalError naming the lccopt version that made it."""
+    from ..optim.settings import Settings
+
+    rec = first.get("optimiser")
+    if isinstance(rec, dict):
+        try:
+            return Settings.from_dict(rec)
+        except ValueError as exc:
+            raise JournalError(f"{_made_by(first)} with optimiser settings this lccopt does not "
+                               f"have ({exc}): resume it with that version") from None
+    if type(rec) is int and rec == _UNRECORDED_DEFAULTS:
+        return Settings.default(composite=first.get("surrogate", "scalar") != "scalar")
+    what = ("no optimiser settings" if rec is None
+            else f"\"optimiser\": {rec!r} instead of its settings")
+    raise JournalError(f"{_made_by(first)} (its journal names {what}), whose proposals this "
+                       f"lccopt does not make: resume it with that version")
+
+
+def _made_by(first: dict) -> str:
+    versions = first.get("versions")
+    version = versions.get("lccopt") if isinstance(versions, dict) else None
+    if not (isinstance(version, str) and re.fullmatch(r"[\w.+-]{1,30}", version)):
+        version = None   # a crafted journal shows nothing of its own on the terminal
+    when = str(first.get("time", ""))[:10]
+    if not re.fullmatch(r"\d{4}-\d{2}-\d{2}", when):
+        when = ""
+    return (f"this run was made by lccopt {version or '(version unknown)'}"
+            + (f" on {when}" if when else ""))
+
+
+class Replay:
+    """Makes the optimiser calls that the engine made for each journal line (see schedule.py:
+    results are told in id order, each once the proposal ``lag`` ids later has been made;
+    the lag is the one of the session's ``schedule`` line).
+
+    With the problem given, results are told with their objective vectors, and the optimiser's
+    aggregate (the ASF, for a composite surrogate) is set as the engine set it: from the
+    ``reference`` line (point, worst, rho) and from any ``case_changed`` line that records
+    other worst values or rho."""
+
+    def __init__(self, strategy, multi: bool, problem=None):
+        self.strategy, self.multi, self.problem = strategy, multi, problem
+        self.lag: int | None = None  # until the first schedule line
+        self.results: dict[int, tuple] = {}
+        self.asf: dict | None = None  # point, worst, rho of the aggregate in force
+
+    def outputs(self, ev: dict):
+        if self.problem is None:
+            return None
+        return self.problem.outputs(ev.get("objectives") or {}, ev.get("parts"))
+
+    def note(self, ev: dict) -> None:
+        kind = ev["event"]
+        if kind == "evaluated":
+            self.results[ev["id"]] = ("ok", ev["value"], self.outputs(ev))
+        elif kind == "failed":
+            self.results[ev["id"]] = ("failed", ev.get("reason", ""))
+        elif kind == "schedule":
+            self.lag = int(ev["lag"])
+            self.strategy.set_batch(int(ev.get("batch", 1)))
+        elif kind == "reference" and self.problem is not None:
+            self.asf = {"point": ev["point"], "worst": ev.get("worst"), "rho": ev.get("rho")}
+            self._set_aggregate()
+        elif kind == "case_changed" and self.asf is not None and ("worst" in ev or "rho" in ev):
+            self.asf.update({k: ev[k] for k in ("worst", "rho") if k in ev})
+            self._set_aggregate()
+
+    def _set_aggregate(self) -> None:
+        a = self.asf
+        self.strategy.set_aggregate(self.problem.aggregate(a["point"], a["worst"], a["rho"]))
+
+    def __call__(self, ev: dict) -> None:
+        kind = ev["event"]
+        if self.lag is None and kind in ("asked", "exhausted", "evaluated", "failed"):
+            raise JournalError(f"journal line {ev['seq'] + 1}: {kind} before the journal's "
+                               f"first schedule line; the journal was changed by something "
+                               f"other than lccopt")
+        if kind in ("asked", "exhausted", "case_changed"):
+            replay(self.strategy, ev)
+        self.note(ev)
+        if self.lag is not None:
+            release(self.strategy, self.lag, self.multi, self.results.get)
+
+
+def replay(strategy, ev: dict) -> None:
+    """The optimiser call of an ``asked``, ``exhausted`` or ``case_changed`` line; an asked
+    point the optimiser does not propose raises JournalError."""
+    kind = ev["event"]
+    if kind == "asked":
+        props = strategy.ask(1)
+        if (not props or props[0].id != ev["id"]
+                or not np.array_equal(props[0].x, np.asarray(ev["x"], float))):
+            got = f"#{props[0].id} {props[0].x.tolist()}" if props else "nothing"
+            raise JournalError(f"journal line {ev['seq'] + 1}: the optimiser proposes {got}, the "
+                               f"journal says #{ev['id']} {ev['x']}; was lccopt changed since the "
+                               f"run started?")
+    elif kind == "exhausted":
+        props = strategy.ask(1)
+        if props or not strategy.exhausted:
+            got = props[0].id if props else "?"
+            raise JournalError(f"journal line {ev['seq'] + 1}: the optimiser proposes #{got}, the "
+                               f"journal says the design space was exhausted; was lccopt changed "
+                               f"since the run started?")
+    elif kind == "case_changed":
+        strategy.budget = int(ev["budget"])
+
+
+# ------------------------------------------------------------------------------ the loop
+
