@@ -263,7 +263,8 @@ _OPTIMISATION = Section({
         "designs proposed from one surrogate fit, at most the worker count. 1: each proposal "
         "sees every result the schedule allows (the best designs per evaluation); more keeps "
         "many workers busy when evaluations take well under a second, at a cost in quality "
-        "(docs/runs.md, Scale)", integer=True, ge=1, le=1024, default=1, required=False),
+        "(docs/runs.md, Scale)", integer=True, ge=1, le=1024, default=1, required=False,
+        keep_absent=True),
     "histories": Str("time histories an optimisation keeps in evals/: all (every design's), "
                      "best (the reference design's and the best design's; the other files "
                      "hold the design, objectives and facts) or none. Default: best",
