@@ -318,11 +318,3 @@ class LocalPool:
                     raise ExecutorError(f"local worker processes die while starting: {reason}")
             self._release(s)
             self._spawn(s)
-
-
-def make_executor(case, spec, workers: int | None, scheduler, timeout: float):
-    if scheduler is not None:
-        from .dask_pool import DaskExecutor
-
-        return DaskExecutor(case, spec, scheduler, timeout)
-    return LocalPool(case, spec, workers or default_workers(), timeout)

@@ -13,7 +13,8 @@ from .. import machine
 from ..config import SAFE_NAME, Case, load_case
 from ..errors import UsageError
 from ..problem import Problem
-from .executors import ExecutorError, make_executor
+from .dask_pool import DaskExecutor
+from .executors import ExecutorError, LocalPool, default_workers
 from .journal import Journal, JournalError, read_journal
 from .loop import Engine
 from .progress import Progress, fmt
@@ -34,6 +35,14 @@ from .worker import RENAMED_EVALUATORS, evaluator_spec
 def _usage_error(message: str) -> Exception:
     return UsageError(message)
 
+
+
+def make_executor(case, spec, workers: int | None, scheduler, timeout: float):
+    """The worker pool of a run: a Dask scheduler's workers with ``scheduler`` (an address),
+    else ``workers`` local processes (default: the cores)."""
+    if scheduler is not None:
+        return DaskExecutor(case, spec, scheduler, timeout)
+    return LocalPool(case, spec, workers or default_workers(), timeout)
 
 # ------------------------------------------------------------------------------ public API
 

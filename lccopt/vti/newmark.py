@@ -119,7 +119,7 @@ def integrate(track: TrackLike, dt: float, speed: float, x_start: float, n_steps
               vehicle=None, load: float = 0.0, irregularity: Callable[[float], float] | None = None,
               record_dofs: np.ndarray | None = None, initial: tuple | None = None,
               vehicle_offset: np.ndarray | None = None,
-              on_step: Callable | None = None, general: bool = False, supports=None) -> History:
+              on_step: Callable | None = None, general: bool = False) -> History:
     """Run ``n_steps`` Newmark steps from static equilibrium with the wheel at ``x_start``.
 
     vehicle: a :class:`~lccopt.vti.vehicle.Vehicle` (coupled through its Hertz spring), or
@@ -133,18 +133,10 @@ def integrate(track: TrackLike, dt: float, speed: float, x_start: float, n_steps
     speed may be negative (the vehicle runs towards -x). A vehicle with several wheels
     (``vehicle.wheel_offsets`` behind the leading wheel, which starts at x_start) runs through
     :func:`integrate_wheels`, as does a one-wheel vehicle with ``general=True`` (tests).
-    supports: :class:`~lccopt.vti.unilateral.SleeperSupports`, sleepers whose ballast support
-    acts only in contact (voids); the run goes through
-    :func:`~lccopt.vti.unilateral.integrate_unilateral`. None: every support is linear.
+    Every support is linear here; sleepers whose ballast support acts only in contact (voids)
+    run through :func:`~lccopt.vti.unilateral.integrate_unilateral`, which builds on this
+    module.
     """
-    if supports is not None:
-        from .unilateral import integrate_unilateral  # it builds on this module
-
-        if initial is not None or vehicle_offset is not None:
-            raise ValueError("unilateral supports start from static equilibrium only")
-        return integrate_unilateral(track, dt, speed, x_start, n_steps, supports=supports,
-                                    vehicle=vehicle, load=load, irregularity=irregularity,
-                                    record_dofs=record_dofs, on_step=on_step)
     if vehicle is not None and (general or len(vehicle.wheel_dofs) > 1):
         return integrate_wheels(track, dt, speed, x_start, n_steps, vehicle=vehicle,
                                 irregularity=irregularity, record_dofs=record_dofs,

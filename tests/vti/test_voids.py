@@ -13,7 +13,7 @@ from lccopt.vti.assembly import Assembler, beam_stiffness, hermite_gram
 from lccopt.vti.evaluate import build_vehicle
 from lccopt.vti.newmark import contact_vector, integrate
 from lccopt.vti.track import build_track
-from lccopt.vti.unilateral import GRAVITY, rest_state, sleeper_supports
+from lccopt.vti.unilateral import GRAVITY, integrate_unilateral, rest_state, sleeper_supports
 
 EI = 210e9 * 2.337e-5
 M_RAIL = 7800 * 6.977e-3
@@ -110,7 +110,7 @@ def test_static_load_over_a_voided_sleeper_matches_the_closed_form(gap_mm):
     gaps = np.array([gap_mm * 1e-3])
     sup = sup.with_gaps(gaps)
     x = float(sup.x[i])
-    h = integrate(tr, 1e-3, 0.0, x, 3, load=100e3, supports=sup)
+    h = integrate_unilateral(tr, 1e-3, 0.0, x, 3, load=100e3, supports=sup)
     expected = closed_form_support_force(tr, int(sup.dof[i]), float(sup.stiffness[i]), 100e3, x,
                                          gaps[i])
     assert h.support_force[0, i] == pytest.approx(expected, rel=1e-9, abs=1e-6)
@@ -131,7 +131,7 @@ def test_slowly_moving_load_meets_the_voided_sleeper_only_when_the_rail_closes_t
     gaps = np.array([0.3e-3])
     sup = sup.with_gaps(gaps)
     x0 = float(sup.x[i]) - 2.0
-    h = integrate(tr, 2e-3, 1.0, x0, 2000, load=100e3, supports=sup)
+    h = integrate_unilateral(tr, 2e-3, 1.0, x0, 2000, load=100e3, supports=sup)
     pos = h.position[::50]
     got = h.support_force[::50, i]
     exp = np.array([closed_form_support_force(tr, int(sup.dof[i]), float(sup.stiffness[i]),
@@ -148,7 +148,7 @@ def test_sleepers_lift_off_where_the_linear_model_pulls():
     tr = discrete_track()
     sup = sleeper_supports(tr, np.arange(20, 40))
     x = float(sup.x[10])
-    h = integrate(tr, 1e-3, 0.0, x, 2, load=100e3, supports=sup)
+    h = integrate_unilateral(tr, 1e-3, 0.0, x, 2, load=100e3, supports=sup)
     idx, vals = contact_vector(tr, x)
     f = np.zeros(tr.K.shape[0])
     np.add.at(f, idx, 100e3 * vals)
@@ -188,7 +188,7 @@ def test_zero_gaps_on_a_stiff_track_give_the_linear_result():
     steps = int(4.0 / (veh.speed * dt))                  # 4 m on the ballast, before the slab
     lin = integrate(tr, dt, veh.speed, x_start, steps, vehicle=veh)
     sup = sleeper_supports(tr, np.arange(10, 30))
-    uni = integrate(tr, dt, veh.speed, x_start, steps, vehicle=veh, supports=sup)
+    uni = integrate_unilateral(tr, dt, veh.speed, x_start, steps, vehicle=veh, supports=sup)
     assert uni.info["switches"] == 0
     assert np.max(np.abs(uni.contact_force - lin.contact_force)) < 1e-8 * lin.contact_force.max()
     # the supports' forces: the linear springs' k u + c v plus the weight share

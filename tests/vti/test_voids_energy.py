@@ -15,8 +15,7 @@ switch: it shrinks with Δt (halving Δt divides it by 2.8 here).
 
 import numpy as np
 
-from lccopt.vti.newmark import integrate
-from lccopt.vti.unilateral import sleeper_supports
+from lccopt.vti.unilateral import integrate_unilateral, sleeper_supports
 from tests.vti.test_voids import discrete_track
 
 
@@ -66,7 +65,7 @@ def run_balance(dt, speed=20.0, load=100e3):
         prev.clear()
         prev.update(cur)
 
-    integrate(tr, dt, speed, x_start, steps, load=load, supports=sup, on_step=on_step)
+    integrate_unilateral(tr, dt, speed, x_start, steps, load=load, supports=sup, on_step=on_step)
     return np.array(rows), k
 
 
