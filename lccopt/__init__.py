@@ -15,7 +15,8 @@ count before numpy loads).
 
 from __future__ import annotations
 
-__version__ = "0.1.0"
+from .version import __version__ as __version__
+
 __all__ = ["load_case", "simulate", "optimise", "resume"]
 
 

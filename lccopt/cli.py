@@ -49,7 +49,7 @@ class Format(str, enum.Enum):
 
 def _version(value: bool) -> None:
     if value:
-        from . import __version__
+        from .version import __version__
 
         typer.echo(f"lccopt {__version__}")
         raise typer.Exit()

@@ -53,7 +53,8 @@ def versions() -> dict:
     import h5py
     import scipy
 
-    from .. import __version__, machine
+    from .. import machine
+    from ..version import __version__
 
     return {"lccopt": __version__, "numpy": np.__version__, "scipy": scipy.__version__,
             "h5py": h5py.__version__, "python": platform.python_version(), **machine.describe()}
