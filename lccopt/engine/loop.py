@@ -459,8 +459,8 @@ class Engine:
             lines += wrap_items(design_items(self.case, best["x"]), "  x: ")
             for k in pb.objectives:
                 v, r = best["objectives"].get(k), ref.get(k)
-                rel = (f" ({(v - r) / r:+.1%} vs reference design {objective_value(k, r)})"
-                       if r else "")
+                rel = ("" if not r else " (unchanged: the reference design's)" if v == r else
+                       f" ({(v - r) / r:+.1%} vs reference design {objective_value(k, r)})")
                 lines.append(f"  {objective_text(k, v)}{rel}")
         lines.append(f"results: {self.rd.results_path}")
         sys.stdout.write("\n".join(lines) + "\n")

@@ -10,6 +10,7 @@ import time
 from pathlib import Path
 
 import h5py
+import pytest
 
 from lccopt.engine.journal import read_journal
 from lccopt.engine.runner import optimise
@@ -248,3 +249,16 @@ def test_bad_case_and_bad_runs_give_one_line_messages_and_exit_2(tmp_path):
     r = cli_run("optimise", case, "--runs", tmp_path / "runs3",
                 env={"LCCOPT_EVALUATOR": "nosuchmodule:f"})
     assert r.returncode == 2 and "cannot load the evaluator 'nosuchmodule:f'" in r.stderr
+
+
+@pytest.mark.parametrize("seed, unchanged", [(1, True), (2, False)])
+def test_the_summary_says_unchanged_when_the_best_is_the_reference(tmp_path, seed, unchanged):
+    """Two evaluations: the reference design and one more, which beats it or not (seed 1 of
+    the stand-in: not); an equal value reads "unchanged", never "+0.0%"."""
+    case = write_case(tmp_path, "u", objectives=("F_max",), budget=2, initial=2, seed=seed)
+    r = cli_run("optimise", case, "--workers", "1", "--runs", tmp_path / "runs",
+                env={"LCCOPT_EVALUATOR": FAKE})
+    assert r.returncode == 0, r.stderr
+    line = next(ln for ln in r.stdout.splitlines() if ln.startswith("  F_max "))
+    assert ("(unchanged: the reference design's)" in line) == unchanged, line
+    assert "+0.0%" not in line
