@@ -200,8 +200,9 @@ def _objective_histories(run: RunData, out: Path) -> Path:
         if np.isfinite(r):
             ax.axhline(r, color=REF_COLOR, lw=0.8, ls="--", zorder=2)
         ax.set_ylabel(f"{name} [{unit}]")
+    # two lines: long objective names (a settlement's) made one line wider than the figure
     np.atleast_1d(axes)[0].set_title(f"Search history of '{run.name}': {run.n} of {run.budget} "
-                                     f"evaluations ({run.state}); the run minimises the ASF of "
+                                     f"evaluations ({run.state})\nthe run minimises the ASF of "
                                      f"{', '.join(run.objectives)}")
     np.atleast_1d(axes)[-1].set_xlabel("evaluation number")
     from matplotlib.lines import Line2D
