@@ -36,7 +36,6 @@ def _usage_error(message: str) -> Exception:
     return UsageError(message)
 
 
-
 def make_executor(case, spec, workers: int | None, scheduler, timeout: float):
     """The worker pool of a run: a Dask scheduler's workers with ``scheduler`` (an address),
     else ``workers`` local processes (default: the cores)."""
