@@ -48,7 +48,6 @@ _H5_ERRNO = re.compile(r"errno = (\d+)")            # HDF5 reports the C errno o
 _H5_FILE = re.compile(r"(?:filename|name) = '([^']*)'")
 
 
-
 def environment_errno(exc: BaseException) -> int | None:
     """The errno of an environment fault behind ``exc`` (also inside h5py's messages), else None."""
     if not isinstance(exc, (OSError, RuntimeError)):

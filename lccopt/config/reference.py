@@ -103,7 +103,6 @@ def _default(spec, path: str) -> str:
     return str(default) if default != "" else '""'
 
 
-
 def _row(path: str, spec, note: str = "") -> str:
     unit = getattr(spec, "unit", "-")
     accepted = ", ".join(units.accepted(unit)) if unit in units.UNITS else "-"

@@ -59,8 +59,6 @@ SNAPSHOT_EVERY = 5.0  # [s] state.json likewise; resume replays the journal line
 SYNC_EVERY = 1.0      # [s] the journal is fsynced at least this often (a power cut loses less)
 
 
-
-
 def environment_fault(exc: BaseException, rd: RunDir) -> EnvironmentFault:
     return EnvironmentFault(f"{describe_os_error(exc)}; the run stopped with nothing lost "
                             f"(evaluations in flight stay pending): fix the cause, then "

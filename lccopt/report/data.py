@@ -37,7 +37,6 @@ FIGURES = ("search-history", "objective-space", "best-vs-reference", "conditions
            "settlement-profile")
 
 
-
 def _usage(message: str) -> Exception:
     from ..errors import UsageError
 

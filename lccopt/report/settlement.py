@@ -184,7 +184,6 @@ def fig_settlement_history(designs: list[Design], out: Path, title: str,
     return _save(fig, out / "settlement-history.png")
 
 
-
 def _measures_panel(ax, designs: list[Design], limit) -> None:
     """The limit's measure (solid) and the largest void (dashed) of each design against
     axle passes, the limit as a line; years on the top axis."""

@@ -428,7 +428,6 @@ def _conditions_section(doc: Doc, run: RunData, bi: int, ri: int, figs: dict) ->
                 "dashed: the combined value.")
 
 
-
 def _settlement_section(doc: Doc, run: RunData, designs: list, limit, figs: dict) -> None:
     """What the settlement prediction assumed, what its objectives mean, and what it shows."""
     from .settlement import facts, meaning_items

@@ -44,7 +44,6 @@ def test_the_run_has_failures_and_a_restart(run_dir):
     assert not any((run / "evals" / f"{i:06d}.h5").exists() for i in failed)
 
 
-
 def test_report_shows_failures_and_the_restart(run_dir):
     run, proc = run_dir
     with h5py.File(run / "results.h5", "r") as f:
