@@ -5,6 +5,7 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import h5py
@@ -25,6 +26,30 @@ from tests.conftest import CHEAP_SIMULATION, write_case  # noqa: E402,F401 (shar
 COLUMNS = ("id", "x", "F_rms", "F_max", "E_rms", "E_max", "value", "status", "reason", "phase",
            "restart", "file")
 
+
+
+def journal_events(run: Path) -> list[dict]:
+    """The committed events of a run's journal."""
+    from lccopt.engine.journal import read_journal
+
+    return read_journal(run / "journal.jsonl")[0]
+
+
+def n_done(run: Path) -> int:
+    """Evaluations with a result in the journal (0 while it is not there or being written)."""
+    try:
+        return sum(e["event"] in ("evaluated", "failed") for e in journal_events(run))
+    except Exception:  # noqa: BLE001 - the journal is not there yet, or being written
+        return 0
+
+
+def wait_for(cond, timeout: float = 120.0, what: str = "condition") -> None:
+    """Poll ``cond`` every 50 ms until it holds; fail after ``timeout`` seconds."""
+    t0 = time.monotonic()
+    while not cond():
+        if time.monotonic() - t0 > timeout:
+            raise AssertionError(f"gave up waiting for {what}")
+        time.sleep(0.05)
 
 def read_table(run: Path) -> dict:
     """The evaluation table of results.h5 as numpy arrays (strings decoded)."""

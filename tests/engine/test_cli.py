@@ -23,7 +23,9 @@ from .conftest import (
     assert_same_evaluations,
     cli,
     cli_run,
+    n_done,
     read_table,
+    wait_for,
     write_case,
 )
 
@@ -49,17 +51,6 @@ def _alive(pid: int) -> bool:
     return stat.rsplit(")", 1)[1].split()[0] != "Z"
 
 
-def _wait_for(cond, timeout=120.0, what="condition"):
-    t0 = time.monotonic()
-    while not cond():
-        if time.monotonic() - t0 > timeout:
-            raise AssertionError(f"gave up waiting for {what}")
-        time.sleep(0.05)
-
-
-def _n_done(run: Path) -> int:
-    events, _, _ = read_journal(run / "journal.jsonl")
-    return sum(e["event"] in ("evaluated", "failed") for e in events)
 
 
 def _check_consistent(run: Path) -> None:
@@ -97,10 +88,10 @@ def test_kill_9_at_random_moments_then_resume_equals_an_uninterrupted_run(tmp_pa
         p = cli(*args, env=env)
         # A random moment once the run is under way, counted in evaluations so that the kill
         # lands mid-run on a fast machine as on a slow one, then a random fraction of one more.
-        _wait_for(lambda: (run / "journal.jsonl").exists() or p.poll() is not None,
+        wait_for(lambda: (run / "journal.jsonl").exists() or p.poll() is not None,
                   what="the run to start")
-        target = _n_done(run) + rng.randint(1, 3)
-        _wait_for(lambda: _n_done(run) >= target or p.poll() is not None,
+        target = n_done(run) + rng.randint(1, 3)
+        wait_for(lambda: n_done(run) >= target or p.poll() is not None,
                   what="evaluations to finish")
         time.sleep(rng.uniform(0.0, 0.15))
         workers = _children(p.pid)
@@ -108,7 +99,7 @@ def test_kill_9_at_random_moments_then_resume_equals_an_uninterrupted_run(tmp_pa
             p.kill()  # SIGKILL to the lccopt process only: its workers must die with it
             kills += 1
         p.communicate()
-        _wait_for(lambda: not any(_alive(w) for w in workers), 30, "orphaned workers to exit")
+        wait_for(lambda: not any(_alive(w) for w in workers), 30, "orphaned workers to exit")
         if run.exists():
             _check_consistent(run)
     assert kills >= 3
@@ -141,10 +132,10 @@ def test_kill_9_mid_block_then_resume_equals_an_uninterrupted_run(tmp_path):
         args = ["resume", run, "--workers", "4"] if run.exists() else \
             ["optimise", case, "--workers", "4", "--runs", runs]
         p = cli(*args, env=env)
-        _wait_for(lambda: (run / "journal.jsonl").exists() or p.poll() is not None,
+        wait_for(lambda: (run / "journal.jsonl").exists() or p.poll() is not None,
                   what="the run to start")
-        target = _n_done(run) + rng.randint(2, 6)
-        _wait_for(lambda: _n_done(run) >= target or p.poll() is not None,
+        target = n_done(run) + rng.randint(2, 6)
+        wait_for(lambda: n_done(run) >= target or p.poll() is not None,
                   what="evaluations to finish")
         time.sleep(rng.uniform(0.0, 0.05))
         workers = _children(p.pid)
@@ -152,7 +143,7 @@ def test_kill_9_mid_block_then_resume_equals_an_uninterrupted_run(tmp_path):
             p.kill()
             kills += 1
         p.communicate()
-        _wait_for(lambda: not any(_alive(w) for w in workers), 30, "orphaned workers to exit")
+        wait_for(lambda: not any(_alive(w) for w in workers), 30, "orphaned workers to exit")
         _check_consistent(run)
     assert kills >= 3
     done = cli_run("resume", run, "--workers", "4", env=env)
@@ -172,7 +163,7 @@ def test_ctrl_c_saves_exits_130_and_resumes_to_the_same_run(tmp_path):
     run = runs / "cc"
     # Ctrl-C in a terminal signals the whole process group, workers included.
     p = cli("optimise", case, "--workers", "2", "--runs", runs, env=env, start_new_session=True)
-    _wait_for(lambda: run.exists() and _n_done(run) >= 3, what="3 evaluations")
+    wait_for(lambda: run.exists() and n_done(run) >= 3, what="3 evaluations")
     os.killpg(p.pid, signal.SIGINT)
     out, err = p.communicate(timeout=60)
     assert p.returncode == 130, err
@@ -184,7 +175,7 @@ def test_ctrl_c_saves_exits_130_and_resumes_to_the_same_run(tmp_path):
     # Second Ctrl-C stops the running evaluation; it runs again on resume.
     p = cli("resume", run, "--workers", "2", env=env, start_new_session=True)
     n0 = len(t["id"])
-    _wait_for(lambda: _n_done(run) >= n0 + 2, what="2 more evaluations")
+    wait_for(lambda: n_done(run) >= n0 + 2, what="2 more evaluations")
     os.killpg(p.pid, signal.SIGINT)
     time.sleep(0.05)
     os.killpg(p.pid, signal.SIGINT)

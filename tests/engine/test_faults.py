@@ -13,30 +13,25 @@ from pathlib import Path
 
 import pytest
 
-from lccopt.engine.journal import read_journal
 from lccopt.engine.runner import optimise
 
-from .conftest import FAKE, REFERENCE, assert_same_evaluations, cli, cli_run, read_table, write_case
+from .conftest import (
+    FAKE,
+    REFERENCE,
+    assert_same_evaluations,
+    cli,
+    cli_run,
+    journal_events,
+    n_done,
+    read_table,
+    wait_for,
+    write_case,
+)
 
 ENV = {"LCCOPT_EVALUATOR": FAKE}
 
 
-def _events(run: Path) -> list[dict]:
-    return read_journal(run / "journal.jsonl")[0]
 
-
-def _n_done(run: Path) -> int:
-    try:
-        return sum(e["event"] in ("evaluated", "failed") for e in _events(run))
-    except Exception:  # noqa: BLE001 - the journal is being written
-        return 0
-
-
-def _wait_for(cond, timeout=120.0):
-    t0 = time.monotonic()
-    while not cond():
-        assert time.monotonic() - t0 < timeout, "timed out"
-        time.sleep(0.05)
 
 
 def _uninterrupted(tmp_path: Path, case: Path, workers: int = 1) -> dict:
@@ -103,13 +98,13 @@ def test_a_stop_signal_to_the_process_group_leaves_the_running_evaluation_pendin
     p = cli("optimise", case, "--workers", "2", "--runs", tmp_path / "runs",
             env={**ENV, "LCCOPT_FAKE_DELAY": "0.4", "LCCOPT_FAKE_SPREAD": "0.8"},
             start_new_session=True)
-    _wait_for(lambda: run.exists() and _n_done(run) >= 2)
+    wait_for(lambda: run.exists() and n_done(run) >= 2)
     time.sleep(0.2)  # mid-evaluation
     os.killpg(p.pid, sig)
     out, err = p.communicate(timeout=60)
     assert p.returncode == 130, err
     assert "Traceback" not in err
-    assert not [e for e in _events(run) if e["event"] == "failed"]
+    assert not [e for e in journal_events(run) if e["event"] == "failed"]
     assert cli_run("resume", run, "--workers", "2", env=ENV).returncode == 0
     assert_same_evaluations(reference, read_table(run))
 
@@ -150,8 +145,8 @@ def test_disk_full_stops_with_one_line_exit_2_and_the_run_resumes_to_the_same_en
         assert "No space left on device" in line or "File too large" in line
         assert "lccopt resume" in line
         run = runs / "full"
-        assert not [e for e in _events(run) if e["event"] == "failed"]
-        assert _n_done(run) < 12
+        assert not [e for e in journal_events(run) if e["event"] == "failed"]
+        assert n_done(run) < 12
         done = cli_run("resume", run, "--workers", "1", env=ENV)
         assert done.returncode == 0, done.stderr
         assert_same_evaluations(reference, read_table(run))
@@ -176,7 +171,7 @@ def test_deleted_evaluation_files_are_simulated_again_without_spending_budget(tm
     assert "8 evaluation file(s) lost or damaged" in r.stderr
     assert_same_evaluations(before, read_table(run))
     assert sorted(p.name for p in (run / "evals").iterdir()) == [f"{i:06d}.h5" for i in range(8)]
-    assert not [e for e in _events(run) if e["event"] == "failed"]
+    assert not [e for e in journal_events(run) if e["event"] == "failed"]
 
     (run / "evals" / "000003.h5").write_bytes(b"garbage")  # a damaged file
     r = cli_run("resume", run, "--workers", "1", env=ENV)
@@ -246,7 +241,7 @@ def test_a_read_only_run_directory_gives_one_line_and_exit_2(tmp_path):
     assert cli_run("optimise", case_done, "--workers", "1", "--runs", runs, env=ENV).returncode == 0
     p = cli("optimise", case_open, "--workers", "1", "--runs", runs,
             env={**ENV, "LCCOPT_FAKE_DELAY": "0.3"}, start_new_session=True)
-    _wait_for(lambda: (runs / "roopen").exists() and _n_done(runs / "roopen") >= 1)
+    wait_for(lambda: (runs / "roopen").exists() and n_done(runs / "roopen") >= 1)
     os.killpg(p.pid, signal.SIGTERM)
     assert p.wait(60) == 130
     try:

@@ -16,30 +16,26 @@ from pathlib import Path
 
 import pytest
 
-from lccopt.engine.journal import line_mark, read_journal
+from lccopt.engine.journal import line_mark
 from lccopt.engine.runner import optimise
 
-from .conftest import FAKE, REPO, assert_same_evaluations, cli, cli_run, read_table, write_case
+from .conftest import (
+    FAKE,
+    REPO,
+    assert_same_evaluations,
+    cli,
+    cli_run,
+    journal_events,
+    n_done,
+    read_table,
+    wait_for,
+    write_case,
+)
 
 ENV = {"LCCOPT_EVALUATOR": FAKE}
 
 
-def _events(run: Path) -> list[dict]:
-    return read_journal(run / "journal.jsonl")[0]
 
-
-def _n_done(run: Path) -> int:
-    try:
-        return sum(e["event"] in ("evaluated", "failed") for e in _events(run))
-    except Exception:  # noqa: BLE001 - the journal is being written
-        return 0
-
-
-def _wait_for(cond, timeout=120.0):
-    t0 = time.monotonic()
-    while not cond():
-        assert time.monotonic() - t0 < timeout, "timed out"
-        time.sleep(0.05)
 
 
 def _error_line(r) -> str:
@@ -130,8 +126,8 @@ def test_a_foreign_or_stale_snapshot_is_a_cache_dropped_for_a_replay(tmp_path):
         p = cli("optimise", case, "--workers", "1", "--runs", runs,
                 env={**ENV, "LCCOPT_FAKE_DELAY": "0.2"}, start_new_session=True)
         run = runs / "st"
-        _wait_for(lambda: _n_done(run) >= 8)
-        _wait_for(lambda: _n_done(run) >= 10)
+        wait_for(lambda: n_done(run) >= 8)
+        wait_for(lambda: n_done(run) >= 10)
         os.killpg(p.pid, signal.SIGKILL)
         p.communicate()
         (run / "state.json").unlink(missing_ok=True)
@@ -139,12 +135,12 @@ def test_a_foreign_or_stale_snapshot_is_a_cache_dropped_for_a_replay(tmp_path):
             os.mkfifo(run / "state.json")
         elif planted == "foreign":
             snap = json.loads((foreign / "state.json").read_text())
-            snap["seq"] = min(snap["seq"], len(_events(run)) - 1)
+            snap["seq"] = min(snap["seq"], len(journal_events(run)) - 1)
             (run / "state.json").write_text(json.dumps(snap))
         else:   # a later state that claims one of this run's lines: its replay cannot agree
             snap = json.loads((tmp_path / "uninterrupted" / "st" / "state.json").read_text())
-            seq = len(_events(run)) - 2
-            snap.update(seq=seq, mark=line_mark(_events(run)[seq]))
+            seq = len(journal_events(run)) - 2
+            snap.update(seq=seq, mark=line_mark(journal_events(run)[seq]))
             (run / "state.json").write_text(json.dumps(snap))
         if planted == "fifo":
             line = _error_line(cli_run("resume", run, "--workers", "1", env=ENV, timeout=60))
@@ -204,7 +200,7 @@ def test_changes_a_run_cannot_honour_are_refused_by_name(tmp_path, finished):
     case.write_text(text.replace("budget: 10", "budget: 6"))
     line = _error_line(cli_run("resume", run, "--allow-changed-case", env=ENV))
     assert "budget of 6 is below the 10 evaluations" in line, line
-    assert not any(e["event"] == "case_changed" for e in _events(run))
+    assert not any(e["event"] == "case_changed" for e in journal_events(run))
     case.write_text(text.replace("budget: 10", "budget: 12")
                     .replace("timeout: 60.0", "timeout: 30.0"))
     assert cli_run("resume", run, "--allow-changed-case", env=ENV).returncode == 0
@@ -306,7 +302,7 @@ def test_a_worker_killed_by_a_signal_runs_its_design_again(tmp_path):
     p = cli("optimise", case, "--workers", "2", "--runs", tmp_path / "runs",
             env={**ENV, "LCCOPT_FAKE_DELAY": "0.5"})
     run = tmp_path / "runs" / "k"
-    _wait_for(lambda: _n_done(run) >= 2)
+    wait_for(lambda: n_done(run) >= 2)
     workers = [int(d.name) for d in Path("/proc").iterdir() if d.name.isdigit()
                and "local_worker_main" in _cmdline(d)]
     assert workers
@@ -332,8 +328,8 @@ def test_sigterm_to_the_group_stops_well_within_a_schedulers_grace(tmp_path):
     p = cli("optimise", case, "--workers", "2", "--runs", tmp_path / "runs",
             env={**ENV, "LCCOPT_FAKE_DELAY": "30"}, start_new_session=True)
     run = tmp_path / "runs" / "g"
-    _wait_for(lambda: (run / "journal.jsonl").exists() and sum(
-        e["event"] == "asked" for e in _events(run)) >= 1)
+    wait_for(lambda: (run / "journal.jsonl").exists() and sum(
+        e["event"] == "asked" for e in journal_events(run)) >= 1)
     time.sleep(0.5)
     t0 = time.monotonic()
     os.killpg(p.pid, signal.SIGTERM)
