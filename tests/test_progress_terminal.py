@@ -17,12 +17,13 @@ from tests.conftest import REFERENCE, lccopt_command, subprocess_env, write_case
 ANSI = re.compile(r"\x1b\[[0-9;?]*[A-Za-z]")
 
 
-def run_in_terminal(args, cwd, columns=80, timeout=300) -> str:
+def _pty_run(args, cwd, columns=80, env=None, timeout=300) -> tuple[int, str]:
+    """(exit status, everything written) of `lccopt ARGS` on a terminal of ``columns``."""
     master, slave = pty.openpty()
     fcntl.ioctl(slave, termios.TIOCSWINSZ, struct.pack("HHHH", 24, columns, 0, 0))
-    env = subprocess_env({k: v for k, v in os.environ.items() if k not in ("COLUMNS", "LINES")},
-                         TERM="xterm-256color")
-    proc = subprocess.Popen(lccopt_command() + [str(a) for a in args], cwd=cwd, env=env,
+    e = subprocess_env({k: v for k, v in os.environ.items() if k not in ("COLUMNS", "LINES")},
+                       TERM="xterm-256color", **(env or {}))
+    proc = subprocess.Popen(lccopt_command() + [str(a) for a in args], cwd=cwd, env=e,
                             stdin=slave, stdout=slave, stderr=slave, close_fds=True)
     os.close(slave)
     chunks, deadline = [], time.monotonic() + timeout
@@ -34,10 +35,15 @@ def run_in_terminal(args, cwd, columns=80, timeout=300) -> str:
         if not data:
             break
         chunks.append(data)
-    proc.wait(timeout=30)
+    proc.wait(timeout=60)
     os.close(master)
-    assert proc.returncode == 0, b"".join(chunks).decode(errors="replace")
-    return b"".join(chunks).decode("utf-8", errors="replace")
+    return proc.returncode, b"".join(chunks).decode("utf-8", errors="replace")
+
+
+def run_in_terminal(args, cwd, columns=80, timeout=300) -> str:
+    code, text = _pty_run(args, cwd, columns, timeout=timeout)
+    assert code == 0, text
+    return text
 
 
 def test_progress_fits_80_columns_and_names_objectives_in_engineering_units(tmp_path):
@@ -81,27 +87,10 @@ def test_a_traffic_run_moves_per_condition_from_the_first_simulation(tmp_path):
 
 def _terminal_lines(args, cwd, env=None) -> tuple[int, list[str]]:
     """(exit status, screen lines) of `lccopt ARGS` on an 80-column terminal."""
-    master, slave = pty.openpty()
-    fcntl.ioctl(slave, termios.TIOCSWINSZ, struct.pack("HHHH", 24, 80, 0, 0))
-    e = subprocess_env({k: v for k, v in os.environ.items() if k not in ("COLUMNS", "LINES")},
-                       TERM="xterm-256color", **(env or {}))
-    proc = subprocess.Popen(lccopt_command() + [str(a) for a in args], cwd=cwd, env=e,
-                            stdin=slave, stdout=slave, stderr=slave, close_fds=True)
-    os.close(slave)
-    chunks = []
-    while True:
-        try:
-            data = os.read(master, 65536)
-        except OSError:
-            break
-        if not data:
-            break
-        chunks.append(data)
-    proc.wait(timeout=60)
-    os.close(master)
-    text = ANSI.sub("", b"".join(chunks).decode("utf-8", errors="replace"))
+    code, raw = _pty_run(args, cwd, env=env)
+    text = ANSI.sub("", raw)
     screen_lines = [seg for line in text.split("\n") for seg in line.split("\r") if seg.strip()]
-    return proc.returncode, screen_lines
+    return code, screen_lines
 
 
 def test_error_messages_fit_an_80_column_terminal(tmp_path):

@@ -15,14 +15,9 @@ past the timeout is killed and replaced and only its task is recorded as failed
 (``concurrent.futures.ProcessPoolExecutor`` breaks as a whole on one dead worker). Workers
 run single-threaded BLAS, ignore SIGINT and die with the parent process.
 
-:class:`~lccopt.engine.dask_pool.DaskExecutor` (dask_pool.py) submits to a
-``dask.distributed`` scheduler (``--scheduler ADDRESS``).
-A task past the timeout is cancelled and recorded as failed (Dask cannot kill a running
-Python thread: the worker thread stays busy until the simulation returns); a worker that
-dies is handled by Dask (the task is retried elsewhere, then reported as failed). A worker
-that sees the run directory (the same machine, or a shared file system: it finds there the
-probe file this process wrote, with its random content) writes the evaluation file itself,
-as a local worker does; any other returns the whole evaluation and this process writes it.
+:class:`~lccopt.engine.dask_pool.DaskExecutor` (dask_pool.py, where its timeouts, dead
+workers and file writing are described) submits to a ``dask.distributed`` scheduler
+(``--scheduler ADDRESS``).
 """
 
 from __future__ import annotations
