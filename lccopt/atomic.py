@@ -3,67 +3,69 @@ of the directory. A file that exists under its final name is therefore complete,
 kill -9 or a power cut interrupted. With ``durable=False`` (a run's evaluation files, one
 per evaluation: two fsyncs each would bound a run's throughput by the disk's fsync rate) the
 fsyncs are left out: the file is still complete whatever kill -9 interrupted, but a power cut
-can leave it damaged, which ``lccopt resume`` detects and simulates again."""
+can leave it damaged, which ``lccopt resume`` detects and simulates again.
+
+Everything is done relative to a held directory (``safeio.Folder``): the temporary file is
+created there (``O_EXCL``, never through a link) and renamed there. A failure (a full disk, a
+read-only or immutable file) names the file being written, never the temporary one, which is
+removed.
+"""
 
 from __future__ import annotations
 
 import contextlib
 import os
-import tempfile
+import secrets
+import stat
 from pathlib import Path
 
+from .safeio import Folder, UnsafeFile, kind_of, named
 
-def fsync_dir(directory) -> None:
-    fd = os.open(directory, os.O_RDONLY)
+
+def write_in(folder: Folder, name: str, data: bytes, durable: bool = True) -> None:
+    """Write ``data`` as ``name`` in ``folder``, whole or not at all (see the module docstring).
+
+    A link in the way is replaced, never followed (rename does not follow it); a folder or a
+    special file there is refused with its own name."""
+    st = folder.lstat(name)
+    if st is not None and not (stat.S_ISREG(st.st_mode) or stat.S_ISLNK(st.st_mode)):
+        raise UnsafeFile(folder.display(name), f"{kind_of(st.st_mode)} where lccopt writes a "
+                                               f"file of its own: remove it")
+    flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW | os.O_CLOEXEC
+    while True:
+        tmp = f"{name}.{secrets.token_hex(4)}.tmp"
+        try:
+            fd = os.open(tmp, flags, 0o666, dir_fd=folder.fd)
+            break
+        except FileExistsError:
+            continue
+        except OSError as exc:
+            raise named(exc, folder.display(name)) from None
     try:
-        os.fsync(fd)
-    finally:
-        os.close(fd)
-
-
-def _umask() -> int:
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask
-
-
-def normal_mode(path, directory: bool = False) -> None:
-    """mkstemp/mkdtemp create 0600/0700: give the permissions open()/mkdir() would."""
-    os.chmod(path, (0o777 if directory else 0o666) & ~_umask())
-
-
-@contextlib.contextmanager
-def atomic_path(path, durable: bool = True):
-    """Yield a temporary path next to ``path``; on success it is fsynced (``durable``) and
-    renamed to ``path``; on failure it is removed."""
-    path = Path(path)
-    # a link in the way is replaced, never followed (rename does not follow it); a folder or a
-    # special file is refused with its own name (rename would otherwise name the temporary file)
-    if os.path.lexists(path) and not os.path.islink(path) and not os.path.isfile(path):
-        from .safeio import UnsafeFile, kind_of
-
-        raise UnsafeFile(path, f"{kind_of(os.lstat(path).st_mode)} where lccopt writes a file "
-                               f"of its own: remove it")
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name + ".", suffix=".tmp")
-    os.close(fd)
-    normal_mode(tmp)
-    try:
-        yield tmp
+        try:
+            view = memoryview(data)
+            while view:
+                view = view[os.write(fd, view):]
+            if durable:
+                os.fsync(fd)
+        finally:
+            os.close(fd)
+        os.rename(tmp, name, src_dir_fd=folder.fd, dst_dir_fd=folder.fd)
         if durable:
-            with open(tmp, "rb") as fh:
-                os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    except BaseException:
+            folder.fsync()
+    except BaseException as exc:
         with contextlib.suppress(OSError):
-            os.unlink(tmp)
+            os.unlink(tmp, dir_fd=folder.fd)
+        if isinstance(exc, OSError):
+            raise named(exc, folder.display(name)) from None
         raise
-    if durable:
-        fsync_dir(path.parent)
 
 
 def atomic_write_bytes(path, data: bytes) -> None:
-    with atomic_path(path) as tmp, open(tmp, "wb") as fh:
-        fh.write(data)
+    """Write the file at ``path`` whole or not at all (its folder, the user's, opened once)."""
+    path = Path(path)
+    with Folder.open(path.parent) as folder:
+        write_in(folder, path.name, data)
 
 
 def atomic_write_text(path, text: str) -> None:

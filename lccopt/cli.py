@@ -131,12 +131,16 @@ def resume(
                                                  "timeout and the ASF's worst and rho may)"),
     budget: Optional[int] = typer.Option(None, help="carry the run on to this many evaluations in "
                                          "all (a finished run too)"),
+    repair_journal: bool = typer.Option(False, "--repair-journal",
+                                        help="carry on from the lines before a damaged line of the "
+                                             "journal (the whole journal is kept beside it)"),
 ) -> None:
     """Carry on an interrupted run where it stopped, or a finished one to a larger budget."""
     from .engine.runner import resume as run_resume
 
     run_resume(run, workers=workers, scheduler=scheduler, case=case,
-               allow_changed_case=allow_changed_case, budget=budget)
+               allow_changed_case=allow_changed_case, budget=budget,
+               repair_journal=repair_journal)
 
 
 @app.command()

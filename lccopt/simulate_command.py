@@ -18,6 +18,7 @@ import typer
 from . import machine
 from .config import design_items, load_case, parse_design
 from .config.describe import condition_lines, vehicle_line, zone_line
+from .outdir import Output
 from .store import write_evaluation
 from .terminal import wrap_items
 from .vti.response import (
@@ -44,15 +45,39 @@ def run_simulate(case_path: Path, design: str | None, out: Path | None, plots: b
         x = case.reference if design is None else parse_design(design, case)
     except ValueError as exc:
         raise UsageError(f"--design: {exc}") from None
-    out = out or Path("runs") / f"{case.name}-simulate"
-    if (out / "simulation.h5").exists() and not force:
-        raise UsageError(f"{out} already holds a simulation: choose another --out, or add --force "
-                         f"to replace it")
+    out = Path(out or Path("runs") / f"{case.name}-simulate")
+    files, folders = _outputs(case, plots)
     evaluate = _simulator()
-    if case.degradation is not None:
-        return _simulate_settlement(case, case_path, x, out, plots, evaluate)
-    if case.conditions:
-        return _simulate_conditions(case, case_path, x, out, plots, evaluate)
+    # the folder checked, locked and a staging folder made before the simulation; the files
+    # are moved into place only once all are written (lccopt.outdir)
+    with Output.into(out, files, folders, force, "simulate") as output:
+        if case.degradation is not None:
+            ev = _simulate_settlement(case, case_path, x, output.root, plots, evaluate)
+        elif case.conditions:
+            ev = _simulate_conditions(case, case_path, x, output.root, plots, evaluate)
+        else:
+            ev = _simulate_one(case, case_path, x, output.root, plots, evaluate)
+    for line in output.lines:
+        typer.echo(line)
+    return ev
+
+
+def _outputs(case, plots: bool) -> tuple[list[str], list[str]]:
+    """(files, folders) ``simulate`` may write into its output folder."""
+    from .report.simulation import FILES
+
+    files, folders = ["simulation.h5"], []
+    if plots:
+        files += FILES
+        if case.degradation is not None:
+            files += ["settlement-history.png", "settlement-profile.png"]
+        elif case.conditions:
+            files = ["simulation.h5"]
+            folders = [c.name for c in case.conditions]
+    return files, folders
+
+
+def _simulate_one(case, case_path: Path, x, out, plots: bool, evaluate) -> Evaluation:
     t0 = time.perf_counter()
     ev = evaluate(case, x)
     wall = time.perf_counter() - t0
@@ -73,16 +98,25 @@ def run_simulate(case_path: Path, design: str | None, out: Path | None, plots: b
         typer.echo(f"WARNING: contact lost (force <= 0) in {info['contact_loss_steps']} steps, "
                    f"first at {info['contact_loss_first_position']:.2f} m; the linear contact "
                    f"spring pulled the wheel", err=True)
-    out.mkdir(parents=True, exist_ok=True)
-    h5 = write_evaluation(out / "simulation.h5", ev, x, case.names,
-                          {"case": case.resolved, **machine.describe()})
-    typer.echo(f"histories: {h5}")
+    _write(out, ev, x, case)
     if plots:
         from .report.simulation import simulation_figures
 
-        for p in simulation_figures(ev, case.name, out):
-            typer.echo(f"plot: {p}")
+        _said(out, simulation_figures(ev, case.name, out))
     return ev
+
+
+def _write(out, ev, x, case) -> None:
+    """simulation.h5 of one evaluation into the staged folder ``out``."""
+    p = out / "simulation.h5"
+    write_evaluation((p.folder, p.name), ev, x, case.names,
+                     {"case": case.resolved, **machine.describe()})
+    _said(out, [p], "histories")
+
+
+def _said(out, paths, what: str = "plot") -> None:
+    """Lines printed once the files are in place (``output.lines``)."""
+    out.lines.extend(f"{what}: {p}" for p in paths)
 
 
 def _simulate_conditions(case, case_path: Path, x, out: Path, plots: bool, evaluate) -> Evaluation:
@@ -116,18 +150,16 @@ def _simulate_conditions(case, case_path: Path, x, out: Path, plots: bool, evalu
              "each": "worst case"}[case.condition_mode]
     vals = "".join(f"{combined[k] * objective_display(k)[0]:12.5g}" for k in keys)
     typer.echo(f"{label:<22}{vals}")
-    out.mkdir(parents=True, exist_ok=True)
-    h5 = write_condition_evaluations(out / "simulation.h5", evs, x, case.names, names,
-                                     weights, combined,
-                                     {"case": case.resolved, **machine.describe()})
-    typer.echo(f"histories: {h5}")
+    p = out / "simulation.h5"
+    write_condition_evaluations((p.folder, p.name), evs, x, case.names, names,
+                                weights, combined,
+                                {"case": case.resolved, **machine.describe()})
+    _said(out, [p], "histories")
     if plots:
         from .report.simulation import simulation_figures
 
         for c, ev in zip(case.conditions, evs):
-            (out / c.name).mkdir(exist_ok=True)
-            for p in simulation_figures(ev, case.name, out / c.name):
-                typer.echo(f"plot: {p}")
+            _said(out, simulation_figures(ev, case.name, out.sub(c.name)))
     return Evaluation(combined, evs[0].histories, evs[0].info)
 
 
@@ -173,10 +205,7 @@ def _simulate_settlement(case, case_path: Path, x, out: Path, plots: bool, evalu
         typer.echo("settlement and void [mm] at the horizon, from the sleeper next to the slab:")
         typer.echo("\n".join(wrap_items([f"{a:.2f}" for a in s], "  settlement ")))
         typer.echo("\n".join(wrap_items([f"{a:.2f}" for a in v], "  void       ")))
-    out.mkdir(parents=True, exist_ok=True)
-    h5 = write_evaluation(out / "simulation.h5", ev, x, case.names,
-                          {"case": case.resolved, **machine.describe()})
-    typer.echo(f"histories: {h5}")
+    _write(out, ev, x, case)
     if plots:
         from .report.settlement import (
             Design,
@@ -191,8 +220,7 @@ def _simulate_settlement(case, case_path: Path, x, out: Path, plots: bool, evalu
         title = f"Settlement of '{case.name}' under its traffic"
         paths.append(fig_settlement_history([design], out, title, limit_of(info)))
         paths.append(fig_settlement_profile([design], out, title))
-        for p in paths:
-            typer.echo(f"plot: {p}")
+        _said(out, paths)
     return ev
 
 

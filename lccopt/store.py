@@ -2,66 +2,103 @@
 
 One file holds one evaluation: ``/design`` (x with variable names as an attribute),
 ``/objectives`` (one attribute per objective, SI units), ``/histories/<name>`` and
-``/info`` attributes. Files are written to a temporary name, fsynced and renamed, so a
-file that exists is complete.
+``/info`` attributes. A file is built whole in memory (HDF5's core driver: HDF5 itself never
+writes to the disk, so a full disk is an ordinary error of one ``write``), then written to a
+temporary name and renamed (``atomic.write_in``), so a file that exists is complete.
+
+Where a file goes (``dest``) and where one is read from (``src``) is a path, or a
+``(safeio.Folder, name)`` pair: a file in a directory lccopt holds open (a run's evals/).
 """
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import h5py
 import numpy as np
 
-from .atomic import atomic_path
-from .safeio import h5_open_owned
+from .safeio import Folder, UnsafeFile, check_datasets, h5_open_owned, h5_read
 from .vti.response import HISTORY_DOC, OBJECTIVE_UNITS, Evaluation
 
+_images = 0
 
-def write_evaluation(path: str | Path, evaluation: Evaluation, x, names, attrs: dict | None = None,
-                     durable: bool = True) -> Path:
-    """Write one evaluation atomically (tmp + fsync + rename; no fsync unless ``durable``:
-    ``atomic.atomic_path``); return the path."""
-    path = Path(path)
-    with atomic_path(path, durable) as tmp, h5py.File(tmp, "w") as f:
-        _write_design(f, x, names)
-        _write_group(f, evaluation, attrs)
+
+def h5_image(fill) -> bytes:
+    """The bytes of a new HDF5 file that ``fill(f)`` writes (built in memory)."""
+    global _images
+    _images += 1
+    with h5py.File(f"lccopt-image-{os.getpid()}-{_images}.h5", "w", driver="core",
+                   backing_store=False) as f:
+        fill(f)
+        f.flush()
+        return f.id.get_file_image()
+
+
+def write_h5(dest, fill, durable: bool = True) -> Path:
+    """Write the HDF5 file that ``fill(f)`` builds to ``dest`` whole or not at all (fsynced if
+    ``durable``); return its path (for messages)."""
+    data = h5_image(fill)
+    if isinstance(dest, tuple):
+        folder, name = dest
+        return folder.write(name, data, durable)
+    path = Path(dest)
+    with Folder.open(path.parent) as folder:
+        folder.write(path.name, data, durable)
     return path
 
 
-def read_evaluation(path: str | Path) -> tuple[np.ndarray, Evaluation]:
+def write_evaluation(dest, evaluation: Evaluation, x, names, attrs: dict | None = None,
+                     durable: bool = True) -> Path:
+    """Write one evaluation atomically (no fsync unless ``durable``); return its path."""
+    def fill(f):
+        _write_design(f, x, names)
+        _write_group(f, evaluation, attrs)
+
+    return write_h5(dest, fill, durable)
+
+
+def read_evaluation(src) -> tuple[np.ndarray, Evaluation]:
     """Read a file written by :func:`write_evaluation`; return (x, evaluation).
 
-    Never through a link, never a FIFO (``lccopt.safeio``); the file is read through a
-    descriptor, so another process's HDF5 lock on it does not stop a reader."""
-    with h5_open_owned(path) as f:
-        return f["design"][()], _read_group(f)
+    Never through a link, never a FIFO, never a file that keeps data elsewhere
+    (``lccopt.safeio``); the file is read through a descriptor, so another process's HDF5 lock
+    on it does not stop a reader."""
+    with h5_open_owned(src) as f:
+        return h5_read(f["design"]), _read_group(f)
 
 
-def has_time_histories(path: str | Path) -> bool:
+def has_time_histories(src) -> bool:
     """True if the file holds an evaluation's time histories (not only per-sleeper values)."""
     try:
-        with h5_open_owned(path) as f:
+        with h5_open_owned(src) as f:
             return "histories" in f and "contact_force" in f["histories"]
     except (OSError, ValueError, RuntimeError):
         return False
 
 
-def evaluation_problem(path: str | Path, i: int, x) -> str | None:
-    """Why the file at ``path`` is not a complete evaluation ``i`` of design ``x`` (missing,
-    damaged, a link, or another evaluation's file put in its place); None if it is."""
+def evaluation_problem(src, i: int, x, run: str | None = None) -> str | None:
+    """Why the file at ``src`` is not a complete evaluation ``i`` of design ``x`` (missing,
+    damaged, a link, another evaluation's file put in its place, or, given the run's mark
+    ``run``, another run's); None if it is."""
     try:
-        with h5_open_owned(path) as f:
+        with h5_open_owned(src) as f:
             if "objectives" not in f or "histories" not in f or "design" not in f:
                 return "incomplete"
-            design = f["design"][()]
-            stored = f["info"].attrs.get("id") if "info" in f else None
+            design = h5_read(f["design"])
+            info = f["info"].attrs if "info" in f else {}
+            stored = info.get("id")
+            owner = info.get("run")
     except FileNotFoundError:
         return "missing"
+    except UnsafeFile as exc:
+        return f"refused: {exc.strerror}"
     except (OSError, ValueError, RuntimeError, KeyError) as exc:
         return f"unreadable ({type(exc).__name__})"
     if stored is not None and int(stored) != int(i):
         return f"holds evaluation #{int(stored)}"
+    if run and owner is not None and str(owner) != run:
+        return "belongs to another run"
     if np.shape(design) != np.shape(x) or not np.array_equal(design, np.asarray(x, dtype=float)):
         return "holds another design"
     return None
@@ -71,14 +108,14 @@ def evaluation_problem(path: str | Path, i: int, x) -> str | None:
 # /conditions/<name>/{objectives,histories,info}; the top level keeps the combined objectives
 # and the first condition's histories and info, so readers of one-condition files read it too.
 
-def merge_condition_files(path: str | Path, parts, names, weights, objectives: dict,
+def merge_condition_files(dest, parts, names, weights, objectives: dict,
                           attrs: dict, durable: bool = True) -> Path:
-    """Merge the per-condition files ``parts`` (in condition order) into one file, atomically
-    (``durable``: as ``write_evaluation``)."""
-    path = Path(path)
-    with atomic_path(path, durable) as tmp, h5py.File(tmp, "w") as f:
+    """Merge the per-condition files ``parts`` (in condition order; paths or ``(Folder,
+    name)``) into one file, atomically (``durable``: as ``write_evaluation``)."""
+    def fill(f):
         for i, (part, name) in enumerate(zip(parts, names)):
             with h5_open_owned(part) as src:
+                check_datasets(src)   # HDF5 copies them whole, unchecked by h5_read
                 if i == 0:
                     for key in ("design", "histories", "info"):
                         src.copy(src[key], f, name=key)
@@ -88,28 +125,29 @@ def merge_condition_files(path: str | Path, parts, names, weights, objectives: d
         _write_objectives(f.create_group("objectives"), objectives)
         _set_attrs(f["info"], attrs)
         _condition_attrs(f, names, weights)
-    return path
+
+    return write_h5(dest, fill, durable)
 
 
-def write_condition_evaluations(path: str | Path, evaluations, x, design_names, names, weights,
+def write_condition_evaluations(dest, evaluations, x, design_names, names, weights,
                                 objectives: dict, attrs: dict, durable: bool = True) -> Path:
     """Write the evaluations of one design under every condition (in order) as one file
     (``durable``: as ``write_evaluation``)."""
-    path = Path(path)
-    with atomic_path(path, durable) as tmp, h5py.File(tmp, "w") as f:
+    def fill(f):
         _write_design(f, x, design_names)
         first = evaluations[0]
         _write_group(f, Evaluation(objectives, first.histories, first.info), attrs)
         for ev, name in zip(evaluations, names):
             _write_group(f.require_group("conditions").create_group(name), ev)
         _condition_attrs(f, names, weights)
-    return path
+
+    return write_h5(dest, fill, durable)
 
 
-def read_conditions(path: str | Path) -> dict[str, Evaluation]:
+def read_conditions(src) -> dict[str, Evaluation]:
     """Every condition's evaluation of a merged file, in condition order ({} for a file of
     one simulation)."""
-    with h5_open_owned(path) as f:
+    with h5_open_owned(src) as f:
         if "conditions" not in f:
             return {}
         return {str(name): _read_group(f["conditions"][name]) for name in f.attrs["conditions"]}
@@ -161,6 +199,6 @@ def _condition_attrs(f, names, weights) -> None:
 
 def _read_group(g) -> Evaluation:
     objectives = {k: float(v) for k, v in g["objectives"].attrs.items() if not k.endswith("_unit")}
-    histories = {k: g["histories"][k][()] for k in g["histories"]}
+    histories = {k: h5_read(g["histories"][k]) for k in g["histories"]}
     info = {k: (v.item() if hasattr(v, "item") else v) for k, v in g["info"].attrs.items()}
     return Evaluation(objectives, histories, info)

@@ -130,7 +130,7 @@ def test_simulate_refuses_to_overwrite_without_force(run_cli, tmp_path):
     args = ("simulate", CONFIGS / "reference.yaml", "--out", tmp_path / "o", "--no-plots")
     assert run_cli(*args).returncode == 0
     again = run_cli(*args)
-    assert again.returncode == 2 and "already holds a simulation" in again.stderr
+    assert again.returncode == 2 and "already holds simulation.h5" in again.stderr
     assert run_cli(*args, "--force").returncode == 0
 
 

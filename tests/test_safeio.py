@@ -62,23 +62,76 @@ def test_owned_files_are_never_opened_through_a_link(tmp_path):
 def test_owned_directories_and_hdf5_files(tmp_path):
     real = tmp_path / "evals"
     real.mkdir()
-    safeio.check_owned_dir(real)
+    top = safeio.Folder.open(tmp_path)
+    assert top.sub("evals").identity == (real.stat().st_dev, real.stat().st_ino)
     elsewhere = tmp_path / "elsewhere"
     elsewhere.mkdir()
-    linked = tmp_path / "linked"
-    linked.symlink_to(elsewhere)
+    (tmp_path / "linked").symlink_to(elsewhere)
     with pytest.raises(safeio.UnsafeFile, match="symbolic link"):
-        safeio.check_owned_dir(linked)
+        top.sub("linked")
     (tmp_path / "plain").write_text("")
     with pytest.raises(safeio.UnsafeFile, match="regular file"):
-        safeio.check_owned_dir(tmp_path / "plain")
+        top.sub("plain")
     h5 = real / "000000.h5"
     with h5py.File(h5, "w") as f:
         f["a"] = np.arange(3)
     with safeio.h5_open_owned(h5) as f:
-        assert f["a"][()].tolist() == [0, 1, 2]
+        assert safeio.h5_read(f["a"]).tolist() == [0, 1, 2]
     os.mkfifo(real / "000001.h5")
     with pytest.raises(safeio.UnsafeFile, match="FIFO"):
         with safeio.h5_open_owned(real / "000001.h5"):
             pass
-    assert safeio.is_regular_file(h5) and not safeio.is_regular_file(real / "000001.h5")
+    evals = top.sub("evals")
+    assert evals.is_file("000000.h5") and not evals.is_file("000001.h5")
+
+
+def test_a_folder_held_open_is_written_where_it_went_never_through_its_old_path(tmp_path):
+    run = tmp_path / "run"
+    run.mkdir()
+    folder = safeio.Folder.open(run)
+    folder.write("a.json", b"1")
+    run.rename(tmp_path / "moved")
+    (tmp_path / "elsewhere").mkdir()
+    run.symlink_to(tmp_path / "elsewhere")
+    folder.write("b.json", b"2")
+    assert sorted(os.listdir(tmp_path / "moved")) == ["a.json", "b.json"]
+    assert os.listdir(tmp_path / "elsewhere") == []
+    assert not folder.still_at(run) and folder.still_at(tmp_path / "moved")
+
+
+def test_a_failed_write_names_the_file_and_leaves_no_temporary_one(tmp_path):
+    folder = safeio.Folder.open(tmp_path)
+    (tmp_path / "results.h5").mkdir()
+    with pytest.raises(safeio.UnsafeFile, match="results.h5: a directory"):
+        folder.write("results.h5", b"x")
+    (tmp_path / "ro").mkdir()
+    sub = folder.sub("ro")
+    os.chmod(tmp_path / "ro", 0o500)
+    try:
+        if os.geteuid() != 0:   # root writes anyway
+            with pytest.raises(OSError) as info:
+                sub.write("state.json", b"{}")
+            assert info.value.filename == str(tmp_path / "ro" / "state.json")
+    finally:
+        os.chmod(tmp_path / "ro", 0o700)
+    assert sorted(os.listdir(tmp_path)) == ["results.h5", "ro"]
+
+
+@pytest.mark.parametrize("make, words", [
+    (lambda f, o: f.create_dataset("d", shape=(3,), dtype="f8",
+                                   external=[(str(o), 0, h5py.h5f.UNLIMITED)]),
+     "stored in external files"),
+    (lambda f, o: f.__setitem__("d", h5py.ExternalLink(str(o), "/d")), "link to another file"),
+    (lambda f, o: (f.create_dataset("e", data=[1.0]), f.__setitem__("d", h5py.SoftLink("/e"))),
+     "soft link"),
+    (lambda f, o: f.create_dataset("d", shape=(10**11,), dtype="i8", chunks=(1000,),
+                                   compression="gzip"), "too large to read"),
+])
+def test_hdf5_files_that_reach_outside_themselves_are_refused(tmp_path, make, words):
+    other = tmp_path / "fifo"
+    os.mkfifo(other)
+    with h5py.File(tmp_path / "x.h5", "w") as f:
+        make(f, other)
+    with pytest.raises(safeio.UnsafeFile, match=words):
+        with safeio.h5_open_owned(tmp_path / "x.h5") as f:
+            safeio.h5_read(f["d"])

@@ -306,7 +306,7 @@ def _variables(design: dict, lines: dict, file: str) -> tuple[Variable, ...]:
     return tuple(out)
 
 
-def load_case(path: str | Path, overrides=()) -> Case:
+def load_case(path: str | Path, overrides=(), text: str | None = None) -> Case:
     """Read and validate a case file.
 
     Parameters
@@ -316,6 +316,9 @@ def load_case(path: str | Path, overrides=()) -> Case:
     overrides
         ``KEY.PATH=VALUE`` items (``--set``), applied as if a file extending the case had
         written them (``lccopt.config.overrides``).
+    text
+        the case file's text, when the caller has read it already (a run's copy, read
+        through the run directory it holds open); else it is read from ``path``.
 
     Returns
     -------
@@ -329,7 +332,7 @@ def load_case(path: str | Path, overrides=()) -> Case:
     """
     path = Path(path)
     file = str(path)
-    text = read_case_text(path)
+    text = read_case_text(path) if text is None else text
     raw, lines = read_with_base(path, text)
     overrides = tuple(overrides)
     raw = set_values.apply(raw, lines, overrides)

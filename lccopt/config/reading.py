@@ -217,7 +217,13 @@ def read_case_text(path: Path, limit: int = MAX_CASE_FILE_BYTES, fail=None) -> s
         def fail(problem: str) -> CaseError:
             where = f"{file}:1: <file>" if problem.startswith("larger than") else file
             return CaseError(f"{where}: {problem}")
-    data = read_input_bytes(path, limit, fail)
+    return case_text(read_input_bytes(path, limit, fail), path)
+
+
+def case_text(data: bytes, path: Path) -> str:
+    """The text of the case file ``path`` whose bytes are ``data`` (raises CaseError): UTF-8,
+    at most ``MAX_CASE_BYTES`` besides its inline rail profiles."""
+    file = shown(str(path))
     try:
         text = data.decode("utf-8")
     except UnicodeDecodeError as exc:

@@ -26,7 +26,6 @@ reproducible.
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 
@@ -49,9 +48,9 @@ def part_name(i: int, c: int) -> str:
 class ConditionPool:
     """An executor of designs over the case's conditions (see the module docstring)."""
 
-    def __init__(self, inner, case, problem, run_path: Path):
+    def __init__(self, inner, case, problem, rd):
         self.inner, self.case, self.problem = inner, case, problem
-        self.run_path = Path(run_path)
+        self.rd = rd   # the run directory (RunDir): files through its evals/, held open
         self.m = len(case.conditions)
         self.kind = inner.kind
         self._queue: list[Task] = []                      # condition tasks waiting for a worker
@@ -89,9 +88,11 @@ class ConditionPool:
             if kept is not None:
                 done[c] = kept
                 continue
-            out = None if task.out_path is None else str(self.run_path / part_name(task.id, c))
+            out = None if task.out_path is None else str(
+                self.rd.evals().path / part_name(task.id, c)[len("evals/"):])
             self._queue.append(Task(task.id, task.x, task.phase, task.restart, out, condition=c,
-                                    histories=task.histories))
+                                    histories=task.histories, out_dir_id=task.out_dir_id,
+                                    run=task.run))
         self._pump()
 
     def wait(self, timeout: float) -> list[Outcome]:
@@ -125,11 +126,11 @@ class ConditionPool:
     def _kept_part(self, task: Task, c: int) -> Outcome | None:
         """The outcome of condition c from its part file of an earlier session, if it is
         there, readable and of this design."""
-        path = self.run_path / part_name(task.id, c)
-        if task.out_path is None or not path.is_file():
+        place = self.rd.at(part_name(task.id, c))
+        if task.out_path is None or not place[0].is_file(place[1]):
             return None
         try:
-            x, ev = read_evaluation(path)
+            x, ev = read_evaluation(place)
         except Exception:  # noqa: BLE001 - damaged: simulate again
             return None
         if x.shape != (len(task.x),) or not np.array_equal(x, np.asarray(task.x, dtype=float)):
@@ -167,22 +168,25 @@ class ConditionPool:
         entries = {k: v for k, v in entries.items() if v}
         out = Outcome(task.id, objectives=objectives, info=info, wall_time=wall, worker=workers,
                       machine=entries)
-        target = self.run_path / f"evals/{task.id:06d}.h5"
+        target = self.rd.at(f"evals/{task.id:06d}.h5")
+        shown = target[0].display(target[1])
         attrs = {"id": task.id, "phase": task.phase, "restart": task.restart, "worker": workers,
-                 "wall_time": wall, **entries}
+                 "wall_time": wall, **({"run": task.run} if task.run else {}), **entries}
         try:
             if task.out_path is not None:   # the workers wrote the parts (or sent them here)
-                paths = [self.run_path / part_name(task.id, c) for c in range(self.m)]
+                places = [self.rd.at(part_name(task.id, c)) for c in range(self.m)]
                 for c, o in parts.items():
-                    if not o.file_written:  # a Dask worker that does not see the run directory
-                        write_evaluation(paths[c], o.evaluation, task.x, self.case.names,
+                    if not o.file_written:  # the worker did not write it (see worker.run_task)
+                        write_evaluation(places[c], o.evaluation, task.x, self.case.names,
                                          attrs={"id": task.id, "condition": c, "worker": o.worker,
-                                                "wall_time": o.wall_time, **o.machine},
+                                                "wall_time": o.wall_time,
+                                                **({"run": task.run} if task.run else {}),
+                                                **o.machine},
                                          durable=False)
-                merge_condition_files(target, paths, names, self.problem.weights, objectives, attrs,
-                                      durable=False)
-                for p in paths:
-                    p.unlink(missing_ok=True)
+                merge_condition_files(target, places, names, self.problem.weights, objectives,
+                                      attrs, durable=False)
+                for folder, name in places:
+                    folder.unlink(name)
             else:                            # the evaluations came back whole
                 write_condition_evaluations(target, [parts[c].evaluation for c in range(self.m)],
                                             task.x, self.case.names, names, self.problem.weights,
@@ -190,8 +194,8 @@ class ConditionPool:
             out.file_written = True
         except Exception as exc:  # noqa: BLE001
             if environment_errno(exc) is not None:
-                return Outcome(task.id, fault=f"cannot write {target}: {describe_os_error(exc)}",
-                               wall_time=wall, worker=workers)
-            return Outcome(task.id, error=f"could not write {target}: {exc}", wall_time=wall,
+                return Outcome(task.id, fault=describe_os_error(exc), wall_time=wall,
+                               worker=workers)
+            return Outcome(task.id, error=f"could not write {shown}: {exc}", wall_time=wall,
                            worker=workers)
         return out

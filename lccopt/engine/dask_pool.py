@@ -4,9 +4,10 @@
 A task past the timeout is cancelled and recorded as failed (Dask cannot kill a running
 Python thread: the worker thread stays busy until the simulation returns); a worker that
 dies is handled by Dask (the task is retried elsewhere, then reported as failed). A worker
-that sees the run directory (the same machine, or a shared file system: it finds there the
-probe file this process wrote, with its random content) writes the evaluation file itself,
-as a local worker does; any other returns the whole evaluation and this process writes it.
+that sees the run directory (the same machine, or a shared file system: it finds in the
+evals/ folder it opens the probe file this process wrote, with its random content) writes the
+evaluation file itself, through that folder held open, as a local worker does; any other
+returns the whole evaluation and this process writes it.
 """
 
 from __future__ import annotations
@@ -22,33 +23,23 @@ from .executors import ExecutorError
 from .worker import Outcome, Task, load_evaluator, run_task
 
 _DASK_EVALUATORS: dict = {}
-_SEES_RUN: dict = {}  # probe (path, content) -> whether this worker sees the run directory
-
-
-def sees_run(probe) -> bool:
-    """Whether the probe file at ``probe[0]`` holds ``probe[1]`` here (the run directory is
-    this worker's too); asked once per worker process and run."""
-    key = tuple(probe)
-    if key not in _SEES_RUN:
-        try:
-            with open(probe[0], encoding="ascii") as fh:
-                _SEES_RUN[key] = fh.read(100) == probe[1]
-        except (OSError, ValueError):
-            _SEES_RUN[key] = False
-    return _SEES_RUN[key]
 
 
 def dask_task(case, task: Task, spec, probe=None) -> Outcome:
-    """Runs on a Dask worker: writes the evaluation file if it sees the run directory
-    (``probe``), else returns the whole Evaluation for the parent to write."""
+    """Runs on a Dask worker: writes the evaluation file if it sees the run directory (finds
+    the ``probe``, (path, content), in the folder of the evaluation file; checked for every
+    task: worker.run_task), else returns the whole Evaluation for the parent to write."""
     try:
         from distributed import get_worker
 
         name = get_worker().address
     except Exception:  # noqa: BLE001
         name = "dask"
-    if task.out_path is not None and not (probe is not None and sees_run(probe)):
-        task.out_path = None
+    if task.out_path is not None:
+        if probe is None:
+            task.out_path = None
+        else:   # the folder's identity differs on another machine: the probe tells instead
+            task.probe, task.out_dir_id = (os.path.basename(probe[0]), probe[1]), None
     key = spec if isinstance(spec, str) else id(spec)
     fn = _DASK_EVALUATORS.get(key)
     if fn is None:
@@ -96,6 +87,7 @@ class DaskExecutor:
         self._futures: dict = {}  # future -> (task, submitted at)
         self._done: queue.SimpleQueue = queue.SimpleQueue()  # futures as they finish
         self._probe: tuple[str, str] | None = None  # (path, content) of the run directory's probe
+        self._probe_folder = None                   # the folder it is in, held open
         self._slots_cache = (0.0, 0)
         self.description = f"Dask scheduler {address if isinstance(address, str) else 'in-process'}"
 
@@ -152,8 +144,9 @@ class DaskExecutor:
         return max(0, self._n_threads() - len(self._futures))
 
     def submit(self, task: Task) -> None:
-        if task.out_path is not None and self._probe is None:
-            self._probe = _write_probe(Path(task.out_path).parent)
+        if task.out_path is not None and self._probe_folder is None:
+            self._probe_folder, self._probe = _write_probe(Path(task.out_path).parent,
+                                                           task.out_dir_id)
         fut = self.client.submit(dask_task, self.case, task, self.spec, self._probe, pure=False,
                                  key=f"lccopt-eval-{task.id}-{uuid.uuid4().hex[:8]}")
         self._futures[fut] = (task, time.monotonic())
@@ -207,20 +200,28 @@ class DaskExecutor:
                 self.kill_running()
                 self.client.close()
             self.client = None
-        if self._probe is not None:
-            with contextlib.suppress(OSError):
-                os.unlink(self._probe[0])
-            self._probe = None
+        if self._probe_folder is not None:
+            if self._probe is not None:
+                self._probe_folder.unlink(os.path.basename(self._probe[0]))
+            self._probe_folder.close()
+            self._probe_folder, self._probe = None, None
 
 
-def _write_probe(directory: Path) -> tuple[str, str]:
-    """A file of random content in the run's evals/ (named ``*.tmp``: a resume removes one
-    left behind), by which a Dask worker knows it sees the run directory."""
+def _write_probe(directory: Path, identity=None):
+    """(folder, (path, content)): a file of random content in the run's evals/ (named ``*.tmp``:
+    a resume removes one left behind), by which a Dask worker knows it sees the run directory;
+    (folder, None) if ``directory`` is not the run's evals/ (``identity``) any more."""
+    from ..safeio import Folder
+
+    folder = Folder.open(directory)
+    if identity is not None and folder.identity != tuple(identity):
+        return folder, None
     content = uuid.uuid4().hex
-    path = directory / f"dask-probe.{content[:8]}.tmp"
-    fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_NOFOLLOW", 0), 0o644)
+    name = f"dask-probe.{content[:8]}.tmp"
+    fd = os.open(name, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o644,
+                 dir_fd=folder.fd)
     with os.fdopen(fd, "w", encoding="ascii") as fh:
         fh.write(content)
-    return str(path.resolve()), content
+    return folder, (str(directory / name), content)
 
 

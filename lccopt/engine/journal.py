@@ -11,28 +11,43 @@ Every line is one JSON object with ``seq`` (0, 1, 2, ... without gaps), ``event`
 event's fields. A line is committed once it and its newline are on disk (write + flush +
 fsync). A process killed mid-write can leave a torn last line: :func:`read_journal` drops it
 (and :meth:`Journal.open` truncates the file to the last whole line before appending).
-A malformed line anywhere else means the file was damaged by something other than a crash,
-and is reported, never guessed around.
+A malformed line anywhere else means the file was damaged by something other than a crash
+(say, two processes appending at once, which the run's lock prevents): it is reported, never
+guessed around, and ``lccopt resume`` carries on from the lines before it after keeping the
+whole file beside it (:func:`repair`).
+
+The journal refuses a second writer: :meth:`Journal.open` holds an exclusive flock on the
+descriptor it appends with (``RunDir.lock`` takes it first, for the whole command).
 """
 
 from __future__ import annotations
 
+import fcntl
 import json
 import os
-from pathlib import Path
 
-from ..safeio import open_owned, read_owned
+from ..safeio import Folder, named, open_owned, read_owned
 
 
 class JournalError(Exception):
-    """The journal is damaged beyond a torn last line."""
+    """The journal is damaged beyond a torn last line. ``events`` and ``length``: the lines
+    before the damaged one and their length in bytes; ``line``: the damaged line (from 1)."""
+
+    def __init__(self, message: str, events=(), length: int = 0, line: int = 0):
+        super().__init__(message)
+        self.events, self.length, self.line = list(events), length, line
 
 
-def read_journal(path: str | Path) -> tuple[list[dict], int, bool]:
-    """Return (events, length of the committed part in bytes, whether a torn tail was found)."""
-    path = Path(path)
+def _shown(src) -> str:
+    return str(src[0].display(src[1]) if isinstance(src, tuple) else src)
+
+
+def read_journal(src) -> tuple[list[dict], int, bool]:
+    """Return (events, length of the committed part in bytes, whether a torn tail was found)
+    of the journal ``src`` (a path or ``(Folder, name)``)."""
+    path = _shown(src)
     try:
-        data = read_owned(path)
+        data = read_owned(src)
     except FileNotFoundError:
         return [], 0, False
     events: list[dict] = []
@@ -53,7 +68,8 @@ def read_journal(path: str | Path) -> tuple[list[dict], int, bool]:
                 torn = True  # the last line is garbage (e.g. zeros after a crash): drop it
                 break
             raise JournalError(f"{path}: line {len(events) + 1} is damaged ({exc}); "
-                               f"the journal was changed by something other than lccopt") from None
+                               f"the journal was changed by something other than lccopt",
+                               events, pos, len(events) + 1) from None
         events.append(ev)
         pos = end + 1
     return events, pos, torn
@@ -68,34 +84,79 @@ def line_mark(ev: dict) -> str:
     return hashlib.sha256(line.encode("utf-8")).hexdigest()[:32]
 
 
+def lock_for_writing(fh, shown) -> None:
+    """Take the journal's writer lock on ``fh`` (JournalError if another process holds it)."""
+    try:
+        fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        raise JournalError(f"{shown}: another lccopt process is appending to it; one process "
+                           f"drives a run") from None
+
+
+def repair(src, fh, error: JournalError) -> str:
+    """Cut the journal ``src`` back to the lines before its damaged one (``error``), through
+    ``fh`` (the locked writer's descriptor), after keeping the whole file beside it as
+    ``journal.damaged-N.jsonl``; return that name."""
+    folder, name = src if isinstance(src, tuple) else (None, str(src))
+    if folder is None:
+        from pathlib import Path
+
+        folder, name = Folder.open(Path(name).parent), Path(name).name
+    data = folder.read(name)
+    n = 1
+    while folder.exists(f"journal.damaged-{n}.jsonl"):
+        n += 1
+    kept = f"journal.damaged-{n}.jsonl"
+    folder.write(kept, data)
+    fh.truncate(error.length)
+    fh.flush()
+    os.fsync(fh.fileno())
+    return kept
+
+
 class Journal:
     """Appends events; ``seq`` continues from the committed lines."""
 
-    def __init__(self, path: str | Path, fh, next_seq: int):
-        self.path = Path(path)
+    def __init__(self, path, fh, next_seq: int):
+        self.path = _shown(path)
         self._fh = fh
         self.next_seq = next_seq
         self.unsynced = False  # lines written since the last fsync
 
     @classmethod
-    def open(cls, path: str | Path) -> tuple["Journal", list[dict], bool]:
-        """Open for appending after dropping a torn tail; return (journal, events, torn)."""
-        path = Path(path)
-        events, length, torn = read_journal(path)
-        fh = open_owned(path, "ab")
+    def open(cls, src, fh=None) -> tuple["Journal", list[dict], bool]:
+        """Open for appending after dropping a torn tail; return (journal, events, torn).
+
+        ``src``: a path or ``(Folder, name)``; ``fh``: the descriptor ``RunDir.lock`` opened and
+        locked, else one is opened here and locked (JournalError if another process holds it)."""
+        if fh is None:
+            fh = open_owned(src, "ab")
+            try:
+                lock_for_writing(fh, _shown(src))
+            except JournalError:
+                fh.close()
+                raise
+        events, length, torn = read_journal(src)
+        fh.seek(0, os.SEEK_END)
         if fh.tell() != length:
-            fh.truncate(length)
-            fh.flush()
-            os.fsync(fh.fileno())
+            try:
+                fh.truncate(length)
+                fh.flush()
+                os.fsync(fh.fileno())
+            except OSError as exc:
+                raise named(exc, _shown(src)) from None
         fh.seek(length)
-        return cls(path, fh, len(events)), events, torn
+        return cls(src, fh, len(events)), events, torn
 
     def append(self, event: str, sync: bool = True, **fields) -> dict:
         """Write one event (``seq`` added) and return it; with ``sync`` also wait until it,
         and every line before it, is on disk."""
         ev = {"seq": self.next_seq, "event": event, **fields}
         line = json.dumps(ev, allow_nan=True, separators=(",", ":")) + "\n"
-        self._fh.write(line.encode("utf-8"))
+        try:
+            self._fh.write(line.encode("utf-8"))
+        except OSError as exc:
+            raise named(exc, self.path) from None
         self.next_seq += 1
         self.unsynced = True
         if sync:
@@ -104,13 +165,19 @@ class Journal:
 
     def flush(self) -> None:
         """Every line appended so far handed to the operating system (no fsync)."""
-        self._fh.flush()
+        try:
+            self._fh.flush()
+        except OSError as exc:   # a full disk names the journal, never a bare reason
+            raise named(exc, self.path) from None
 
     def sync(self) -> None:
         """Every line appended so far on disk (one flush and fsync; nothing if already)."""
         if self.unsynced:
-            self._fh.flush()
-            os.fsync(self._fh.fileno())
+            try:
+                self._fh.flush()
+                os.fsync(self._fh.fileno())
+            except OSError as exc:
+                raise named(exc, self.path) from None
             self.unsynced = False
 
     def close(self) -> None:
@@ -118,4 +185,7 @@ class Journal:
             try:
                 self.sync()
             finally:
-                self._fh.close()
+                try:
+                    self._fh.close()
+                except OSError:   # its flush failed again: sync said why, naming the file
+                    pass

@@ -75,7 +75,7 @@ class Engine:
         if case.conditions:  # one task per (design, condition)
             from .conditions import ConditionPool
 
-            executor = ConditionPool(executor, case, problem, rd.path)
+            executor = ConditionPool(executor, case, problem, rd)
         self.executor = executor
         self.strategy.budget = problem.budget
         self.ref_point = (table.reference or {}).get("point")
@@ -104,6 +104,7 @@ class Engine:
         self._restoring: set[int] = set()
         self.histories = getattr(case, "histories", "best")
         self._histories_done: set[int] = set()  # designs whose histories were made at the end
+        self._owner_lost = False   # the run's journal was replaced: this process stops writing
 
     # -- signals ---------------------------------------------------------------------------------
     def _on_signal(self, signum, frame) -> None:
@@ -172,6 +173,7 @@ class Engine:
                     self._held = False
                 submitted = 0 if self.stop else self._fill(requeue)
                 if time.monotonic() - self._snapshot_at > SNAPSHOT_EVERY:
+                    self._check_owner()
                     self._snapshot()
                 if self.executor.running == 0:
                     if (not self.stop and self.strategy.done and not self._restore
@@ -212,25 +214,32 @@ class Engine:
             p.close()
             wall = time.monotonic() - t_start
             try:
-                self._snapshot()
-                self.table.apply(self.journal.append(
-                    "session", time=now_iso(), wall_time=wall,
-                    evaluations=self.table.n_done - n_start,
-                    optimiser_time=self.t_optimiser, bookkeeping_time=self.t_bookkeeping,
-                    held_time=self.t_held, workers=self.lag,
-                    executor=self.executor.description, versions=versions()))
-                if self.strategy.done and not self.table.pending_ids() and not self.table.finished:
-                    self.table.apply(self.journal.append("finished", time=now_iso(),
-                                                         evaluations=self.table.n_done))
-                self._write_results()
+                if not self._owner_lost:   # else the files are another process's now
+                    self._close_session(wall, n_start)
             finally:
                 self.journal.close()
+        if not self.rd.folder.still_at(self.rd.path):
+            p.log(f"note: {self.rd.path} no longer leads to this run's directory (it was moved or "
+                  f"replaced while the run went); the run's files went with the directory")
         if not self.table.finished:
             p.log(f"saved {self.table.n_done}/{pb.budget} evaluations in {self.rd.path}; carry on "
                   f"with:")
             p.log(f"    lccopt resume {self.rd.path}")
             raise typer.Exit(130)
         self._summary(wall)
+
+    def _close_session(self, wall: float, n_start: int) -> None:
+        self._snapshot()
+        self.table.apply(self.journal.append(
+            "session", time=now_iso(), wall_time=wall,
+            evaluations=self.table.n_done - n_start,
+            optimiser_time=self.t_optimiser, bookkeeping_time=self.t_bookkeeping,
+            held_time=self.t_held, workers=self.lag,
+            executor=self.executor.description, versions=versions()))
+        if self.strategy.done and not self.table.pending_ids() and not self.table.finished:
+            self.table.apply(self.journal.append("finished", time=now_iso(),
+                                                 evaluations=self.table.n_done))
+        self._write_results()
 
     def _best_lacks_histories(self) -> bool:
         """With ``histories: best``, queue the best design again when its file has no time
@@ -242,7 +251,7 @@ class Engine:
         self._histories_done.add(best["id"])
         from ..store import has_time_histories
 
-        if has_time_histories(self.rd.path / eval_name(best["id"])):
+        if has_time_histories(self.rd.at(eval_name(best["id"]))):
             return False
         self._restore.append(best["id"])
         return True
@@ -330,15 +339,19 @@ class Engine:
         self.t_optimiser += time.perf_counter() - t0
 
     def _submit(self, row: dict) -> None:
-        # the evaluation file's path: a local worker writes it, a Dask worker if it sees the
-        # run directory (executors.py), else the outcome brings the evaluation to write here
-        out = str(self.rd.evals_dir() / Path(eval_name(row["id"])).name)
+        # the evaluation file's path: a local worker writes it if that path leads to the run's
+        # evals/ (its identity: not if the run directory was moved or replaced by a link), a Dask
+        # worker if it also sees the run directory (executors.py), else the outcome brings the
+        # evaluation to write here, through the directory this process holds open
+        evals = self.rd.evals()
+        out = str(evals.path / Path(eval_name(row["id"])).name)
         # time histories: every design's, or the reference design's and, at the end, the best's
         # (simulated again then: a few MB per design saved; docs/runs.md, "Disk use")
         keep = self.histories == "all" or (
             self.histories == "best" and (row["id"] == 0 or row["id"] in self._restoring))
         self.executor.submit(Task(row["id"], list(row["x"]), row["phase"], row["restart"], out,
-                                  histories=keep))
+                                  histories=keep, out_dir_id=evals.identity,
+                                  run=self.table.head_mark))
 
     def _record(self, o: Outcome) -> None:
         if o.fault is not None:  # the machine refused a write: stop, the evaluation stays pending
@@ -368,8 +381,9 @@ class Engine:
                 from ..store import write_evaluation
 
                 attrs = {"id": o.id, "phase": row["phase"], "restart": row["restart"],
-                         "worker": o.worker, "wall_time": o.wall_time, **o.machine}
-                write_evaluation(self.rd.path / eval_name(o.id), o.evaluation, row["x"],
+                         "worker": o.worker, "wall_time": o.wall_time, "run": self.table.head_mark,
+                         **o.machine}
+                write_evaluation(self.rd.at(eval_name(o.id)), o.evaluation, row["x"],
                                  self.case.names, attrs=attrs, durable=False)
                 file = eval_name(o.id)
         common = dict(id=o.id, objectives=objectives or {}, wall_time=o.wall_time, worker=o.worker,
@@ -403,10 +417,11 @@ class Engine:
         if o.error is None and o.evaluation is not None:
             from ..store import write_evaluation
 
-            write_evaluation(self.rd.path / eval_name(o.id), o.evaluation, row["x"],
+            write_evaluation(self.rd.at(eval_name(o.id)), o.evaluation, row["x"],
                              self.case.names,
                              attrs={"id": o.id, "phase": row["phase"], "restart": row["restart"],
-                                    "worker": o.worker, "wall_time": o.wall_time, **o.machine})
+                                    "worker": o.worker, "wall_time": o.wall_time,
+                                    "run": self.table.head_mark, **o.machine})
         if o.error is not None:
             self.progress.log(f"could not simulate #{o.id} again ({o.error}); its file stays "
                               f"missing")
@@ -426,6 +441,14 @@ class Engine:
                          f"{reason}; a multi-objective case needs its objectives for the ASF "
                          f"reference point")
 
+    def _check_owner(self) -> None:
+        """Stop (exit 2) if this process is no longer the run's one driver (RunDir.check_lock)."""
+        why = self.rd.check_lock()
+        if why:
+            self._owner_lost = True
+            raise EnvironmentFault(f"{why}; this process stopped writing to the run: check it with "
+                                   f"'lccopt status {self.rd.path}'")
+
     def _snapshot(self) -> None:
         if self.table.seq == self._saved_seq:
             return
@@ -439,8 +462,8 @@ class Engine:
 
     def _write_results(self) -> None:
         t0 = time.perf_counter()
-        write_results(self.rd.results_path, self.table, case=self.case, problem=self.problem,
-                      meta=self.meta)
+        write_results(self.rd.at("results.h5"), self.table, case=self.case,
+                      problem=self.problem, meta=self.meta)
         self._results_at = time.monotonic()
         self.t_bookkeeping += time.perf_counter() - t0
 

@@ -8,14 +8,20 @@
                         replays the journal events after it)
       evals/NNNNNN.h5   one immutable file per evaluation (time histories), NNNNNN = id
       results.h5        table of all evaluations, rebuilt atomically from the journal
-      lock              fcntl lock: one process drives a run at a time
+      lock              who drives the run (pid, host, since)
 
-Every file but the journal is written to a temporary name, fsynced and renamed.
+One process drives a run: it holds an advisory lock (flock) on the journal, on the descriptor
+it appends with, and on ``lock``; a second driver is refused whatever happened to the lock file,
+and the driver checks now and then that both are still the run's files.
+
+The directory is held open (``safeio.Folder``) from the moment it is opened or made: every file
+is read, written and renamed relative to it, so moving the run directory or putting a link in
+its place while a command works on it never redirects a read or a write. Every file but the
+journal is written to a temporary name (fsynced) and renamed.
 """
 
 from __future__ import annotations
 
-import contextlib
 import datetime as _dt
 import errno
 import fcntl
@@ -24,14 +30,13 @@ import json
 import math
 import os
 import platform
-import shutil
-import tempfile
+import stat
+import time
 from pathlib import Path
 
 import numpy as np
 
-from ..atomic import atomic_path, atomic_write_bytes, fsync_dir, normal_mode
-from ..safeio import UnsafeFile, check_owned_dir, is_regular_file, kind_of, open_owned, read_owned
+from ..safeio import Folder, UnsafeFile, kind_of
 
 RESULTS_FORMAT = "lccopt-results"
 RESULTS_VERSION = 1
@@ -39,6 +44,12 @@ RUN_FORMAT = "lccopt-run"
 RUN_VERSION = 1
 MAX_META_BYTES = 1_000_000  # run.json is a few hundred bytes
 OBJECTIVE_NAMES = ("F_rms", "F_max", "E_rms", "E_max")   # the paper's: always a column
+JOURNAL = "journal.jsonl"
+LOCK = "lock"
+CREATING = ".creating-"     # .<name>.creating-XXXXXXXX: a run directory being made
+# what a run directory being made holds: a stale one with anything else is not removed
+CREATED = {"evals", "case.yaml", "case.source.yaml", "run.json", LOCK, JOURNAL}
+LOCK_RETRY = 1.0            # [s] a reader's shared peek at the lock may delay taking it
 
 
 class RunError(Exception):
@@ -68,193 +79,310 @@ def eval_name(i: int) -> str:
     return f"evals/{i:06d}.h5"
 
 
+def _flock(fh, exclusive: bool, wait: float = 0.0) -> bool:
+    """flock without blocking, retried for ``wait`` seconds (a reader's momentary shared lock
+    must not refuse a driver); True if got."""
+    deadline = time.monotonic() + wait
+    while True:
+        try:
+            fcntl.flock(fh.fileno(), (fcntl.LOCK_EX if exclusive else fcntl.LOCK_SH)
+                        | fcntl.LOCK_NB)
+            return True
+        except OSError as exc:
+            if exc.errno not in (errno.EAGAIN, errno.EACCES) or time.monotonic() >= deadline:
+                return False
+        time.sleep(0.02)
+
+
+def _say_holder(fh) -> None:
+    """Who drives the run, in its lock file (for people: the flock is what counts, so a full
+    disk that refuses these few bytes does not matter)."""
+    try:
+        fh.seek(0)
+        fh.truncate()
+        fh.write(f"pid {os.getpid()} on {platform.node()} since {now_iso()}\n")
+        fh.flush()
+    except OSError:
+        pass
+
+
 # ------------------------------------------------------------------------------ directory
 
 class RunDir:
-    def __init__(self, path: Path):
-        self.path = Path(path)
-        self._lock_fh = None
+    """A run directory. ``path`` names it in messages; every access goes through ``folder``,
+    the directory held open (opened at the first access, following the path the user gave)."""
 
-    journal_path = property(lambda self: self.path / "journal.jsonl")
+    def __init__(self, path: Path, folder: Folder | None = None):
+        self.path = Path(path)
+        self._folder = folder
+        self._evals: Folder | None = None
+        self._lock_fh = None
+        self._journal_fh = None
+
+    journal_path = property(lambda self: self.path / JOURNAL)
     state_path = property(lambda self: self.path / "state.json")
     results_path = property(lambda self: self.path / "results.h5")
     meta_path = property(lambda self: self.path / "run.json")
     case_path = property(lambda self: self.path / "case.yaml")
     evals_path = property(lambda self: self.path / "evals")
 
+    @property
+    def folder(self) -> Folder:
+        if self._folder is None:
+            try:
+                self._folder = Folder.open(self.path)
+            except FileNotFoundError:
+                raise RunError(f"{self.path}: no such run directory") from None
+            except UnsafeFile as exc:
+                raise RunError(str(exc)) from None
+            except OSError as exc:
+                raise RunError(f"{self.path}: cannot open the run directory "
+                               f"({exc.strerror or exc})") from None
+        return self._folder
+
+    def at(self, name: str) -> tuple[Folder, str]:
+        """(folder, name) of the run's file ``name`` (``evals/NNNNNN.h5`` too): where lccopt
+        reads or writes it."""
+        if name.startswith("evals/"):
+            return self.evals(), name[len("evals/"):]
+        return self.folder, name
+
+    def close(self) -> None:
+        self.unlock()
+        for f in (self._evals, self._folder):
+            if f is not None:
+                f.close()
+
     @classmethod
     def create(cls, path: Path, case, problem, evaluator: str) -> "RunDir":
-        """Create the directory atomically (build under a temporary name, then rename)."""
+        """Create the directory atomically (build it under a temporary name inside the runs
+        folder, then rename it); a creation a kill -9 left behind is removed first."""
         path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = Path(tempfile.mkdtemp(dir=path.parent, prefix=f".{path.name}.creating-"))
-        normal_mode(tmp, directory=True)
+        name = path.name
         try:
-            (tmp / "evals").mkdir()
-            resolved = case.resolved
-            meta = {
-                "format": RUN_FORMAT, "version": RUN_VERSION, "name": case.name,
-                "case_file": str(Path(case.path).resolve()), "case_sha256": sha256_text(resolved),
-                "created": now_iso(), "versions": versions(), "evaluator": evaluator,
-                # how each design variable is shown (name, unit, factor from SI): status reads it
-                "variables": [[v.name, *v.display] for v in case.variables],
-                # the --set items the case was loaded with: resume loads it the same way
-                "overrides": list(getattr(case, "overrides", ())),
-            }
-            (tmp / "case.yaml").write_text(resolved, encoding="utf-8")
-            (tmp / "case.source.yaml").write_text(case.text, encoding="utf-8")
-            (tmp / "run.json").write_text(json.dumps(meta, indent=2) + "\n", encoding="utf-8")
-            (tmp / "lock").touch()
-            with open(tmp / "journal.jsonl", "wb") as fh:
-                line = {"seq": 0, "event": "run", "time": now_iso(),
-                        "case_sha256": meta["case_sha256"],
-                        "budget": problem.budget, "objectives": list(problem.objectives),
-                        "seed": problem.seed, "versions": meta["versions"],
-                        # what the surrogate fits (Problem.surrogate: the objectives, the
-                        # sleeper energies or the value) and the optimiser's settings: a
-                        # resume rebuilds the optimiser from these (replay.restore)
-                        "surrogate": problem.surrogate,
-                        "optimiser": problem.optimiser_settings().to_dict()}
-                fh.write((json.dumps(line, separators=(",", ":")) + "\n").encode())
-                fh.flush()
-                os.fsync(fh.fileno())
-            for f in tmp.iterdir():
-                if f.is_file():
-                    with open(f, "rb") as fh:
-                        os.fsync(fh.fileno())
-            fsync_dir(tmp)
-            os.rename(tmp, path)
+            runs = Folder.open(path.parent, create=True)
         except OSError as exc:
-            shutil.rmtree(tmp, ignore_errors=True)
-            if exc.errno in (errno.EEXIST, errno.ENOTEMPTY):
-                raise RunError(f"{path} already exists (another run was started at the same "
-                               f"time?)") from None
-            raise
-        fsync_dir(path.parent)
-        return cls(path)
+            raise RunError(f"{path.parent}: cannot make the folder for run directories "
+                           f"({exc.strerror or exc})") from None
+        with runs:
+            clean_creations(runs, name)
+            tmp = runs.make_temp_dir(f".{name}{CREATING}", suffix="")
+            try:
+                made = runs.sub(tmp)
+                made.try_lock()   # a creation in progress: never taken for a stale one
+                _fill_new_run(made, case, problem, evaluator)
+                made.fsync()
+                runs.rename(tmp, name)
+                made.unlock()
+            except BaseException as exc:
+                try:
+                    runs.remove_tree(tmp)
+                except OSError:
+                    pass
+                if isinstance(exc, OSError) and exc.errno in (errno.EEXIST, errno.ENOTEMPTY):
+                    raise RunError(f"{path} already exists (another run was started at the same "
+                                   f"time?)") from None
+                raise
+            runs.fsync()
+        made.path = path
+        return cls(path, made)
 
     @classmethod
     def open(cls, path: Path) -> "RunDir":
         path = Path(path)
-        if not path.is_dir():
-            raise RunError(f"{path}: no such run directory")
-        if not all(os.path.lexists(path / name) for name in ("run.json", "journal.jsonl")):
-            raise RunError(f"{path}: not an lccopt run directory (no run.json or journal.jsonl)")
         rd = cls(path)
+        folder = rd.folder
+        if not all(folder.exists(name) for name in ("run.json", JOURNAL)):
+            raise RunError(f"{path}: not an lccopt run directory (no run.json or journal.jsonl)")
         rd.check_entries()
         return rd
 
-    OWNED_FILES = ("run.json", "journal.jsonl", "lock", "state.json", "results.h5", "case.yaml",
+    OWNED_FILES = ("run.json", JOURNAL, LOCK, "state.json", "results.h5", "case.yaml",
                    "case.source.yaml")
 
     def check_entries(self) -> None:
         """Every file and folder lccopt keeps in the run is what lccopt made: a regular file
-        (a real folder for evals/), never a link or a special file planted there (RunError)."""
+        (a real folder for evals/), never a link or a special file planted there (RunError).
+        Every command that opens a run (resume, status, report) checks it the same way."""
         for name in self.OWNED_FILES:
-            p = self.path / name
-            if os.path.lexists(p) and not is_regular_file(p):
-                raise RunError(f"{p}: {kind_of(os.lstat(p).st_mode)}, where lccopt keeps a file "
-                               f"of its own; lccopt never reads or writes through it: remove it")
-        if os.path.lexists(self.evals_path):
+            st = self.folder.lstat(name)
+            if st is not None and not stat.S_ISREG(st.st_mode):
+                raise RunError(f"{self.path / name}: {kind_of(st.st_mode)}, where lccopt keeps a "
+                               f"file of its own; lccopt never reads or writes through it: "
+                               f"remove it")
+        if self.folder.exists("evals"):
             try:
-                check_owned_dir(self.evals_path)
+                evals = self.evals(create=False)
             except UnsafeFile as exc:
                 raise RunError(f"{exc}") from None
-            for entry in os.scandir(self.evals_path):
-                if not entry.is_file(follow_symlinks=False):
-                    kind = kind_of(entry.stat(follow_symlinks=False).st_mode)
-                    raise RunError(f"{entry.path}: {kind} among the run's evaluation files; "
-                                   f"lccopt never reads or writes through it: remove it")
+            with os.scandir(evals.fd) as entries:
+                for entry in entries:
+                    if not entry.is_file(follow_symlinks=False):
+                        kind = kind_of(entry.stat(follow_symlinks=False).st_mode)
+                        raise RunError(f"{evals.display(entry.name)}: {kind} among the run's "
+                                       f"evaluation files; lccopt never reads or writes through "
+                                       f"it: remove it")
 
-    def evals_dir(self) -> Path:
-        """evals/, made again if it was deleted under the run; never a link (UnsafeFile)."""
-        try:
-            self.evals_path.mkdir()
-        except FileExistsError:
-            pass
-        check_owned_dir(self.evals_path)
-        return self.evals_path
+    def evals(self, create: bool = True) -> Folder:
+        """evals/, held open; made again if it was deleted under the run (``create``); never a
+        link (UnsafeFile)."""
+        st = self.folder.lstat("evals")
+        if self._evals is not None and st is not None and \
+                (st.st_dev, st.st_ino) == self._evals.identity:
+            return self._evals
+        if self._evals is not None:
+            self._evals.close()
+            self._evals = None
+        self._evals = self.folder.sub("evals", create=create)
+        return self._evals
 
     def meta(self) -> dict:
         try:
-            meta = json.loads(read_owned(self.meta_path, MAX_META_BYTES).decode("utf-8"))
+            meta = json.loads(self.folder.read("run.json", MAX_META_BYTES).decode("utf-8"))
         except (OSError, ValueError) as exc:
             raise RunError(f"{self.meta_path}: unreadable ({exc})") from None
         if not isinstance(meta, dict) or meta.get("format") != RUN_FORMAT:
             raise RunError(f"{self.meta_path}: not an lccopt run description")
         return meta
 
-    def locked_by_other(self) -> bool:
-        """True while another process holds the run's lock (flock: immune to PID reuse)."""
-        try:
-            fh = open_owned(self.path / "lock", "rb")
-        except FileNotFoundError:
-            return False
-        except OSError as exc:
-            raise RunError(f"{exc}") from None
-        try:
-            fcntl.flock(fh.fileno(), fcntl.LOCK_SH | fcntl.LOCK_NB)
-        except OSError:
-            return True
-        finally:
-            fh.close()  # closing drops a lock we got
-        return False
-
-    def write_meta(self, meta: dict) -> None:
-        atomic_write_bytes(self.meta_path, (json.dumps(meta, indent=2) + "\n").encode())
+    def read_text(self, name: str, limit: int | None = None) -> str:
+        """A file of the run as text (OSError, UnicodeDecodeError)."""
+        return self.folder.read(name, limit).decode("utf-8")
 
     # -- lock -------------------------------------------------------------------------------
+    def locked_by_other(self) -> bool:
+        """True while another process drives the run (flock on its journal or its lock file:
+        immune to PID reuse, to a deleted lock file and to a crashed holder)."""
+        for name in (JOURNAL, LOCK):
+            try:
+                fh = self.folder.open_file(name, "rb")
+            except FileNotFoundError:
+                continue
+            except OSError as exc:
+                raise RunError(f"{exc}") from None
+            try:
+                if not _flock(fh, exclusive=False):
+                    return True
+            finally:
+                fh.close()  # closing drops a lock we got
+        return False
+
     def lock(self) -> None:
+        """Become the run's one driver: flock the lock file and the journal (on the descriptor
+        the journal is appended with: ``journal_handle``); RunError if another process holds
+        either."""
         try:
-            fh = open_owned(self.path / "lock", "a+")
+            fh = self.folder.open_file(LOCK, "a+")
         except UnsafeFile as exc:
             raise RunError(f"{exc}") from None
         except OSError as exc:
-            raise RunError(f"{self.path / 'lock'}: cannot open the run's lock file "
+            raise RunError(f"{self.path / LOCK}: cannot open the run's lock file "
                            f"({exc.strerror or exc}); lccopt needs to write in the run "
                            f"directory") from None
+        journal = None
         try:
-            fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError:
-            fh.seek(0)
-            holder = fh.read().strip()
+            if not _flock(fh, exclusive=True, wait=LOCK_RETRY):
+                raise self._in_use(fh)
+            try:
+                journal = self.folder.open_fd(JOURNAL, os.O_WRONLY | os.O_APPEND)
+                journal = os.fdopen(journal, "ab")
+            except FileNotFoundError:
+                journal = None   # no journal: RunDir.open or resume says so
+            except UnsafeFile as exc:
+                raise RunError(f"{exc}") from None
+            if journal is not None:
+                if os.fstat(journal.fileno()).st_nlink > 1:
+                    raise RunError(f"{self.journal_path}: has other hard links; lccopt never "
+                                   f"writes to a file that is also elsewhere (copy it instead)")
+                if not _flock(journal, exclusive=True, wait=LOCK_RETRY):
+                    raise self._in_use(fh)
+        except BaseException:
             fh.close()
-            raise RunError(f"{self.path} is in use by another lccopt process"
-                           f"{' (' + holder + ')' if holder else ''}; wait for it to finish or "
-                           f"stop it first")
-        fh.seek(0)
-        fh.truncate()
-        fh.write(f"pid {os.getpid()} on {platform.node()} since {now_iso()}\n")
-        fh.flush()
-        self._lock_fh = fh
+            if journal is not None:
+                journal.close()
+            raise
+        _say_holder(fh)
+        self._lock_fh, self._journal_fh = fh, journal
+
+    def _in_use(self, fh) -> RunError:
+        try:
+            fh.seek(0)
+            holder = fh.read(200).strip()
+        except (OSError, ValueError):
+            holder = ""
+        holder = holder if holder.isprintable() else ""
+        return RunError(f"{self.path} is in use by another lccopt process"
+                        f"{' (' + holder + ')' if holder else ''}; wait for it to finish or "
+                        f"stop it first")
+
+    def journal_handle(self):
+        """The journal's file object, locked by :meth:`lock` (None before)."""
+        return self._journal_fh
+
+    def check_lock(self) -> str | None:
+        """While driving: why this process may no longer be the run's one driver (its journal
+        was replaced or removed), else None. A lock file that was removed or replaced is made
+        and locked again."""
+        if self._journal_fh is not None:
+            mine = os.fstat(self._journal_fh.fileno())
+            st = self.folder.lstat(JOURNAL)
+            if st is None or (st.st_dev, st.st_ino) != (mine.st_dev, mine.st_ino):
+                return (f"{self.journal_path} was {'removed' if st is None else 'replaced'} while "
+                        f"the run went (this process's journal is no longer the run's)")
+        if self._lock_fh is not None:
+            mine = os.fstat(self._lock_fh.fileno())
+            st = self.folder.lstat(LOCK)
+            if st is None or (st.st_dev, st.st_ino) != (mine.st_dev, mine.st_ino):
+                try:
+                    fh = self.folder.open_file(LOCK, "a+")
+                except OSError:
+                    return None   # the journal's lock still keeps a second driver out
+                if _flock(fh, exclusive=True):
+                    _say_holder(fh)
+                    self._lock_fh.close()
+                    self._lock_fh = fh
+                else:
+                    fh.close()
+        return None
 
     def unlock(self) -> None:
         if self._lock_fh is not None:
-            with contextlib.suppress(OSError):
+            try:
                 self._lock_fh.seek(0)
                 self._lock_fh.truncate()
-            fcntl.flock(self._lock_fh.fileno(), fcntl.LOCK_UN)
-            self._lock_fh.close()
+            except (OSError, ValueError):
+                pass
+            self._lock_fh.close()   # closing drops the flock
             self._lock_fh = None
+        if self._journal_fh is not None:
+            if not self._journal_fh.closed:
+                try:
+                    self._journal_fh.close()
+                except OSError:
+                    pass
+            self._journal_fh = None
 
-    # -- snapshot -----------------------------------------------------------------------------
+    # -- files -------------------------------------------------------------------------------
+    def write_meta(self, meta: dict) -> None:
+        self.folder.write("run.json", (json.dumps(meta, indent=2) + "\n").encode())
+
     def save_state(self, seq: int, state: dict, mark: str) -> None:
         """The optimiser's state after journal line ``seq`` (``mark``: that line's line_mark)."""
         data = json.dumps({"seq": seq, "mark": mark, "strategy": state}, allow_nan=False,
                           separators=(",", ":"))
-        atomic_write_bytes(self.state_path, data.encode())
+        self.folder.write("state.json", data.encode())
 
     def write_case(self, resolved: str) -> None:
-        atomic_write_bytes(self.case_path, resolved.encode("utf-8"))
+        self.folder.write("case.yaml", resolved.encode("utf-8"))
 
     def load_state(self) -> dict | None:
         """The optimiser snapshot, or None if there is none or it is not usable (it is a
         cache: resume then replays the whole journal)."""
         try:
-            d = json.loads(read_owned(self.state_path).decode("utf-8"))
+            d = json.loads(self.folder.read("state.json").decode("utf-8"))
             whole = isinstance(d, dict) and isinstance(d.get("seq"), int) and "strategy" in d
             return d if whole else None
-        except (OSError, ValueError):
+        except (OSError, ValueError, RunError):
             return None
 
     def clean(self, pending: set[str]) -> list[str]:
@@ -264,17 +392,67 @@ class RunDir:
         directory or in its own evals/ (never through a link): an evaluation file the journal
         does not account for is never removed (it may be the only copy of a result)."""
         gone = []
-        for d in (self.path, self.evals_path):
-            if d == self.evals_path:
-                if not os.path.lexists(d):
-                    continue
-                check_owned_dir(d)
-            for f in d.iterdir():
-                rel = f.relative_to(self.path).as_posix()
-                if is_regular_file(f) and (f.name.endswith(".tmp") or rel in pending):
-                    f.unlink()
-                    gone.append(rel)
+        places = [(self.folder, "")]
+        if self.folder.exists("evals"):
+            places.append((self.evals(create=False), "evals/"))
+        for folder, prefix in places:
+            for name in folder.names():
+                if folder.is_file(name) and (name.endswith(".tmp") or prefix + name in pending):
+                    folder.unlink(name)
+                    gone.append(prefix + name)
         return gone
+
+
+def _fill_new_run(made: Folder, case, problem, evaluator: str) -> None:
+    """The files of a new run directory (being made under a temporary name)."""
+    made.sub("evals", create=True).close()
+    resolved = case.resolved
+    meta = {
+        "format": RUN_FORMAT, "version": RUN_VERSION, "name": case.name,
+        "case_file": str(Path(case.path).resolve()), "case_sha256": sha256_text(resolved),
+        "created": now_iso(), "versions": versions(), "evaluator": evaluator,
+        # how each design variable is shown (name, unit, factor from SI): status reads it
+        "variables": [[v.name, *v.display] for v in case.variables],
+        # the --set items the case was loaded with: resume loads it the same way
+        "overrides": list(getattr(case, "overrides", ())),
+    }
+    made.write("case.yaml", resolved.encode("utf-8"))
+    made.write("case.source.yaml", case.text.encode("utf-8"))
+    made.write("run.json", (json.dumps(meta, indent=2) + "\n").encode("utf-8"))
+    made.write(LOCK, b"")
+    line = {"seq": 0, "event": "run", "time": now_iso(), "case_sha256": meta["case_sha256"],
+            "budget": problem.budget, "objectives": list(problem.objectives),
+            "seed": problem.seed, "versions": meta["versions"],
+            # what the surrogate fits (Problem.surrogate: the objectives, the sleeper energies
+            # or the value) and the optimiser's settings: a resume rebuilds the optimiser from
+            # these (replay.restore)
+            "surrogate": problem.surrogate,
+            "optimiser": problem.optimiser_settings().to_dict()}
+    made.write(JOURNAL, (json.dumps(line, separators=(",", ":")) + "\n").encode())
+
+
+def clean_creations(runs: Folder, name: str) -> list[str]:
+    """Remove the run directories named ``name`` that a killed ``optimise`` left half made
+    (``.<name>.creating-*``): only real folders that no live process holds (a creation holds a
+    flock on its folder), that hold nothing but what a new run holds, and that are not empty or
+    older than a minute (an empty one may be one being made this instant); return them."""
+    gone = []
+    for entry in runs.names():
+        if not entry.startswith(f".{name}{CREATING}"):
+            continue
+        try:
+            with runs.sub(entry) as made:
+                if not made.try_lock():
+                    continue
+                inside = set(made.names())
+                fresh = time.time() - os.fstat(made.fd).st_mtime < 60
+                if not inside <= CREATED or (not inside and fresh):
+                    continue
+                runs.remove_tree(entry)
+                gone.append(entry)
+        except OSError:
+            continue
+    return gone
 
 
 # ------------------------------------------------------------------------------ table
@@ -290,6 +468,7 @@ class Table:
         self.finished = False
         self.seq = -1
         self.last_event: dict | None = None
+        self.head_mark = ""                  # line_mark of the run's first line: which run it is
         self.lag: int | None = None          # the schedule's lag (workers) of the last session
         self.batch = 1                       # and its block size (schedule.batch_size)
 
@@ -297,6 +476,10 @@ class Table:
         self.seq = ev["seq"]
         self.last_event = ev
         kind = ev["event"]
+        if self.seq == 0:
+            from .journal import line_mark
+
+            self.head_mark = line_mark(ev)
         if kind == "asked":
             self.rows[ev["id"]] = {
                 "id": ev["id"], "x": list(ev["x"]), "phase": ev["phase"], "restart": ev["restart"],
@@ -374,17 +557,20 @@ def objective_columns(rows: list[dict], objectives) -> list[str]:
     return out
 
 
-def write_results(path: Path, table: Table, *, case, problem, meta: dict) -> None:
-    """Write results.h5 (layout in docs/runs.md, 'results.h5') to tmp, fsync, rename."""
+def write_results(dest, table: Table, *, case, problem, meta: dict) -> None:
+    """Write results.h5 (layout in docs/runs.md, 'results.h5') whole or not at all (``dest``: a
+    path or ``(Folder, name)``, as ``store.write_h5``)."""
     import h5py
 
+    from ..store import write_h5
     from ..vti.response import objective_unit
+    from .journal import line_mark
 
-    path = Path(path)
     rows = table.done_rows()
     n, d = len(rows), len(table.names)
     sdt = h5py.string_dtype()
-    with atomic_path(path) as tmp, h5py.File(tmp, "w") as f:
+
+    def fill(f):
         a = f.attrs
         a["format"], a["format_version"] = RESULTS_FORMAT, RESULTS_VERSION
         a["case_name"] = case.name
@@ -398,6 +584,10 @@ def write_results(path: Path, table: Table, *, case, problem, meta: dict) -> Non
         a["n_pending"] = len(table.pending_ids())
         a["finished"] = bool(table.finished)
         a["journal_seq"] = table.seq
+        # which run and which state of it: a reader takes the table from the journal when
+        # these do not match its lines (another run's results.h5 put in its place)
+        a["run_mark"] = table.head_mark
+        a["journal_mark"] = line_mark(table.last_event) if table.last_event else ""
         a["created"], a["updated"] = meta.get("created", ""), now_iso()
 
         g = f.create_group("case")
@@ -478,3 +668,5 @@ def write_results(path: Path, table: Table, *, case, problem, meta: dict) -> Non
             ds.attrs["names"] = list(table.names)
             for k, v in best["objectives"].items():
                 g.attrs[k] = v
+
+    write_h5(dest, fill)

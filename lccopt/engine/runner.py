@@ -6,7 +6,6 @@ optimiser from the journal (``replay``) and re-runs the evaluations asked withou
 from __future__ import annotations
 
 import os
-import shutil
 from pathlib import Path
 
 from .. import machine
@@ -15,11 +14,12 @@ from ..errors import UsageError
 from ..problem import Problem
 from .dask_pool import DaskExecutor
 from .executors import ExecutorError, LocalPool, default_workers
-from .journal import Journal, JournalError, read_journal
+from .journal import Journal, JournalError, read_journal, repair
 from .loop import Engine
 from .progress import Progress, fmt
 from .replay import restore
 from .rundir import (
+    JOURNAL,
     RunDir,
     RunError,
     Table,
@@ -73,11 +73,7 @@ def optimise(case, workers: int | None = None, scheduler=None, runs: Path = Path
                                Progress(0, stream, progress).log)
     try:
         if run_path.exists():
-            old = RunDir(run_path)
-            if (run_path / "lock").exists():
-                old.lock()  # refuse to delete a run another process is driving
-            shutil.rmtree(run_path)
-            old.unlock()
+            _remove_run(run_path, Path(runs))
         rd = RunDir.create(run_path, case_obj, problem,
                            spec if isinstance(spec, str) else repr(spec))
         rd.lock()
@@ -87,7 +83,7 @@ def optimise(case, workers: int | None = None, scheduler=None, runs: Path = Path
             raise _usage_error(str(exc)) from None
         raise
     try:
-        journal, events, _ = Journal.open(rd.journal_path)
+        journal, events, _ = Journal.open(rd.at(JOURNAL), rd.journal_handle())
         strategy, table = restore(problem, events, None)
         engine = Engine(rd, case_obj, problem, journal, table, strategy, executor,
                         Progress(problem.budget, stream, progress))
@@ -96,8 +92,25 @@ def optimise(case, workers: int | None = None, scheduler=None, runs: Path = Path
         raise _usage_error(str(exc)) from None
     finally:
         executor.close()
-        rd.unlock()
+        rd.close()
     return rd.path
+
+
+def _remove_run(run_path: Path, runs: Path) -> None:
+    """Remove the run directory ``run_path`` (``--force``), once no process drives it, through
+    the runs folder held open: the directory removed is the one that was checked and locked."""
+    from ..safeio import Folder
+
+    old = RunDir(run_path)
+    try:
+        old.lock()  # refuse to delete a run another process is driving
+        with Folder.open(runs) as folder:
+            st = folder.lstat(run_path.name)
+            if st is None or (st.st_dev, st.st_ino) != old.folder.identity:
+                raise RunError(f"{run_path} was moved or replaced meanwhile; nothing removed")
+            folder.remove_tree(run_path.name)
+    finally:
+        old.close()
 
 
 def _kind(path: Path) -> str:
@@ -152,8 +165,10 @@ def _start_executor(case, spec, workers, scheduler, problem, log=None):
 
 def resume(run, workers: int | None = None, scheduler=None, case=None,
            allow_changed_case: bool = False, budget: int | None = None, *, evaluator=None,
-           progress: bool = True, stream=None) -> Path:
-    """Carry on the run in directory RUN; see the module docstring."""
+           progress: bool = True, stream=None, repair_journal: bool = False) -> Path:
+    """Carry on the run in directory RUN; see the module docstring. ``repair_journal``: a
+    journal damaged by something other than lccopt is cut back to the lines before the damage
+    (the whole file kept beside it as journal.damaged-N.jsonl) and the run carries on."""
     _check_options(workers, scheduler)
     out = Progress(0, stream, progress)
     try:
@@ -165,14 +180,33 @@ def resume(run, workers: int | None = None, scheduler=None, case=None,
         meta = rd.meta()
         if not isinstance(meta, dict):
             raise RunError(f"{rd.meta_path}: not an lccopt run description")
-        events, _, _ = read_journal(rd.journal_path)
+        try:
+            events, _, _ = read_journal(rd.at(JOURNAL))
+        except JournalError as exc:
+            events = exc.events
+            if not (events and events[0].get("event") == "run"):
+                raise
+            # e.g. two processes appended at once (an lccopt that did not lock the run, or a
+            # copy of the run driven beside it): the lines before the damage are one
+            # process's, whole and in order; carry on from them only when asked to
+            if not repair_journal:
+                raise JournalError(
+                    f"{exc.args[0].split(';')[0]}; the journal was changed by something other "
+                    f"than lccopt: carry on from the {exc.line - 1} lines before it with "
+                    f"'lccopt resume {rd.path} --repair-journal' (the whole journal is kept "
+                    f"beside it; what the lines after it recorded is simulated again)") from None
+            kept = repair(rd.at(JOURNAL), rd.journal_handle(), exc)
+            out.log(f"{exc.args[0].split(';')[0]}: carrying on from the {exc.line - 1} lines "
+                    f"before it (the evaluations after it run again); the whole journal is kept "
+                    f"as {rd.path / kept}")
         if not events or events[0].get("event") != "run":
-            n = len(list(rd.evals_path.glob("*.h5"))) if rd.evals_path.is_dir() else 0
+            n = (len([n for n in rd.evals(create=False).names() if n.endswith(".h5")])
+                 if rd.folder.exists("evals") else 0)
             raise RunError(f"{rd.journal_path} is empty or does not start with the run's first "
                            f"line: this run cannot be carried on safely ({n} evaluation file(s) "
                            f"kept as they are); restore the journal, or start a new run under "
                            f"another name")
-        journal, events, torn = Journal.open(rd.journal_path)
+        journal, events, torn = Journal.open(rd.at(JOURNAL), rd.journal_handle())
         if torn:
             out.log("dropped a torn last line of the journal (the run was killed while writing "
                     "it)")
@@ -214,7 +248,7 @@ def resume(run, workers: int | None = None, scheduler=None, case=None,
         if strategy.done and not table.pending_ids() and not lost:
             if not table.finished:
                 table.apply(journal.append("finished", time=now_iso(), evaluations=table.n_done))
-            write_results(rd.results_path, table, case=case_obj, problem=problem, meta=meta)
+            write_results(rd.at("results.h5"), table, case=case_obj, problem=problem, meta=meta)
             best = table.best()
             out.log(f"{rd.path} is finished: {table.n_done} evaluations ({table.n_failed} failed); "
                     "nothing to do")
@@ -235,7 +269,7 @@ def resume(run, workers: int | None = None, scheduler=None, case=None,
     except (ExecutorError, JournalError, RunError) as exc:
         raise _usage_error(str(exc)) from None
     finally:
-        rd.unlock()
+        rd.close()
     return rd.path
 
 
@@ -245,7 +279,20 @@ def _lost_files(rd: RunDir, table: Table) -> list[int]:
     from ..store import evaluation_problem
 
     return [i for i, r in sorted(table.rows.items()) if r["status"] == "ok" and r["file"]
-            and evaluation_problem(rd.path / r["file"], i, r["x"]) is not None]
+            and evaluation_problem(rd.at(r["file"]), i, r["x"], table.head_mark) is not None]
+
+
+def _run_case(rd: RunDir, overrides=()) -> Case:
+    """The run's own copy of its case (case.yaml), read through the run directory held open."""
+    from ..config.reading import MAX_CASE_FILE_BYTES, case_text
+    from ..errors import CaseError
+
+    try:
+        data = rd.folder.read("case.yaml", MAX_CASE_FILE_BYTES)
+    except OSError as exc:
+        raise CaseError(f"{rd.case_path}: cannot read the run's copy of its case "
+                        f"({exc.strerror or exc})") from None
+    return load_case(rd.case_path, overrides, text=case_text(data, rd.case_path))
 
 
 def _check_options(workers, scheduler) -> None:
@@ -276,10 +323,16 @@ def _resume_case(rd: RunDir, meta: dict, case, allow_changed: bool, out: Progres
             out.log(f"the case file {original} is gone; using the run's copy {rd.case_path}")
             case = rd.case_path
     overrides = [o for o in meta.get("overrides") or [] if isinstance(o, str)]
-    case_obj = case if isinstance(case, Case) else load_case(case, overrides)
+    if isinstance(case, Case):
+        case_obj = case
+    elif Path(case) == rd.case_path:
+        case_obj = _run_case(rd, overrides)
+    else:
+        case_obj = load_case(case, overrides)
     if budget is not None and sha256_text(case_obj.resolved) == meta.get("case_sha256"):
         # the same case with another budget: the one change --budget asks for
-        case_obj = load_case(case_obj.path, [*overrides, f"optimisation.budget={int(budget)}"])
+        case_obj = load_case(case_obj.path, [*overrides, f"optimisation.budget={int(budget)}"],
+                             text=case_obj.text)
         allow_changed = True
     if sha256_text(case_obj.resolved) != meta.get("case_sha256"):
         if not allow_changed:
@@ -288,7 +341,7 @@ def _resume_case(rd: RunDir, meta: dict, case, allow_changed: bool, out: Progres
                 f"changed since the run started (the resolved case differs from {rd.case_path}); "
                 f"restore it, resume with --case {rd.case_path} (the run's copy), or with "
                 f"--allow-changed-case to use the changed case")
-        old_case = load_case(rd.case_path)
+        old_case = _run_case(rd)
         old, new = Problem.from_case(old_case), Problem.from_case(case_obj)
         if not old.same_space(new):
             raise _usage_error(f"the changed case {case_obj.path} has other design variables, "

@@ -12,11 +12,10 @@ import math
 import time
 from pathlib import Path
 
-from ..safeio import read_owned
 from ..terminal import wrap_items
-from .journal import read_journal
+from .journal import JournalError, read_journal
 from .progress import best_text, hms
-from .rundir import RunDir, RunError, Table
+from .rundir import JOURNAL, RunDir, RunError, Table
 
 RATE_WINDOW = 20  # results over which the current pace is measured
 
@@ -24,7 +23,12 @@ RATE_WINDOW = 20  # results over which the current pace is measured
 def status_lines(run: Path) -> list[str]:
     """The lines ``lccopt status`` prints (RunError if RUN is not a run directory)."""
     rd = RunDir.open(Path(run))
-    events, _, _ = read_journal(rd.journal_path)
+    try:
+        events, _, _ = read_journal(rd.at(JOURNAL))
+    except JournalError as exc:
+        raise RunError(f"{exc.args[0].split(';')[0]}; the journal was changed by something other "
+                       f"than lccopt: 'lccopt resume {rd.path} --repair-journal' carries on from "
+                       f"the {exc.line - 1} lines before it") from None
     if not events or events[0].get("event") != "run":
         raise RunError(f"{rd.journal_path} is empty or not an lccopt journal")
     head = events[0]
@@ -74,7 +78,7 @@ def _timing(events: list[dict], table: Table, budget: int, running: bool) -> lis
 def _variables(rd: RunDir) -> list[tuple[str, str, float]] | None:
     """(name, unit, factor) of each design variable, as run.json records them."""
     try:
-        meta = json.loads(read_owned(rd.meta_path, 1_000_000).decode("utf-8"))
+        meta = json.loads(rd.read_text("run.json", 1_000_000))
         return [(str(n), str(u), float(f)) for n, u, f in meta["variables"]]
     except (OSError, ValueError, KeyError, TypeError):
         return None

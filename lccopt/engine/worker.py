@@ -74,6 +74,11 @@ class Task:
     out_path: str | None = None  # local pool: the worker writes evals/NNNNNN.h5 itself
     condition: int = -1          # traffic condition (engine/conditions.py); -1: the case as it is
     histories: bool = True       # keep the time histories (else only the per-sleeper ones)
+    # (st_dev, st_ino) of the run's evals/: the worker writes there only if out_path's folder is
+    # that directory (not if the run directory was moved or a link put in its place)
+    out_dir_id: tuple | None = None
+    probe: tuple | None = None   # Dask: (file name, content) the worker must find in that folder
+    run: str = ""                # the run's mark (its first journal line's): recorded in the file
 
 
 # Histories small enough to keep for every design (one value per sleeper, not per time step):
@@ -138,26 +143,54 @@ def run_task(case, task: Task, evaluator: Callable, worker: str) -> Outcome:
     wall = time.perf_counter() - t0
     out = Outcome.of(task, objectives=objectives, parts=parts, info=_plain(ev.info), wall_time=wall,
                      worker=worker, machine=machine.describe())
-    if task.out_path:
+    folder = _out_folder(task) if task.out_path else None
+    if folder is not None:
         try:
             from ..store import write_evaluation
 
-            write_evaluation(task.out_path, kept(ev, task.histories), task.x, case.names,
-                             attrs={"id": task.id, "phase": task.phase, "restart": task.restart,
-                                    "worker": worker, "wall_time": wall,
-                                    "condition": task.condition, **out.machine}, durable=False)
+            attrs = {"id": task.id, "phase": task.phase, "restart": task.restart,
+                     "worker": worker, "wall_time": wall, "condition": task.condition,
+                     **({"run": task.run} if task.run else {}), **out.machine}
+            write_evaluation((folder, os.path.basename(task.out_path)), kept(ev, task.histories),
+                             task.x, case.names, attrs=attrs, durable=False)
             out.file_written = True
         except Exception as exc:  # noqa: BLE001
             from ..errors import describe_os_error, environment_errno
 
             if environment_errno(exc) is not None:  # not the design's fault: the run must stop
                 out.objectives = None
-                out.fault = f"cannot write {task.out_path}: {describe_os_error(exc)}"
+                out.fault = describe_os_error(exc)
             else:
                 out.objectives, out.error = None, f"could not write {task.out_path}: {exc}"
+        finally:
+            folder.close()
     else:
         out.evaluation = kept(ev, task.histories)
     return out
+
+
+def _out_folder(task: Task):
+    """The run's evals/ as this worker sees it at ``task.out_path``'s folder, held open; None
+    (the evaluation goes back whole, for the lccopt process to write) if that path does not
+    lead to the run's own directory: the run directory was moved or a link put in its place,
+    or, on Dask, this worker does not see it."""
+    from ..safeio import Folder
+
+    try:
+        folder = Folder.open(os.path.dirname(task.out_path))
+    except OSError:
+        return None
+    try:
+        if task.probe is not None:
+            name, content = task.probe
+            if folder.read(name, 100).decode("ascii", "replace") != content:
+                raise OSError("not the run's folder")
+        elif task.out_dir_id is not None and folder.identity != tuple(task.out_dir_id):
+            raise OSError("not the run's folder")
+    except OSError:
+        folder.close()
+        return None
+    return folder
 
 
 def _plain(info: dict) -> dict:

@@ -25,20 +25,24 @@ Writes into ``RUN/report/`` (or ``--out DIR``):
 
 Read-only on the run: results.h5 is opened read-only and read at once (the engine replaces it
 atomically); when the journal has committed more evaluations than results.h5 shows (a running
-or killed run), the evaluation table is rebuilt from the journal instead. Only the evaluation
-files of the best and the reference design are read; missing ones (failed evaluations, files of
-a fake evaluator without histories) leave a note instead of a figure.
+or killed run), or results.h5 is not this run's (its identity does not match the journal's
+lines), the evaluation table is rebuilt from the journal instead. Only the evaluation files of
+the best and the reference design are read; missing ones (failed evaluations, files of a fake
+evaluator without histories) leave a note instead of a figure.
+
+Written whole or not at all (``lccopt.outdir``): every file is drawn into a staging folder, and
+only a complete report is moved into place; RUN/report/ is replaced whole (an old report's
+files never stay beside a new one's), a user's --out folder gets the report's files, one
+report at a time per folder.
 """
 
 from __future__ import annotations
 
 import json
 import math
-import os
 from pathlib import Path
 
-from ..atomic import atomic_write_text
-from ..safeio import UnsafeFile, check_owned_dir
+from ..outdir import Output
 from .along_track import fig_contact_force, fig_sleeper_energy
 from .data import FIGURES, FORMATS, _usage, load_run, pct, read_history
 from .design import fig_best_vs_reference, fig_conditions, fig_track_layout
@@ -71,37 +75,41 @@ def write_report(run: Path, format: str = "both", out: Path | None = None,
     if fmt_ not in FORMATS:
         raise _usage(f"--format must be one of {', '.join(FORMATS)}, got {format!r}")
     data = load_run(Path(run))
+    try:
+        with _output(data, out, force) as output:
+            summary, figs, wrote = _draw(data, fmt_, output.root, t0)
+    finally:
+        data.rd.close()
+    import typer
+
+    typer.echo(f"report of '{data.name}' ({data.n}/{data.budget} evaluations, {data.state})")
+    if "best" in summary:  # a line of its own: one line would wrap on an 80-column terminal
+        typer.echo(f"  best #{summary['best']['id']}: " + ", ".join(
+            f"{k} {pct(summary['best']['objectives'][k], data.ref_objectives.get(k, math.nan))}"
+            for k in data.objectives))
+    typer.echo(f"  {len(figs)} figures and {', '.join(p.name for p in wrote)} in "
+               f"{output.shown} ({summary['seconds']:.1f} s)")
+    return output.shown
+
+
+def _output(data, out: Path | None, force: bool) -> Output:
+    """Where the report goes: RUN/report (lccopt's own, replaced whole), or a folder of the
+    user's (``out``), whose report files are refused unless ``force``."""
     import typer
 
     for warning in data.warnings:
         typer.echo(f"lccopt: warning: {warning}", err=True)
     own = data.path / "report"
-    theirs = out is not None and Path(out).absolute() != own.absolute()
-    out = Path(out) if theirs else own
-    if not theirs and os.path.lexists(own):
-        try:
-            check_owned_dir(own)   # a link planted as RUN/report is never written through
-        except UnsafeFile as exc:
-            raise _usage(str(exc)) from None
-    if out.exists() and not out.is_dir():
-        raise _usage(f"--out {out} is a file, not a folder")
-    if theirs and not force:
-        names = (*REPORT_FILES, *(f"{f}.png" for f in FIGURES))
-        taken = [n for n in names if os.path.lexists(out / n)]
-        if taken:
-            raise _usage(f"{out} already holds {taken[0]}{' and more' if len(taken) > 1 else ''}: "
-                         f"choose another --out, or add --force to replace them")
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise _usage(f"cannot create {out}: {exc.strerror or exc}") from None
-    if not theirs:
-        # figures of an earlier report that this one may not redraw; only ever inside the run
-        # directory: a user's --out folder is written to, never cleaned
-        for name in FIGURES:
-            p = out / f"{name}.png"
-            if os.path.lexists(p):
-                p.unlink()
+    if out is None or Path(out).absolute() == own.absolute():
+        return Output.own(data.rd.folder, "report", own, "report")
+    names = (*REPORT_FILES, *(f"{f}.png" for f in FIGURES))
+    return Output.into(Path(out), names, (), force, "report")
+
+
+def _draw(data, fmt_: str, out, t0: float):
+    """Every figure and the summary of ``data`` into ``out`` (a staged folder); return
+    (summary, figures, summary files)."""
+    import time
 
     figs: dict[str, Path] = {}
     notes: dict[str, str] = {}
@@ -157,22 +165,14 @@ def write_report(run: Path, format: str = "both", out: Path | None = None,
     doc, summary = build_summary(data, figs, notes, facts, indices, settlement)
     wrote = []
     if fmt_ in ("md", "both"):
-        atomic_write_text(out / "report.md", doc.markdown())
-        wrote.append(out / "report.md")
+        wrote.append((out / "report.md").write_bytes(doc.markdown().encode("utf-8")))
     if fmt_ in ("html", "both"):
-        atomic_write_text(out / "report.html", doc.html(f"lccopt report: {data.name}"))
-        wrote.append(out / "report.html")
+        wrote.append((out / "report.html").write_bytes(
+            doc.html(f"lccopt report: {data.name}").encode("utf-8")))
     summary["seconds"] = round(time.perf_counter() - t0, 2)
-    atomic_write_text(out / "summary.json", json.dumps(summary, indent=2, allow_nan=True) + "\n")
-
-    typer.echo(f"report of '{data.name}' ({data.n}/{data.budget} evaluations, {data.state})")
-    if "best" in summary:  # a line of its own: one line would wrap on an 80-column terminal
-        typer.echo(f"  best #{summary['best']['id']}: " + ", ".join(
-            f"{k} {pct(summary['best']['objectives'][k], data.ref_objectives.get(k, math.nan))}"
-            for k in data.objectives))
-    typer.echo(f"  {len(figs)} figures and {', '.join(p.name for p in wrote)} in {out} "
-               f"({summary['seconds']:.1f} s)")
-    return out
+    (out / "summary.json").write_bytes(
+        (json.dumps(summary, indent=2, allow_nan=True) + "\n").encode("utf-8"))
+    return summary, figs, wrote
 
 
 def _settlement_figures(data, histories, bi: int, out: Path, figs: dict):

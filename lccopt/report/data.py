@@ -4,14 +4,12 @@ from __future__ import annotations
 
 import json
 import math
-import os
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from ..safeio import h5_open_owned, is_regular_file, read_owned
+from ..safeio import h5_open_owned, h5_read
 from ..vti.response import OBJECTIVE_DOC, improvement_sign  # noqa: F401 (re-exported)
 from ..vti.response import objective_display as obj_display
 
@@ -62,6 +60,7 @@ class VarInfo:
 @dataclass
 class RunData:
     path: Path
+    rd: object                     # the run directory (engine.rundir.RunDir), held open
     name: str
     objectives: list[str]
     scalarisation: str
@@ -98,6 +97,7 @@ class RunData:
     sessions_wall: float = math.nan
     conditions: list[str] = field(default_factory=list)   # traffic conditions, in case order
     cond_obj: dict = field(default_factory=dict)   # condition -> objective name -> array
+    run_mark: str = ""             # the run's identity (its first journal line's mark)
 
     @property
     def n(self) -> int:
@@ -166,19 +166,19 @@ def _var_info(name: str, group: str, integer: bool, lo: float, hi: float, ref: f
     return VarInfo(name, group, integer, lo, hi, ref, name, "", 1.0)
 
 
-def _load_case(run: Path, resolved_text: str | None):
-    """The run's case (resolved copy), or (None, why)."""
+def _load_case(rd, resolved_text: str | None):
+    """The run's case (resolved copy, read through the run directory held open), or
+    (None, why)."""
     from ..config import load_case
+    from ..config.reading import MAX_CASE_FILE_BYTES, case_text
     from ..errors import CaseError
 
-    candidates = []
-    if is_regular_file(run / "case.yaml"):   # never a link planted in the run
-        candidates.append(run / "case.yaml")
     why = "no case.yaml in the run directory"
-    for p in candidates:
+    if rd.folder.is_file("case.yaml"):   # never a link planted in the run
         try:
-            return load_case(p), ""
-        except CaseError as exc:
+            data = rd.folder.read("case.yaml", MAX_CASE_FILE_BYTES)
+            return load_case(rd.case_path, text=case_text(data, rd.case_path)), ""
+        except (CaseError, OSError) as exc:
             why = str(exc)
     if resolved_text:
         # e.g. an irregularity file relative to the original case: load without it
@@ -188,69 +188,93 @@ def _load_case(run: Path, resolved_text: str | None):
             data = yaml.safe_load(resolved_text)
             if isinstance(data, dict) and isinstance(data.get("simulation"), dict):
                 data["simulation"].pop("irregularity", None)
-            with tempfile.TemporaryDirectory() as d:
-                p = Path(d) / "case.yaml"
-                p.write_text(yaml.safe_dump(data, sort_keys=False), encoding="utf-8")
-                return load_case(p), ""
+            return load_case(rd.case_path, text=yaml.safe_dump(data, sort_keys=False)), ""
         except Exception as exc:  # noqa: BLE001 - a report without the case is still a report
             why = f"{why}; {exc}"
     return None, why
 
 
-def _lock_state(run: Path) -> str:
+def _lock_state(rd) -> str:
     """'running' while a process holds the run's flock, else 'stopped' (a PID in the file
     could have been reused by another program; the kernel's lock cannot lie)."""
-    from ..engine.rundir import RunDir, RunError
+    from ..engine.rundir import RunError
 
     try:
-        return "running" if RunDir(run).locked_by_other() else "stopped"
+        return "running" if rd.locked_by_other() else "stopped"
     except RunError as exc:
         raise _usage(str(exc)) from None
 
 
-def load_run(path: Path) -> RunData:
-    """Read a run directory (finished, running or interrupted); UsageError if it is not one."""
-
-    from ..engine.journal import JournalError, read_journal
+def open_run(path: Path):
+    """The run directory at ``path``, held open and checked as every command checks it
+    (``RunDir.open``: no link or special file where the run keeps its own); UsageError if it is
+    not one."""
+    from ..engine.rundir import RunDir, RunError
 
     run = Path(path)
     if not run.exists():
         raise _usage(f"{run}: no such run directory")
     if not run.is_dir():
         raise _usage(f"{run}: not a directory (expected a run directory such as runs/<case name>)")
-    has_results = os.path.lexists(run / "results.h5")
-    has_journal = os.path.lexists(run / "journal.jsonl")
-    if not has_results and not has_journal:
-        raise _usage(f"{run}: not an lccopt run directory (no results.h5 or journal.jsonl)")
+    rd = RunDir(run)
+    try:
+        folder = rd.folder
+        if not folder.exists("results.h5") and not folder.exists("journal.jsonl"):
+            raise RunError(f"{run}: not an lccopt run directory (no results.h5 or journal.jsonl)")
+        rd.check_entries()
+    except RunError as exc:
+        rd.close()
+        raise _usage(str(exc)) from None
+    return rd
+
+
+def load_run(path: Path) -> RunData:
+    """Read a run directory (finished, running or interrupted); UsageError if it is not one."""
+
+    from ..engine.journal import JournalError, line_mark, read_journal
+
+    rd = open_run(path)
+    run, folder = rd.path, rd.folder
+    has_results = folder.exists("results.h5")
+    has_journal = folder.exists("journal.jsonl")
 
     res = None
     res_error = ""
     if has_results:
         try:
-            res = _read_results(run / "results.h5")
-        except (OSError, KeyError, ValueError) as exc:
+            res = _read_results((folder, "results.h5"))
+        except (OSError, KeyError, ValueError, TypeError) as exc:
             res_error = f"{run / 'results.h5'} is unreadable ({exc})"
     events: list[dict] = []
     journal_error = ""
     if has_journal:
         try:
-            events, _, _ = read_journal(run / "journal.jsonl")
+            events, _, _ = read_journal((folder, "journal.jsonl"))
         except (JournalError, OSError) as exc:
-            if res is None:
+            events = getattr(exc, "events", [])   # the lines before the damage
+            if res is None and not events:
                 raise _usage(f"{run}: cannot "
                              f"read the run: {res_error or 'no results.h5'}; {exc}") from None
-            journal_error = f"{exc}; the table is results.h5's, which may lag the run"
+            journal_error = (f"{exc}; the table is results.h5's, which may lag the run"
+                             if res is not None else f"{exc}; the table holds the lines before it")
     if res is None and not events:
         raise _usage(f"{run}: cannot read the run: "
                      f"{res_error or 'no results.h5 and an empty journal'}")
 
     journal_seq = events[-1]["seq"] if events else -1
     notes = [journal_error] if journal_error else []
-    if res is not None and (not events or res["journal_seq"] >= journal_seq):
+    foreign = res is not None and events and not _results_match(res, events, line_mark,
+                                                                 bool(journal_error))
+    if foreign:
+        notes.append("results.h5 is not this run's (its identity does not match the journal's "
+                     "lines: another run's file, or another state of this one); the table was "
+                     "rebuilt from the journal")
+        res = None
+    if res is not None and (not events or journal_error or res["journal_seq"] >= journal_seq):
         d, source = res, "results.h5"
     else:
         try:
-            d = _from_journal(run, events, res)
+            d = _from_journal(rd, events, res)
         except (KeyError, TypeError, ValueError, IndexError) as exc:
             if res is None:
                 raise _usage(f"{run}: cannot read the run: {res_error or 'no results.h5'}; "
@@ -268,7 +292,7 @@ def load_run(path: Path) -> RunData:
     if len(d["ids"]) == 0:
         raise _usage(f"{run}: nothing to report yet: no evaluation has finished")
 
-    case, case_note = _load_case(run, d.get("resolved"))
+    case, case_note = _load_case(rd, d.get("resolved"))
     names = list(d["names"])
     variables = []
     if case is not None and case.names == names:
@@ -294,12 +318,12 @@ def load_run(path: Path) -> RunData:
                                        float(d["ref_x"][i]), len(same),
                                        same.index(i)))
 
-    lock = _lock_state(run)
+    lock = _lock_state(rd)
     state = "finished" if d["finished"] else ("running" if lock == "running" else "interrupted")
     sessions = [ev.get("wall_time", 0.0) for ev in events if ev.get("event") == "session"]
     created = d.get("created") or (events[0].get("time", "") if events else "")
     return RunData(
-        path=run, name=d["name"] or run.name, objectives=list(d["objectives"]),
+        path=run, rd=rd, name=d["name"] or run.name, objectives=list(d["objectives"]),
         scalarisation=d["scalarisation"], budget=int(d["budget"]), names=names, variables=variables,
         ids=d["ids"], x=d["x"], obj=d["obj"], value=d["value"], status=d["status"],
         reason=d["reason"],
@@ -311,21 +335,36 @@ def load_run(path: Path) -> RunData:
         notes=notes, warnings=[journal_error] if journal_error else [], created=created,
         updated=d.get("updated", ""),
         sessions_wall=float(sum(sessions)) if sessions else math.nan,
-        conditions=list(d.get("conditions", [])), cond_obj=d.get("cond_obj", {}))
+        conditions=list(d.get("conditions", [])), cond_obj=d.get("cond_obj", {}),
+        run_mark=line_mark(events[0]) if events else d.get("run_mark", ""))
 
 
-def _read_results(path: Path) -> dict:
-    """Everything the report needs from results.h5, read at once into memory."""
+def _results_match(res: dict, events: list[dict], line_mark, damaged: bool) -> bool:
+    """Whether results.h5 (``res``) is this run's (its first journal line's mark) and reflects
+    a state of it the journal holds (the mark of the line it says it reflects). Files written
+    before results.h5 carried its identity are taken as they are."""
+    if not res.get("run_mark"):
+        return True
+    if res["run_mark"] != line_mark(events[0]):
+        return False
+    seq = res["journal_seq"]
+    if 0 <= seq < len(events):
+        return res.get("journal_mark") == line_mark(events[seq])
+    return damaged   # beyond the lines before a damaged one: cannot say otherwise
 
-    with h5_open_owned(path) as f:
+
+def _read_results(src) -> dict:
+    """Everything the report needs from results.h5, read at once into memory (``src``: a path
+    or ``(Folder, name)``)."""
+
+    with h5_open_owned(src, evals_links=True) as f:
         a = f.attrs
         e = f["evaluations"]
-        ids = e["id"][()].astype(int)
+        ids = h5_read(e["id"]).astype(int)
         n = len(ids)
         names = [_s(v) for v in e["x"].attrs.get("names", e.attrs.get("names", []))]
-        strs = {k: np.array([_s(v) for v in e[k][()]], dtype=object) if n else np.array([],
-                                                                                        dtype=object)
-                for k in ("status", "reason", "phase", "file")}
+        strs = {k: np.array([_s(v) for v in h5_read(e[k])], dtype=object) if n else np.array(
+            [], dtype=object) for k in ("status", "reason", "phase", "file")}
         ref = f["reference"]
         objectives = [_s(v) for v in a["objectives"]]
         columns = [_s(v) for v in a.get("objective_columns", OBJECTIVE_NAMES)]
@@ -334,29 +373,31 @@ def _read_results(path: Path) -> dict:
             "name": _s(a.get("case_name", "")), "objectives": objectives,
             "scalarisation": _s(a.get("scalarisation", "single")),
             "budget": int(a.get("budget", n)),
-            "names": names, "ids": ids, "x": e["x"][()].reshape(n, len(names)),
-            "obj": {k: e[k][()].astype(float) for k in columns if k in e},
-            "value": e["value"][()].astype(float), **strs,
-            "restart": e["restart"][()].astype(int), "wall_time": e["wall_time"][()].astype(float),
-            "pareto": e["pareto"][()].astype(bool) if "pareto" in e else np.zeros(n, bool),
-            "ref_x": ref["x"][()].astype(float),
+            "names": names, "ids": ids, "x": h5_read(e["x"]).reshape(n, len(names)),
+            "obj": {k: h5_read(e[k]).astype(float) for k in columns if k in e},
+            "value": h5_read(e["value"]).astype(float), **strs,
+            "restart": h5_read(e["restart"]).astype(int),
+            "wall_time": h5_read(e["wall_time"]).astype(float),
+            "pareto": h5_read(e["pareto"]).astype(bool) if "pareto" in e else np.zeros(n, bool),
+            "ref_x": h5_read(ref["x"]).astype(float),
             "ref_objectives": ({k: float(v) for k, v in ref["objectives"].attrs.items()}
                                if "objectives" in ref else {}),
-            "ref_point": ref["point"][()].astype(float) if "point" in ref else None,
+            "ref_point": h5_read(ref["point"]).astype(float) if "point" in ref else None,
             "worst": worst if worst.size else None, "rho": float(a.get("rho", math.nan)),
             "improvement": float(a.get("improvement", math.nan)),
             "n_pending": int(a.get("n_pending", 0)), "finished": bool(a.get("finished", False)),
             "journal_seq": int(a.get("journal_seq", -1)), "created": _s(a.get("created", "")),
+            "run_mark": _s(a.get("run_mark", "")), "journal_mark": _s(a.get("journal_mark", "")),
             "updated": _s(a.get("updated", "")),
-            "resolved": _s(f["case/resolved"][()]) if "case/resolved" in f else None,
+            "resolved": _s(h5_read(f["case/resolved"])) if "case/resolved" in f else None,
             "conditions": [_s(c) for c in a.get("conditions", [])],
-            "cond_obj": {_s(c): {k: f["conditions"][_s(c)][k][()].astype(float)
+            "cond_obj": {_s(c): {k: h5_read(f["conditions"][_s(c)][k]).astype(float)
                                  for k in OBJECTIVE_NAMES if k in f["conditions"][_s(c)]}
                          for c in a.get("conditions", []) if "conditions" in f},
         }
 
 
-def _from_journal(run: Path, events: list[dict], res: dict | None) -> dict:
+def _from_journal(rd, events: list[dict], res: dict | None) -> dict:
     """The same table as results.h5, rebuilt from the committed journal lines."""
     from ..engine.rundir import Table
     from ..optim.scalarise import pareto_mask
@@ -371,7 +412,7 @@ def _from_journal(run: Path, events: list[dict], res: dict | None) -> dict:
     d = len(asked["x"]) if asked else len((res or {}).get("names", []))
     names = list((res or {}).get("names") or [])
     if len(names) != d:
-        names = _names_from_case_yaml(run) or [f"x{i + 1}" for i in range(d)]
+        names = _names_from_case_yaml(rd) or [f"x{i + 1}" for i in range(d)]
     table = Table(names, objectives)
     for ev in events:
         table.apply(ev)
@@ -395,7 +436,7 @@ def _from_journal(run: Path, events: list[dict], res: dict | None) -> dict:
                        dtype=float)
     worst = ref.get("worst") or ((res or {}).get("worst"))
     return {
-        "name": (res or {}).get("name") or _case_name(run), "objectives": objectives,
+        "name": (res or {}).get("name") or _case_name(rd), "objectives": objectives,
         "scalarisation": "asf" if len(objectives) > 1 else "single",
         "budget": budget, "names": names,
         "ids": np.array([r["id"] for r in rows], dtype=int),
@@ -419,22 +460,17 @@ def _from_journal(run: Path, events: list[dict], res: dict | None) -> dict:
     }
 
 
-def _names_from_case_yaml(run: Path) -> list[str] | None:
-    from ..config import load_case
-    from ..errors import CaseError
+def _names_from_case_yaml(rd) -> list[str] | None:
+    case, _ = _load_case(rd, None)
+    return None if case is None else case.names
 
+
+def _case_name(rd) -> str:
     try:
-        return load_case(run / "case.yaml").names
-    except (CaseError, OSError):
-        return None
-
-
-def _case_name(run: Path) -> str:
-    try:
-        meta = json.loads(read_owned(run / "run.json", 1_000_000).decode("utf-8"))
-        return meta.get("name", run.name)
-    except (OSError, ValueError):
-        return run.name
+        meta = json.loads(rd.read_text("run.json", 1_000_000))
+        return str(meta.get("name", rd.path.name))
+    except (OSError, ValueError, AttributeError):
+        return rd.path.name
 
 
 def read_history(run: RunData, index: int | None, condition: str | None = None
@@ -450,8 +486,13 @@ def read_history(run: RunData, index: int | None, condition: str | None = None
         return None, {}, f"evaluation #{run.ids[index]} has no histories file"
     if f != f"evals/{int(run.ids[index]):06d}.h5":   # a crafted table: never a path out of the run
         return None, {}, f"evaluation #{run.ids[index]} names the file {f[:60]!r}, not its own"
-    p = run.path / f
-    problem = evaluation_problem(p, int(run.ids[index]), run.x[index])
+    from ..engine.rundir import RunError
+
+    try:
+        p = run.rd.at(f)
+    except (OSError, RunError) as exc:
+        return None, {}, f"{f} is unreadable ({exc})"
+    problem = evaluation_problem(p, int(run.ids[index]), run.x[index], run.run_mark)
     if problem is not None:
         why = f"{f} is {problem}" if problem in ("missing", "incomplete") else f"{f} {problem}"
         return None, {}, why

@@ -21,11 +21,23 @@ def pyplot():
     return plt
 
 
-def save_figure(fig, path: Path) -> Path:
-    fig.savefig(path, dpi=DPI)
+def save_figure(fig, path, dpi: float = DPI):
+    """Save ``fig`` as PNG to ``path``: a ``outdir.Place`` (a staged output file: drawn in
+    memory, written whole, never through a link) or a plain path (benchmark scripts); return
+    it."""
     import matplotlib.pyplot as plt
 
-    plt.close(fig)
+    try:
+        if hasattr(path, "write_bytes") and not isinstance(path, Path):
+            import io
+
+            buf = io.BytesIO()
+            fig.savefig(buf, format="png", dpi=dpi)
+            path.write_bytes(buf.getvalue())
+        else:
+            fig.savefig(path, dpi=dpi)
+    finally:
+        plt.close(fig)
     return path
 
 

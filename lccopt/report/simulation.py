@@ -7,31 +7,29 @@ Drawn in the report's colours and with its marks (``plotting.range_bracket``,
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 
 from ..vti.response import Evaluation
 from .data import OKABE_ITO, TYPE_II_COLOR, ZONE_COLOR
 from .plotting import range_bracket, sleeper_ticks, speed_text
 
+FILES = ("contact_force.png", "sleeper_energy.png", "displacement.png")
 
-def simulation_figures(ev: Evaluation, name: str, out: Path) -> list[Path]:
+
+def simulation_figures(ev: Evaluation, name: str, out) -> list:
     """Write contact_force.png, sleeper_energy.png and displacement.png of one simulation
-    (``name``: the case's, for the titles) into ``out``; return their paths."""
+    (``name``: the case's, for the titles) into ``out`` (a folder's path, or an
+    ``outdir.Staged`` folder); return their paths."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from .plotting import save_figure
+
     paths = []
-    for draw, file in ((_contact_force, "contact_force.png"),
-                       (_sleeper_energy, "sleeper_energy.png"),
-                       (_displacement, "displacement.png")):
-        fig = draw(plt, ev, name)
-        paths.append(out / file)
-        fig.savefig(paths[-1], dpi=120)
-        plt.close(fig)
+    for draw, file in zip((_contact_force, _sleeper_energy, _displacement), FILES):
+        paths.append(save_figure(draw(plt, ev, name), out / file, dpi=120))
     return paths
 
 

@@ -63,7 +63,7 @@ def test_a_dask_worker_writes_the_file_only_where_it_sees_the_run_directory(tmp_
     case = load_case(write_case(tmp_path, "probe", budget=4, initial=4, seed=1))
     evals = tmp_path / "evals"
     evals.mkdir()
-    probe = dask_pool._write_probe(evals)
+    _, probe = dask_pool._write_probe(evals)
     assert probe[0].endswith(".tmp") and open(probe[0]).read() == probe[1]
     x = list(Problem.from_case(case).reference)
     here = dask_pool.dask_task(case, Task(0, x, out_path=str(evals / "000000.h5")), FAKE, probe)
