@@ -13,7 +13,7 @@ from ..vti import pads
 from ..vti.vehicle import build_vehicle
 from .build import vehicle_spec
 from .checks import simulation_size
-from .degradation import SINGLE_CONDITION, axles
+from .degradation import SINGLE_CONDITION, axles, bearing_areas
 from .zones import force_zone_end, zone_end_x
 
 
@@ -187,6 +187,7 @@ def degradation_lines(case) -> list[str]:
     limit = deg["limit"]
     simulated = sum(p > 0 for _, p, _ in rows)
     lines = wrap_items(law_items(deg["law"]), f"  settlement: {deg['law']['name']} law: ")
+    lines += _pressure_lines(case)
     lines += wrap_items(items, "    traffic: ")
     lines.append(f"    {per_year:.3g} axle passes, about {tonnes / 1e6:.3g} million gross tonnes "
                  f"a year")
@@ -198,6 +199,28 @@ def degradation_lines(case) -> list[str]:
     lines.append(f"    per design: at most {deg['max_simulations']} simulations x {simulated} "
                  f"condition(s), tolerance {deg['tolerance'] / 1e3:g} kN")
     return lines
+
+
+def _pressure_lines(case) -> list[str]:
+    """How the law is fed: the bearing areas and reference pressure; the subgrade layer."""
+    deg = case.degradation
+    standard, strengthened = bearing_areas(case.data)
+    f0 = deg["law"]["reference_force"]
+    lines = wrap_items([f"bearing area {standard:g} m^2 a rail seat",
+                        f"strengthened {strengthened:.3g} m^2",
+                        f"reference pressure {f0 / standard / 1e3:.3g} kPa",
+                        f"{deg['reading']} reading"], "    fed the sleeper-ballast pressure: ")
+    sub = deg["subgrade"]
+    if sub["soil"] == "none":
+        return lines + ["    subgrade: none (the ballast law alone: a softer support settles "
+                        "less)"]
+    k = case.data["track"]["support"]["stiffness"]
+    here = sub["strength"] * k / sub["reference_stiffness"]
+    return lines + wrap_items(
+        [f"soil {sub['soil']}", f"strength {here / 1e3:.3g} kPa on this {k / 1e6:g} MN/m support",
+         f"{sub['strength'] / 1e3:g} kPa on {sub['reference_stiffness'] / 1e6:g} MN/m",
+         f"{sub['depth']:g}-{sub['depth'] + sub['thickness']:g} m below the sleepers"],
+        "    subgrade (Li & Selig): ")
 
 
 def case_lines(case, file) -> list[str]:

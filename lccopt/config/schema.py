@@ -13,7 +13,7 @@ wrong unit, and the message proposes the unit that fits.
 
 from __future__ import annotations
 
-from ..degradation.specs import LAW_NAMES, LIMIT_MEASURES
+from ..degradation.specs import LAW_NAMES, LIMIT_MEASURES, READINGS, SOILS
 from ..vti.irregularity import SPECTRA
 from ..vti.pads import NAMED_PADS
 from ..vti.response import PAPER_OBJECTIVES, REPORTED_ONLY, SETTLEMENT_OBJECTIVES
@@ -160,7 +160,15 @@ _TRACK = Section({
        "stiffness under the wheel, or its static stiffness and dynamic_to_static; and its "
        "damping (docs/model.md, 'Pads as bought')"),
     "sleeper": Section({"mass": Num("sleeper mass per rail (half the sleeper)", "kg", ge=10,
-                                    why="a sleeper is some 100-400 kg")}),
+                                    why="a sleeper is some 100-400 kg"),
+                        "bearing_area": Num(
+                            "settlement (degradation:) only: the sleeper's base area that "
+                            "carries one rail seat's force (the law is fed force / area). "
+                            "Default 0.375 m^2: half the base of a 2.5 m x 0.30 m monoblock, "
+                            "as AREMA's average ballast pressure spreads each rail seat's "
+                            "force over half the base (docs/settlement.md)", "m^2", gt=0,
+                            le=2.0, why="half a sleeper's base is some 0.2-0.6 m^2",
+                            required=False, keep_absent=True)}),
     "support": _kv("ballast/subgrade stiffness per rail seat",
                    "ballast/subgrade damping per rail seat", "N/m", "N s/m", ge=1e6,
                    shown="MN/m", why=_SEAT_WHY),
@@ -171,6 +179,12 @@ _TRACK = Section({
                                  ge=1e6, shown="MN/m", why=_SEAT_WHY),
         "support_damping": Num("ballast/subgrade damping under it per rail seat", "N s/m",
                                ge=0),
+        "bearing_area": Num("settlement (degradation:) only: its base area per rail seat. "
+                            "Default: the standard sleeper's bearing_area x support_stiffness "
+                            "/ the standard support stiffness (a larger base on the same "
+                            "ballast: area and stiffness in proportion)", "m^2", gt=0, le=2.0,
+                            why="half a sleeper's base is some 0.2-0.6 m^2", required=False,
+                            keep_absent=True),
     }),
     "ers": Section({
         "slab_lengths": NumList("lengths of the slabs, in running order (not joined); the "
@@ -391,6 +405,30 @@ _DEGRADATION = Section({
     "rail_seats": Num("the law's force = rail_seats x the modelled support force (one rail "
                       "seat); 1 as ROSE applies the Varandas defaults", gt=0, le=10.0,
                       default=1.0, required=False),
+    "reading": Str("how a passage loads the ballast: axle, each axle's own peak force is one "
+                   "load cycle; passage, every axle counts with the passage's largest peak "
+                   "(ROSE's reading)", READINGS, default="axle", required=False),
+    "subgrade": Section({
+        "soil": Str("the subgrade's soil class after Li & Selig (1996): ML silt, MH elastic "
+                    "silt, CL lean clay, CH fat clay; none: the ballast law alone",
+                    SOILS + ("none",), default="CL", required=False),
+        "strength": Num("the soil's static (compressive) strength under a support of "
+                        "reference_stiffness. Default 150 kPa: a stiff clay (100-200 kPa, "
+                        "Terzaghi & Peck's consistency classes)", "Pa", gt=0, le=1e8,
+                        shown="kPa", default=150.0e3, required=False),
+        "reference_stiffness": Num("the support stiffness per rail seat (track.support) the "
+                                   "strength is given for: a case's softer support is a weaker "
+                                   "soil, its strength scaled in proportion. Default 45 MN/m "
+                                   "(configs/reference.yaml)", "N/m", ge=1e6, shown="MN/m",
+                                   why=_SEAT_WHY, default=45.0e6, required=False),
+        "depth": Num("from the sleeper's base to the top of the subgrade (ballast and "
+                     "sub-ballast). Default 0.5 m", "m", gt=0, le=10.0, default=0.5,
+                     required=False),
+        "thickness": Num("the subgrade layer whose strain settles the track. Default 2 m",
+                         "m", gt=0, le=50.0, default=2.0, required=False),
+    }, "the subgrade below the ballast (and below the ERS slab): its own law, Li & Selig "
+       "(1996) as ROSE applies it, fed the stress of each sleeper's force (docs/settlement.md)",
+       required=False),
     "settling_sleepers": Num("entry sleepers nearest the interface that settle by their own "
                              "loads (at most evaluation.sleepers: the runs pass the whole "
                              "vehicle over those)", integer=True, ge=1, le=500, default=20,
