@@ -38,7 +38,13 @@ from pathlib import Path
 import typer
 
 from ..config import Case, design_items
-from ..errors import CaseError, EnvironmentFault, describe_os_error, environment_errno
+from ..errors import (
+    STOP_SIGNALS,
+    CaseError,
+    EnvironmentFault,
+    describe_os_error,
+    environment_errno,
+)
 from ..problem import Problem
 from ..terminal import PipeGuard, wrap_items
 from .journal import Journal, line_mark
@@ -115,9 +121,10 @@ class Engine:
     def _install_signals(self) -> None:
         if threading.current_thread() is not threading.main_thread():
             return
-        # SIGTERM/SIGHUP (Slurm, systemd, timeout, a closed terminal) stop at once like a second
-        # Ctrl-C; the workers ignore them, so an evaluation is never reported as killed by them
-        for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+        # SIGTERM/SIGHUP (Slurm, systemd, timeout, a closed terminal) and the other stopping
+        # signals stop at once like a second Ctrl-C; the workers ignore them, so an evaluation
+        # is never reported as killed by them
+        for sig in STOP_SIGNALS:
             self._old_handlers[sig] = signal.signal(sig, self._on_signal)
 
     def _restore_signals(self) -> None:

@@ -11,7 +11,7 @@ from pathlib import Path
 
 from .. import machine
 from ..config import SAFE_NAME, Case, load_case
-from ..errors import UsageError
+from ..errors import UsageError, signals_deferred
 from ..problem import Problem
 from .dask_pool import DaskExecutor
 from .executors import ExecutorError, LocalPool, default_workers
@@ -72,15 +72,18 @@ def optimise(case, workers: int | None = None, scheduler=None, runs: Path = Path
     executor = _start_executor(case_obj, spec, workers, scheduler, problem,
                                Progress(0, stream, progress).log)
     try:
-        if run_path.exists():
-            old = RunDir(run_path)
-            if (run_path / "lock").exists():
-                old.lock()  # refuse to delete a run another process is driving
-            shutil.rmtree(run_path)
-            old.unlock()
-        rd = RunDir.create(run_path, case_obj, problem,
-                           spec if isinstance(spec, str) else repr(spec))
-        rd.lock()
+        # a stopping signal waits for the old run's removal and the new one's creation: never
+        # half a run directory (which --force would then refuse to replace)
+        with signals_deferred():
+            if run_path.exists():
+                old = RunDir(run_path)
+                if (run_path / "lock").exists():
+                    old.lock()  # refuse to delete a run another process is driving
+                shutil.rmtree(run_path)
+                old.unlock()
+            rd = RunDir.create(run_path, case_obj, problem,
+                               spec if isinstance(spec, str) else repr(spec))
+            rd.lock()
     except BaseException as exc:
         executor.close()
         if isinstance(exc, RunError):
@@ -144,9 +147,15 @@ def _check_replaceable(run_path: Path, runs: Path) -> None:
 def _start_executor(case, spec, workers, scheduler, problem, log=None):
     try:
         executor = make_executor(case, spec, workers, scheduler, problem.timeout)
-        executor.start(log)
     except ExecutorError as exc:
         raise _usage_error(str(exc)) from None
+    try:
+        executor.start(log)
+    except BaseException as exc:  # an interruption too: no worker or connection left behind
+        executor.close()
+        if isinstance(exc, ExecutorError):
+            raise _usage_error(str(exc)) from None
+        raise
     return executor
 
 
@@ -189,15 +198,16 @@ def resume(run, workers: int | None = None, scheduler=None, case=None,
         if meta.get("case_sha256") != sha256_text(case_obj.resolved):
             extra = ({"worst": list(problem.worst), "rho": problem.rho}
                      if problem.multi and problem.worst else {})
-            ev = journal.append("case_changed", time=now_iso(),
-                                case_sha256=sha256_text(case_obj.resolved),
-                                budget=problem.budget, case_file=str(case_obj.path), **extra)
-            events.append(ev)
-            rd.write_case(case_obj.resolved)
-            meta.update(case_sha256=sha256_text(case_obj.resolved),
-                        case_file=str(Path(case_obj.path).resolve()),
-                        overrides=list(getattr(case_obj, "overrides", ())))
-            rd.write_meta(meta)
+            with signals_deferred():  # the journal's line and the run's copy of the case together
+                ev = journal.append("case_changed", time=now_iso(),
+                                    case_sha256=sha256_text(case_obj.resolved),
+                                    budget=problem.budget, case_file=str(case_obj.path), **extra)
+                events.append(ev)
+                rd.write_case(case_obj.resolved)
+                meta.update(case_sha256=sha256_text(case_obj.resolved),
+                            case_file=str(Path(case_obj.path).resolve()),
+                            overrides=list(getattr(case_obj, "overrides", ())))
+                rd.write_meta(meta)
         strategy, table = restore(problem, events, rd.load_state())
         # never the evaluator run.json names: a run directory from elsewhere must not choose
         # code to run; the testing hook ($LCCOPT_EVALUATOR) or the simulator
