@@ -28,6 +28,7 @@ from .checks import (
     check_mesh_units,
     check_optimisation,
     check_profile,
+    check_railpad,
     simulation_size,
 )
 from .degradation import check_degradation, degradation_spec
@@ -232,7 +233,9 @@ class Case:
 
     def track_design(self, x) -> TrackDesign:
         """Design vector x, checked (ValueError), as the simulator takes it."""
-        return build.track_design(self.variables, self.check_design(x))
+        return build.track_design(self.variables, self.check_design(x),
+                                  self.data["design"]["railpad_stiffness"].get(
+                                      "dynamic_to_static"))
 
 
 @dataclass(frozen=True)
@@ -345,6 +348,7 @@ def load_case(path: str | Path, overrides=()) -> Case:
         raise err(("name",), "1-64 letters, digits, '.', '-' and '_', starting with a letter or "
                              "digit (it names the run directory)")
     resolve_zone(data, err)
+    check_railpad(data, err)
     check_mesh_units(data, err)
     derive_strip_bounds(data)
     variables = _variables(data["design"], lines, file)

@@ -49,6 +49,44 @@ def is_multiple(length: float, unit: float) -> bool:
     return abs(q - round(q)) < 1e-9 * max(1.0, q)
 
 
+def check_railpad(data: dict, err) -> None:
+    """``track.railpad`` gives its pad one way: a named pad alone; or its stiffness under the
+    wheel (with its static stiffness if known); or its static stiffness and ratio; with its
+    damping but for a named pad. A static stiffness above the one under the wheel is refused:
+    elastomers stiffen with the rate of loading, so a pad is no softer under the wheel than
+    bought (lccopt/vti/pads.py)."""
+    pad = data["track"]["railpad"]
+    at = ("track", "railpad")
+    given = [k for k in ("type", "stiffness", "static_stiffness", "dynamic_to_static",
+                         "damping") if pad.get(k) is not None]
+    if "type" in given:
+        if len(given) > 1:
+            raise err(at + (given[1],), f"the named pad '{pad['type']}' sets the pad's values: "
+                                        f"give type alone (over a base case's values: "
+                                        f"{given[1]}: null)")
+        return
+    if "stiffness" in given and "dynamic_to_static" in given:
+        raise err(at + ("dynamic_to_static",), "give the stiffness under the wheel or "
+                                               "static_stiffness x dynamic_to_static, not both "
+                                               "(over a base case's stiffness: stiffness: null)")
+    if "stiffness" not in given:
+        as_bought = [k for k in ("static_stiffness", "dynamic_to_static") if k in given]
+        if not as_bought:
+            raise err(at, "missing key 'stiffness' (the pad's stiffness under the wheel), or "
+                          "'type' (a named pad), or 'static_stiffness' and 'dynamic_to_static'")
+        if len(as_bought) == 1:
+            other = ({"static_stiffness", "dynamic_to_static"} - set(as_bought)).pop()
+            raise err(at, f"missing key '{other}': the stiffness under the wheel is "
+                          f"static_stiffness x dynamic_to_static (or give it as 'stiffness')")
+    elif "static_stiffness" in given and pad["static_stiffness"] > pad["stiffness"]:
+        raise err(at + ("static_stiffness",),
+                  f"{pad['static_stiffness'] / 1e6:g} MN/m is above the stiffness under the "
+                  f"wheel ({pad['stiffness'] / 1e6:g} MN/m): a pad is no softer under the "
+                  f"wheel than bought")
+    if "damping" not in given:
+        raise err(at, "missing key 'damping'")
+
+
 def check_mesh_units(data: dict, err) -> None:
     """Lengths sit on the 0.1 m grid that sleeper spans are counted in."""
     le = data["simulation"]["element_length"]
