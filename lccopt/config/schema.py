@@ -15,6 +15,7 @@ from __future__ import annotations
 
 from ..degradation.specs import LAW_NAMES, LIMIT_MEASURES, READINGS, SOILS
 from ..vti.irregularity import SPECTRA
+from ..vti.pads import NAMED_PADS
 from ..vti.response import PAPER_OBJECTIVES, REPORTED_ONLY, SETTLEMENT_OBJECTIVES
 from ..vti.specs import VEHICLE_TYPES, ZONE_POINTS
 from .spec import Items, Named, Num, NumList, Rows, Section, Str, StrList, TextOrSection  # noqa: F401
@@ -34,6 +35,8 @@ _SPEED = dict(unit="m/s", shown="km/h", gt=0, le=MAX_SPEED, why=_SPEED_WHY)
 _MASS_WHY = "a mass per wheel is some 100 kg to 15 t"
 _PAD_WHY = "railpads are 20-2000 MN/m"
 _SEAT_WHY = "ballast support per rail seat is some 10-200 MN/m"
+_RATIO_WHY = ("a pad is no softer under the wheel than bought; a ratio above 10 is more likely "
+              "a stiffness written in this field")
 
 
 def _kv(doc_k: str, doc_c: str, unit_k: str, unit_c: str, **bounds) -> Section:
@@ -58,6 +61,21 @@ def _design_group(doc: str, integer: bool, counted: bool, unit: str = "-",
                               "ratios are equal steps; positive bounds)", ("linear", "log"),
                               required=False)
     return Section(fields, doc)
+
+
+def _pad_group() -> Section:
+    """The designed pads: their stiffness under the wheel, or as bought with their ratio."""
+    group = _design_group("stiffness of the pads next to the interface, x_r1 farthest .. x_rN "
+                          "nearest: under the wheel, or as bought (static) with "
+                          "dynamic_to_static", integer=False, counted=True, unit="N/m",
+                          ge=1e7, le=1e10, shown="MN/m", why=_PAD_WHY)
+    fields = dict(group.fields)
+    fields["dynamic_to_static"] = Num(
+        "when given, x_r (bounds, reference) are the pads' static (catalogue) stiffness and "
+        "the simulation uses x_r times this, the dynamic-to-static ratio of the pad type "
+        "searched (its EN 13146-9 test report); absent, x_r is the stiffness under the wheel",
+        ge=1.0, le=10.0, why=_RATIO_WHY, required=False, keep_absent=True)
+    return Section(fields, group.doc)
 
 
 _VEHICLE_TYPE = ("three-dof: the paper's carbody-bogie-wheelset model (one wheel); bogie: one "
@@ -120,8 +138,27 @@ _TRACK = Section({
         "exit_first_span": Num("slab edge to first sleeper on the exit side", "m", gt=0,
                                le=2.0, why="a sleeper span is some 0.3-0.7 m"),
     }),
-    "railpad": _kv("railpad stiffness per rail seat", "railpad damping per rail seat",
-                   "N/m", "N s/m", ge=1e7, le=1e10, shown="MN/m", why=_PAD_WHY),
+    "railpad": Section({
+        "type": Str("a named pad whose published values lccopt holds (lccopt/vti/pads.py): "
+                    "its stiffness under the wheel and damping; then no other key",
+                    tuple(NAMED_PADS), required=False, keep_absent=True),
+        "stiffness": Num("the pad's stiffness under the wheel (dynamic, per rail seat): what "
+                         "the simulation uses", "N/m", ge=1e7, le=1e10, shown="MN/m",
+                         why=_PAD_WHY, required=False, keep_absent=True),
+        "static_stiffness": Num("the pad as bought: its static (catalogue, EN 13146-9) "
+                                "stiffness; with dynamic_to_static instead of stiffness, or "
+                                "beside it (then shown, not used)", "N/m", ge=1e7, le=1e10,
+                                shown="MN/m", why=_PAD_WHY, required=False, keep_absent=True),
+        "dynamic_to_static": Num("the pad's dynamic (EN 13146-9 low-frequency, preloaded) over "
+                                 "its static stiffness, from its test report: stiffness = "
+                                 "static_stiffness x this", ge=1.0, le=10.0, why=_RATIO_WHY,
+                                 required=False, keep_absent=True),
+        "damping": Num("railpad damping per rail seat (the designed pads' scales with their "
+                       "stiffness under the wheel)", "N s/m", ge=0, required=False,
+                       keep_absent=True),
+    }, "the pads of the sleepers not designed, per rail seat: a named pad (type), or its "
+       "stiffness under the wheel, or its static stiffness and dynamic_to_static; and its "
+       "damping (docs/model.md, 'Pads as bought')"),
     "sleeper": Section({"mass": Num("sleeper mass per rail (half the sleeper)", "kg", ge=10,
                                     why="a sleeper is some 100-400 kg"),
                         "bearing_area": Num(
@@ -182,10 +219,7 @@ _TRACK = Section({
 })
 
 _DESIGN = Section({
-    "railpad_stiffness": _design_group("stiffness of the pads next to the interface, x_r1 "
-                                       "farthest .. x_rN nearest", integer=False, counted=True,
-                                       unit="N/m", ge=1e7, le=1e10, shown="MN/m",
-                                       why=_PAD_WHY),
+    "railpad_stiffness": _pad_group(),
     "strengthened_sleepers": _design_group("number of strengthened sleepers next to the "
                                            "interface", integer=True, counted=False),
     "sleeper_spans": _design_group("spans next to the interface in 0.1 m elements, x_s1 "
