@@ -27,6 +27,7 @@ import json
 import os
 
 from ..safeio import Folder, named, open_owned, read_owned
+from .events import EventCheck
 
 
 class JournalError(Exception):
@@ -53,6 +54,7 @@ def read_journal(src) -> tuple[list[dict], int, bool]:
     events: list[dict] = []
     pos = 0
     torn = False
+    check = EventCheck()
     while pos < len(data):
         end = data.find(b"\n", pos)
         if end < 0:  # no newline: a torn last line
@@ -67,6 +69,12 @@ def read_journal(src) -> tuple[list[dict], int, bool]:
             if data.find(b"\n", end + 1) < 0 and not data[end + 1:].strip():
                 torn = True  # the last line is garbage (e.g. zeros after a crash): drop it
                 break
+            raise JournalError(f"{path}: line {len(events) + 1} is damaged ({exc}); "
+                               f"the journal was changed by something other than lccopt",
+                               events, pos, len(events) + 1) from None
+        try:  # whole JSON that lccopt could not use: damage, wherever it is (a crash tears)
+            check(ev)
+        except ValueError as exc:
             raise JournalError(f"{path}: line {len(events) + 1} is damaged ({exc}); "
                                f"the journal was changed by something other than lccopt",
                                events, pos, len(events) + 1) from None

@@ -42,6 +42,7 @@ import json
 import math
 from pathlib import Path
 
+from ..errors import printable
 from ..outdir import Output
 from .along_track import fig_contact_force, fig_sleeper_energy
 from .data import FIGURES, FORMATS, _usage, load_run, pct, read_history
@@ -82,10 +83,13 @@ def write_report(run: Path, format: str = "both", out: Path | None = None,
         data.rd.close()
     import typer
 
-    typer.echo(f"report of '{data.name}' ({data.n}/{data.budget} evaluations, {data.state})")
+    # printable: the name and objectives come from the run's files, which anyone may edit
+    typer.echo(f"report of '{printable(data.name)}' ({data.n}/{data.budget} evaluations, "
+               f"{data.state})")
     if "best" in summary:  # a line of its own: one line would wrap on an 80-column terminal
         typer.echo(f"  best #{summary['best']['id']}: " + ", ".join(
-            f"{k} {pct(summary['best']['objectives'][k], data.ref_objectives.get(k, math.nan))}"
+            f"{printable(k)} "
+            f"{pct(summary['best']['objectives'][k], data.ref_objectives.get(k, math.nan))}"
             for k in data.objectives))
     typer.echo(f"  {len(figs)} figures and {', '.join(p.name for p in wrote)} in "
                f"{output.shown} ({summary['seconds']:.1f} s)")
@@ -98,7 +102,7 @@ def _output(data, out: Path | None, force: bool) -> Output:
     import typer
 
     for warning in data.warnings:
-        typer.echo(f"lccopt: warning: {warning}", err=True)
+        typer.echo(f"lccopt: warning: {printable(warning)}", err=True)
     own = data.path / "report"
     if out is None or Path(out).absolute() == own.absolute():
         return Output.own(data.rd.folder, "report", own, "report")
