@@ -457,3 +457,20 @@ def test_a_full_disk_under_report_and_simulate_names_the_file_and_leaves_nothing
     line = _error_line(_simulate(case, out))
     assert "No space left on device" in line and str(out) in line and ".tmp" not in line, line
     assert not out.exists() or os.listdir(out) == []
+
+
+def test_an_immutable_results_h5_is_named_never_its_temporary_file(tmp_path, finished):
+    case, run = finished
+    if os.geteuid() != 0 or shutil.which("chattr") is None:
+        pytest.skip("needs root and chattr")
+    if subprocess.run(["chattr", "+i", str(run / "results.h5")]).returncode != 0:
+        pytest.skip("this file system has no immutable files")
+    try:
+        line = _error_line(cli_run("resume", run, "--budget", "12", "--workers", "1", env=ENV))
+    finally:
+        subprocess.run(["chattr", "-i", str(run / "results.h5")])
+    assert f"{run / 'results.h5'}: Operation not permitted" in line and ".tmp" not in line, line
+    assert not [n for n in os.listdir(run) if n.endswith(".tmp")]
+    r = cli_run("resume", run, "--workers", "1", env=ENV)
+    assert r.returncode == 0, r.stderr
+    assert len(read_table(run)["id"]) == 12
