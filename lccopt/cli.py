@@ -50,6 +50,7 @@ from .errors import (  # noqa: E402
     Interrupted,
     UsageError,
     describe_os_error,
+    printable,
     stop_on_signals,
 )
 from .terminal import PipeGuard, guard_streams, wrap_message  # noqa: E402
@@ -171,12 +172,13 @@ def resume(
 @app.command()
 def status(run: Path = typer.Argument(..., help="run directory, e.g. runs/moo")) -> None:
     """Where a run stands: state, evaluations, best so far, pace (safe while it runs)."""
+    from .engine.journal import JournalError
     from .engine.rundir import RunError
     from .engine.status import status_lines
 
     try:
         lines = status_lines(run)
-    except RunError as exc:
+    except (RunError, JournalError) as exc:
         raise UsageError(str(exc)) from None
     typer.echo("\n".join(lines))
 
@@ -282,6 +284,7 @@ def _usage_line(exc: Exception) -> str:
 def _fail(message: str, code: int) -> int:
     """Print the message to stderr (if anyone is still reading it) and return the exit code:
     one line for a log or a script, wrapped to the width of a terminal for a person."""
+    message = printable(message)  # one line, whatever stored string it quotes
     try:
         if sys.stderr.isatty():
             message = wrap_message(message)

@@ -32,6 +32,16 @@ def printable(text: str) -> str:
     return "".join(c if c.isprintable() or c == " " else repr(c)[1:-1] for c in text)
 
 
+def printable_lines(text: str) -> str:
+    """``text`` as the lines it has: :func:`printable` between its newlines. What lccopt
+    prints of a run's stored strings (a case file's path, variable names, failure reasons,
+    from run.json, the journal, results.h5) can never move the cursor, clear the screen,
+    retitle the terminal or forge a line of its own."""
+    if text.isprintable():
+        return text
+    return "\n".join(printable(line) for line in text.split("\n"))
+
+
 # The signals that end lccopt in an orderly way: Ctrl-C, what Slurm, systemd, `timeout` and a
 # closed terminal send (SIGTERM, SIGHUP), and the other signals whose default is to end a
 # process that a scheduler or a limit may send (Slurm's --signal=USR1, a CPU time limit's

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import sys
 
+from .errors import printable_lines
+
 WIDTH = 80
 
 
@@ -78,6 +80,9 @@ class PipeGuard:
     it must not leave half done (a simulation's files, a run's journal and snapshot) and the
     command line exits 141, as a process killed by SIGPIPE would.
 
+    Every line written is made printable (``errors.printable_lines``): a run's stored strings
+    never reach the terminal as control sequences, whichever command prints them.
+
     Any other failure (the stream was closed, the disk behind it is full, an I/O error) sets
     :attr:`failed` (why) and :attr:`lost` (something was not written); later writes go nowhere
     and the command carries on: its work never depends on being able to print. The command
@@ -96,6 +101,12 @@ class PipeGuard:
 
     def __getattr__(self, name):  # isatty, fileno, buffer, ...
         return getattr(self._stream, name)
+
+    @property
+    def raw(self):
+        """The stream itself, for a writer that makes its own control sequences (the live
+        progress line on a terminal) and escapes what it shows."""
+        return self._stream
 
     def _to_devnull(self) -> None:
         import os
@@ -128,7 +139,8 @@ class PipeGuard:
             self.lost = self.lost or bool(text)
             return len(text)
         try:
-            return self._stream.write(text)
+            self._stream.write(printable_lines(text))
+            return len(text)
         except BrokenPipeError:
             self._closed()
         except (OSError, ValueError) as exc:  # closed, full, I/O error

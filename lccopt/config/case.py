@@ -341,6 +341,9 @@ def load_case(path: str | Path, overrides=()) -> Case:
     def err(at: tuple, msg: str) -> CaseError:
         return CaseError(f"{locate(lines, at, file)}: {dotted(at)}: {msg}")
 
+    err.where = lambda at: locate(lines, at, file)   # where a key was set (a check of two
+    # keys blames the one the user typed on the command line)
+
     if not SAFE_NAME.fullmatch(data["name"]):
         raise err(("name",), "1-64 letters, digits, '.', '-' and '_', starting with a letter or "
                              "digit (it names the run directory)")

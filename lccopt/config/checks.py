@@ -288,9 +288,14 @@ def check_optimisation(data: dict, err, n_variables: int) -> None:
     budget = opt["budget"]
     if opt["initial_points"] is None and budget is not None:
         opt["initial_points"] = default_initial_points(budget, n_variables)
+    budget_at, points_at = ("optimisation", "budget"), ("optimisation", "initial_points")
     if budget is not None and opt["initial_points"] is not None \
             and opt["initial_points"] > budget:
-        raise err(("optimisation", "initial_points"),
+        if _typed(err, budget_at, points_at):
+            raise err(budget_at, f"{budget} is below the {opt['initial_points']} initial points "
+                                 f"({err.where(points_at)}): give at least "
+                                 f"{opt['initial_points']}, or set initial_points too")
+        raise err(points_at,
                   f"{opt['initial_points']} initial points exceed the budget of {budget}")
     worst = opt["asf"]["worst"]
     if worst is None or not opt["objectives"]:
@@ -300,8 +305,20 @@ def check_optimisation(data: dict, err, n_variables: int) -> None:
     if len(worst) not in (n_obj, n_obj * n_each):
         also = (f" or {n_obj * n_each} (one per objective and condition)"
                 if n_each > 1 else "")
-        raise err(("optimisation", "asf", "worst"),
+        objectives_at, worst_at = ("optimisation", "objectives"), ("optimisation", "asf", "worst")
+        if _typed(err, objectives_at, worst_at):
+            raise err(objectives_at, f"{n_obj} objective(s), but asf.worst "
+                                     f"({err.where(worst_at)}) gives {len(worst)} values: set "
+                                     f"asf.worst too")
+        raise err(worst_at,
                   f"expected {n_obj} values (one per objective){also}, got {len(worst)}")
+
+
+def _typed(err, first: tuple, second: tuple) -> bool:
+    """Whether of two keys that disagree ``first`` came from the command line (--set) and
+    ``second`` did not: the message then names what the user typed."""
+    where = getattr(err, "where", None)
+    return where is not None and where(first) == "--set" and where(second) != "--set"
 
 
 def check_design_size(sizes: list[tuple[int, int]], err) -> None:

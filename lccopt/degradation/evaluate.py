@@ -27,12 +27,12 @@ import time
 import numpy as np
 
 from ..vti.evaluate import evaluate as simulate_passage
-from ..vti.response import PAPER_OBJECTIVES, Evaluation
+from ..vti.response import PAPER_OBJECTIVES, REPORTED_ONLY, SETTLEMENT_OBJECTIVES, Evaluation
 from ..vti.specs import TrackDesign
 from ..vti.track import build_track
 from ..vti.vehicle import build_vehicle
 from .iteration import SettlementResult, predict_settlement
-from .laws import LAWS, SleeperLaw, SubgradeLaw
+from .laws import LAWS, SlabSettlement, SleeperLaw, SubgradeLaw
 from .loading import Condition, entry_zone, vti_condition
 from .specs import DegradationSpec, LawSpec, Limit, SubgradeSpec, Traffic
 
@@ -98,7 +98,44 @@ def predict(spec: DegradationSpec, design: TrackDesign) -> SettlementResult:
                               law=sleeper_law(spec, track, support), tolerance=spec.tolerance,
                               steps_per_decade=spec.steps_per_decade,
                               max_simulations=spec.max_simulations,
-                              rail_seats=spec.rail_seats, reading=spec.reading)
+                              rail_seats=spec.rail_seats, reading=spec.reading,
+                              slab=slab_settlement(spec, conditions))
+
+
+def slab_settlement(spec: DegradationSpec, conditions) -> SlabSettlement | None:
+    """The ERS slab's own settlement: the subgrade layer's law under the slab, the same soil
+    as under the sleepers (None without a subgrade).
+
+    One rail's share of the slab (``share_per_rail`` of its width) carries each axle's wheel
+    (the condition's heaviest static wheel load) and spreads it as a beam on an elastic
+    foundation: the peak foundation pressure of a point load P is P β / (2 b), β = (k /
+    (4 EI))^(1/4) (Hetényi), so the loaded area is A = 2 b / β; the layer below is then
+    loaded as a sleeper's is (:func:`lccopt.degradation.laws.li_selig_coefficient`).
+
+    Parameters
+    ----------
+    spec
+        the prediction's inputs.
+    conditions
+        the prediction's conditions (their axles' static loads), in ``spec.settling_traffic``'s
+        order.
+
+    Returns
+    -------
+    lccopt.degradation.laws.SlabSettlement or None
+    """
+    sub = spec.subgrade
+    if sub is None:
+        return None
+    track = spec.settling_traffic[0].scenario.track
+    ers = track.ers
+    b1, b2, h = ers.slab.width_bottom, ers.slab.width_top, ers.slab.height
+    second_moment = h ** 3 * (b1 * b1 + 4 * b1 * b2 + b2 * b2) / (36.0 * (b1 + b2))
+    beta = (ers.foundation.stiffness / (4.0 * ers.slab.youngs_modulus * second_moment)) ** 0.25
+    area = 2.0 * b1 * ers.share_per_rail / beta
+    law = SubgradeLaw.of_soil(sub.soil, subgrade_strength(sub, track.support.stiffness),
+                              [area], sub.depth, sub.thickness)
+    return SlabSettlement(law, np.array([float(np.max(c.axles.loads)) for c in conditions]))
 
 
 def bearing_areas(spec: DegradationSpec, track) -> np.ndarray:
@@ -231,7 +268,8 @@ def settlement_objectives(result: SettlementResult, limit: Limit) -> dict:
     years = o.pop("passes_to_limit") / per_year
     o["maintenance_rate"] = 1.0 / years
     o["years_to_limit"] = years
-    return {k: float(v) for k, v in o.items()}
+    order = [k for k in (*SETTLEMENT_OBJECTIVES, *REPORTED_ONLY) if k in o]
+    return {k: float(o[k]) for k in order + [k for k in o if k not in order]}
 
 
 def settlement_histories(result: SettlementResult) -> dict:
@@ -259,6 +297,7 @@ def settlement_histories(result: SettlementResult) -> dict:
         "settlement_wheel_force_max": result.wheel_force_max,
         "settlement_simulated": result.simulated.astype(np.int8),
         "settlement_load_errors": np.asarray(result.info["load_errors"], dtype=float),
+        **{f"settlement_{k}": np.asarray(v, dtype=float) for k, v in result.rail.items()},
     }
 
 

@@ -15,7 +15,8 @@ SOILS = ("ML", "MH", "CL", "CH")           # Li & Selig's classes (lccopt.degrad
 # passage's peak (passage: ROSE's code takes the largest force of the whole train)
 READINGS = ("axle", "passage")
 # measures a limit may be set on (lengths: SettlementResult.measure)
-LIMIT_MEASURES = ("differential_settlement", "max_settlement", "max_void", "level_std")
+LIMIT_MEASURES = ("level_d1_max", "level_d1_std", "rail_step", "rail_angle",
+                  "differential_settlement", "max_settlement", "max_void", "level_std")
 
 
 @dataclass(frozen=True)

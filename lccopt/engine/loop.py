@@ -44,6 +44,7 @@ from ..errors import (
     EnvironmentFault,
     describe_os_error,
     environment_errno,
+    printable_lines,
 )
 from ..problem import Problem
 from ..terminal import PipeGuard, wrap_items
@@ -381,7 +382,9 @@ class Engine:
                 file = eval_name(o.id)
         common = dict(id=o.id, objectives=objectives or {}, wall_time=o.wall_time, worker=o.worker,
                       file=file,
-                      at=round(time.time(), 3))  # when it was committed: `lccopt status` rates
+                      # when it was committed: the date, and this process's monotonic clock,
+                      # from which `lccopt status` rates the run (a wall clock can step)
+                      at=round(time.time(), 3), mono=round(time.monotonic(), 3))
         if error is None:
             if o.id == 0 and self.table.reference is None:
                 self.problem = pb = pb.with_reference(objectives)  # worst: the case's or default
@@ -468,5 +471,5 @@ class Engine:
                        f" ({(v - r) / r:+.1%} vs reference design {objective_value(k, r)})")
                 lines.append(f"  {objective_text(k, v)}{rel}")
         lines.append(f"results: {self.rd.results_path}")
-        sys.stdout.write("\n".join(lines) + "\n")
+        sys.stdout.write(printable_lines("\n".join(lines)) + "\n")
         sys.stdout.flush()

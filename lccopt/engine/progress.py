@@ -6,6 +6,7 @@ import math
 import sys
 import time
 
+from ..errors import printable, printable_lines
 from ..terminal import wrap_message
 from ..vti.response import objective_display
 
@@ -56,7 +57,7 @@ def best_text(table, short: bool = False) -> str:
         rel = ""
         if r and v is not None and math.isfinite(v):
             rel = f" {(v - r) / r:+.0%}" if short else f" ({(v - r) / r:+.0%})"
-        parts.append(objective_text(k, v) + rel)
+        parts.append(printable(objective_text(k, v)) + rel)
     return ("best " if short else f"best #{best['id']}: ") + ", ".join(parts)
 
 
@@ -113,7 +114,9 @@ class Progress:
         from rich.progress import Progress as RichProgress
         from rich.table import Column
 
-        console = Console(file=self.stream, highlight=False)
+        # the terminal itself: the live line is made of control sequences (what it shows is
+        # made printable here)
+        console = Console(file=getattr(self.stream, "raw", self.stream), highlight=False)
         fixed = Column(no_wrap=True)
         self._live = RichProgress(
             BarColumn(bar_width=BAR), MofNCompleteColumn(table_column=fixed),
@@ -132,7 +135,8 @@ class Progress:
         failed = table.n_failed
         tail = f"  failed {failed}" if failed else ""
         self._live.update(self._task, completed=table.n_done * self.per_design + parts,
-                          description=fit(best_text(table, short=True) + tail, self._text_width))
+                          description=fit(printable(best_text(table, short=True) + tail),
+                                          self._text_width))
         self._live.refresh()
 
     def parts(self, table, parts: int) -> None:
@@ -146,7 +150,7 @@ class Progress:
     def log(self, message: str) -> None:
         """A message on its own line (above the live progress line on a terminal, and wrapped
         to its width there; one line in a log)."""
-        text = f"lccopt: {message}"
+        text = printable(f"lccopt: {message}")   # a run's stored strings (names, reasons)
         if self.mute:
             return
         if self._live is not None:
@@ -202,13 +206,13 @@ class Progress:
         what = ""
         if last is not None:
             what = (f" #{last['id']} {last['phase']} ok" if last["status"] == "ok"
-                    else f" #{last['id']} {last['phase']} FAILED: {last['reason']}")
+                    else f" #{last['id']} {last['phase']} FAILED: {printable(last['reason'])}")
         text = f"lccopt: [{done:>{width}}/{self.budget}]{what}, {hms(elapsed)}{left}{tail}\n"
         best = table.best()
         if best is not None and best["id"] != self._best_shown:
             self._best_shown = best["id"]
             text += f"lccopt:   {best_text(table)}\n"
-        self._write(text)
+        self._write(printable_lines(text))
 
     def close(self) -> None:
         if self._live is not None:

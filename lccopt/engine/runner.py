@@ -11,7 +11,7 @@ from pathlib import Path
 
 from .. import machine
 from ..config import SAFE_NAME, Case, load_case
-from ..errors import UsageError, signals_deferred
+from ..errors import CaseError, UsageError, signals_deferred
 from ..problem import Problem
 from .dask_pool import DaskExecutor
 from .executors import ExecutorError, LocalPool, default_workers
@@ -181,6 +181,7 @@ def resume(run, workers: int | None = None, scheduler=None, case=None,
                            f"line: this run cannot be carried on safely ({n} evaluation file(s) "
                            f"kept as they are); restore the journal, or start a new run under "
                            f"another name")
+        _check_budget(budget, sum(ev.get("event") == "asked" for ev in events))
         journal, events, torn = Journal.open(rd.journal_path)
         if torn:
             out.log("dropped a torn last line of the journal (the run was killed while writing "
@@ -249,6 +250,22 @@ def resume(run, workers: int | None = None, scheduler=None, case=None,
     return rd.path
 
 
+def _check_budget(budget: int | None, asked: int) -> None:
+    """``--budget``, named as the user typed it: within a case's bounds for a budget, and not
+    below what the run has asked for already."""
+    if budget is None:
+        return
+    from ..config.schema import SCHEMA
+
+    spec = SCHEMA.fields["optimisation"].fields["budget"]
+    if budget < spec.ge or budget > spec.le:
+        raise _usage_error(f"--budget {budget}: a budget is {spec.ge:g} to {spec.le:g} "
+                           f"evaluations")
+    if budget < asked:
+        raise _usage_error(f"--budget {budget} is below the {asked} evaluations the run has "
+                           f"already asked for; give at least {asked}")
+
+
 def _lost_files(rd: RunDir, table: Table) -> list[int]:
     """Ids of evaluations whose file the journal names but which is missing, unreadable or not
     theirs (another evaluation's file copied over it): each is simulated again."""
@@ -289,7 +306,15 @@ def _resume_case(rd: RunDir, meta: dict, case, allow_changed: bool, out: Progres
     case_obj = case if isinstance(case, Case) else load_case(case, overrides)
     if budget is not None and sha256_text(case_obj.resolved) == meta.get("case_sha256"):
         # the same case with another budget: the one change --budget asks for
-        case_obj = load_case(case_obj.path, [*overrides, f"optimisation.budget={int(budget)}"])
+        item = f"optimisation.budget={int(budget)}"
+        try:
+            case_obj = load_case(case_obj.path, [*overrides, item])
+        except CaseError as exc:   # named as the user typed it, not as the --set it becomes
+            text = str(exc)
+            prefix = "--set: optimisation.budget: "
+            if text.startswith(prefix) and item not in overrides:
+                raise _usage_error(f"--budget {budget}: {text[len(prefix):]}") from None
+            raise
         allow_changed = True
     if sha256_text(case_obj.resolved) != meta.get("case_sha256"):
         if not allow_changed:

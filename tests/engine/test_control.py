@@ -144,3 +144,182 @@ def test_status_and_report_on_closed_or_full_stdout_exit_2_with_one_line(tmp_pat
     assert (tmp_path / "rep" / "report.md").is_file()   # the work is done all the same
     r = _done(_lccopt("status", run, shell_redirect="2>&- <&-"))
     assert r.returncode == 0 and r.stdout.startswith(f"{run}: finished"), r
+
+
+# ------------------------------------------------------------------------ status's clock
+
+def _rewrite_journal(run: Path, change) -> None:
+    import json
+
+    from lccopt.engine.journal import read_journal
+
+    events = change(read_journal(run / "journal.jsonl")[0])
+    for seq, ev in enumerate(events):
+        ev["seq"] = seq
+    (run / "journal.jsonl").write_text("".join(json.dumps(ev) + "\n" for ev in events))
+    (run / "state.json").unlink(missing_ok=True)
+
+
+def _holding_the_lock(run: Path):
+    """The run's lock held as its driving process holds it: status says 'running'."""
+    import fcntl
+
+    fh = open(run / "lock", "rb")
+    fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+    return fh
+
+
+def test_status_rates_a_running_run_by_the_monotonic_clock_whatever_the_wall_clock_did(
+        tmp_path, finished):
+    """A wall-clock step (NTP, a changed date) between results: the pace and the time left
+    come from the driving process's monotonic clock (one result per second here, 10 left),
+    never negative or absurd; a journal of an lccopt that wrote only the wall clock is rated
+    from the results after its last step back."""
+    _, run, _ = finished
+
+    def running_with_a_step(events, mono=True):
+        events = [ev for ev in events if ev["event"] not in ("finished", "session")]
+        events[0]["budget"] = 20
+        results = [ev for ev in events if ev["event"] in ("evaluated", "failed")]
+        for k, ev in enumerate(results):
+            ev["at"] = 1.8e9 + k - (17300.0 if k >= 5 else 0.0)   # the wall clock stepped back
+            if mono:
+                ev["mono"] = 5000.0 + k
+            else:
+                ev.pop("mono", None)
+        return events
+
+    _rewrite_journal(run, running_with_a_step)
+    lock = _holding_the_lock(run)
+    try:
+        r = subprocess.run(lccopt_command() + ["status", str(run)], capture_output=True,
+                           text=True, timeout=60, env=subprocess_env())
+        assert r.returncode == 0, r.stderr
+        assert "running, 10/20 evaluations" in r.stdout, r.stdout
+        assert "one result every 1 s lately; about 0:00:10 left" in r.stdout, r.stdout
+        _rewrite_journal(run, lambda events: running_with_a_step(events, mono=False))
+        r = subprocess.run(lccopt_command() + ["status", str(run)], capture_output=True,
+                           text=True, timeout=60, env=subprocess_env())
+        assert "one result every 1 s lately; about 0:00:10 left" in r.stdout, r.stdout
+    finally:
+        lock.close()
+
+
+# ------------------------------------------------------------------------ damaged files
+
+def _error_line(r) -> str:
+    assert r.returncode == 2, (r.returncode, r.stderr)
+    assert "Traceback" not in r.stderr, r.stderr
+    lines = r.stderr.strip().splitlines()
+    assert lines and lines[-1].startswith("lccopt: error: "), r.stderr
+    return lines[-1]
+
+
+def test_a_damaged_journal_or_results_file_is_one_line_naming_it(tmp_path, finished):
+    """Lines that are whole JSON but hold what lccopt cannot use (a text for a number, a
+    result of a design never asked): status and resume exit 2 naming the journal and the
+    line; a results.h5 that claims 10^11 rows is refused by report, naming it, never
+    allocated; a state.json crafted to match the journal's line is a cache: resume replays."""
+    import json
+    import shutil
+
+    import h5py
+
+    _, run, _ = finished
+
+    def text_for_a_number(events):
+        next(ev for ev in events if ev["event"] == "asked" and ev["id"] == 3)["x"][0] = "abc"
+        return events
+
+    def a_result_never_asked(events):
+        next(ev for ev in events if ev["event"] == "evaluated" and ev["id"] == 3)["id"] = 99
+        return events
+
+    for what, damage in (("text", text_for_a_number), ("id", a_result_never_asked)):
+        copy = tmp_path / what / "ctl"
+        shutil.copytree(run, copy)
+        _rewrite_journal(copy, damage)
+        for args in (["status", copy], ["resume", copy, "--budget", "12", "--workers", "1"]):
+            r = subprocess.run(lccopt_command() + [str(a) for a in args], capture_output=True,
+                               text=True, timeout=120, env=subprocess_env(**ENV))
+            line = _error_line(r)
+            assert f"{copy / 'journal.jsonl'}: line " in line and "is damaged" in line, line
+    big = tmp_path / "big" / "ctl"
+    shutil.copytree(run, big)
+    (big / "journal.jsonl").unlink()
+    with h5py.File(big / "results.h5", "a") as f:
+        del f["evaluations/id"]
+        f["evaluations"].create_dataset("id", shape=(10 ** 11,), dtype="i8", chunks=(1000,))
+    r = subprocess.run(lccopt_command() + ["report", str(big), "--out", str(tmp_path / "rep")],
+                       capture_output=True, text=True, timeout=120, env=subprocess_env())
+    line = _error_line(r)
+    assert f"{big / 'results.h5'}" in line and "100000000000" in line, line
+    # a snapshot that names the journal's last line but holds nonsense: dropped, replayed
+    state = json.loads((run / "state.json").read_text())
+    state["strategy"] = {"history": "nonsense", "rng": [1, 2]}
+    (run / "state.json").write_text(json.dumps(state))
+    r = subprocess.run(lccopt_command() + ["resume", str(run), "--budget", "12", "--workers",
+                                           "1"], capture_output=True, text=True, timeout=120,
+                       env=subprocess_env(**ENV))
+    assert r.returncode == 0, r.stderr
+    assert len(read_table(run)["id"]) == 12
+
+
+# ------------------------------------------------------------------------ stored strings
+
+def test_a_runs_stored_strings_are_printed_escaped(tmp_path, finished):
+    """Terminal escape sequences, carriage returns and newlines in run.json's case file and
+    variable names (a run directory from elsewhere) are shown as escapes by status and
+    resume: no colour, no retitled terminal, no forged line."""
+    import json
+
+    _, run, _ = finished
+    meta = json.loads((run / "run.json").read_text())
+    meta["case_file"] = "/nowhere/\x1b]0;pwned\x07\x1b[2J\nlccopt: done.yaml"
+    meta["variables"][0][0] = "x_r1\x1b[31m\r\nforged"
+    meta["variables"][0][1] = "MN/m\x1b[5m"
+    (run / "run.json").write_text(json.dumps(meta))
+    status = subprocess.run(lccopt_command() + ["status", str(run)], capture_output=True,
+                            text=True, timeout=60, env=subprocess_env())
+    resume = subprocess.run(lccopt_command() + ["resume", str(run), "--budget", "11",
+                                                "--workers", "1"],
+                            capture_output=True, text=True, timeout=120, env=subprocess_env(**ENV))
+    assert status.returncode == 0 and resume.returncode == 0, (status.stderr, resume.stderr)
+    for text in (status.stdout, resume.stdout, resume.stderr):
+        assert not any(c in text for c in "\x1b\x07\r"), text
+        assert "\nforged" not in text and "\nlccopt: done.yaml" not in text, text
+    assert "x_r1\\x1b[31m\\r\\nforged=" in status.stdout, status.stdout
+    assert "/nowhere/\\x1b]0;pwned\\x07\\x1b[2J\\nlccopt: done.yaml is gone" in resume.stderr
+
+
+# ------------------------------------------------------------------------ messages
+
+def test_each_message_names_what_the_user_typed(tmp_path, finished):
+    """--set values the YAML reader refuses, keys --set made, a --set budget below the file's
+    initial design, resume --budget out of bounds or below the run's evaluations, a control
+    character in a case file: exit 2, one line, blaming --set, --budget or the file's line."""
+    case, run, _ = finished
+
+    def line(*args) -> str:
+        return _error_line(subprocess.run(lccopt_command() + [str(a) for a in args],
+                                          capture_output=True, text=True, timeout=120,
+                                          env=subprocess_env(**ENV)))
+
+    got = line("check", case, "--set", "description=&a x")
+    assert got.startswith("lccopt: error: --set: description: cannot read the value '&a x': "
+                          "anchors and aliases") and "other.yaml" not in got, got
+    assert """--set 'description="&a x"'""" in got, got
+    assert line("check", case, "--set", "nosuch.key=3").startswith(
+        "lccopt: error: --set: nosuch: unknown key"), "blamed on the case file's line 1"
+    got = line("check", case, "--set", "optimisation.budget=3")
+    assert got.startswith("lccopt: error: --set: optimisation.budget: 3 is below the 4 initial "
+                          f"points ({case}:"), got
+    assert line("resume", run, "--budget", "-5") == (
+        "lccopt: error: --budget -5: a budget is 2 to 100000 evaluations")
+    assert line("resume", run, "--budget", "3") == (
+        "lccopt: error: --budget 3 is below the 10 evaluations the run has already asked for; "
+        "give at least 10")
+    bad = tmp_path / "escape.yaml"
+    bad.write_text(f"extends: {case}\ndescription: a\x1bb\n")
+    got = line("check", bad)
+    assert got.startswith(f"lccopt: error: {bad}:2: ") and "\x1b" not in got, got

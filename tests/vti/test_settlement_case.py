@@ -11,7 +11,12 @@ import numpy as np
 import pytest
 
 from lccopt.config import load_case
-from lccopt.degradation.evaluate import predict, settlement_objectives, sleeper_law
+from lccopt.degradation.evaluate import (
+    predict,
+    settlement_objectives,
+    slab_settlement,
+    sleeper_law,
+)
 from lccopt.degradation.iteration import predict_settlement
 from lccopt.degradation.laws import VarandasLaw
 from lccopt.degradation.loading import entry_zone, vti_condition
@@ -64,12 +69,12 @@ def test_a_case_evaluation_is_the_simulation_and_the_prediction_it_says(single):
     spec = case.degradation_spec()
     law = sleeper_law(spec, tr, case.data["track"]["support"]["stiffness"])
     r = predict_settlement(tr, entry_zone(tr, 10), [cond], horizon_years=1.0, law=law,
-                           tolerance=4e3)
+                           tolerance=4e3, slab=slab_settlement(spec, [cond]))
     np.testing.assert_array_equal(ev.histories["settlement_sleepers"], r.settlement)
     np.testing.assert_array_equal(ev.histories["settlement_void"], r.void)
     np.testing.assert_array_equal(ev.histories["settlement_axle_passes"], r.axle_passes)
     o = r.objectives("differential_settlement", 3e-3)
-    for k in SETTLEMENT_OBJECTIVES[:5]:
+    for k in SETTLEMENT_OBJECTIVES[:9]:
         assert ev.objectives[k] == o[k]
     assert ev.objectives["years_to_limit"] == pytest.approx(o["passes_to_limit"] / 1.0e6)
     assert ev.info["settlement_simulations"] == r.n_simulations
