@@ -217,7 +217,7 @@ def _check_cost(data: dict, deg: dict, conditions: tuple, rates: dict, err) -> N
                   f"max_simulations or a coarser time_step")
 
 
-def degradation_spec(data: dict, conditions: tuple) -> DegradationSpec:
+def degradation_spec(data: dict, conditions: tuple, variation=None) -> DegradationSpec:
     """The settlement prediction's typed inputs from a case checked by
     :func:`check_degradation`.
 
@@ -227,6 +227,9 @@ def degradation_spec(data: dict, conditions: tuple) -> DegradationSpec:
         the checked case.
     conditions
         its traffic conditions (empty: the case's own vehicle is the one condition).
+    variation
+        one realisation of the built track (``lccopt.vti.specs.TrackVariation``), or None
+        for the track as drawn.
 
     Returns
     -------
@@ -234,10 +237,11 @@ def degradation_spec(data: dict, conditions: tuple) -> DegradationSpec:
     """
     deg = data["degradation"]
     if conditions:
-        traffic = tuple(Traffic(c.name, build.scenario(c.data), deg["traffic"][c.name],
-                                c.weight) for c in conditions)
+        traffic = tuple(Traffic(c.name, build.scenario(c.data, variation),
+                                deg["traffic"][c.name], c.weight) for c in conditions)
     else:
-        traffic = (Traffic(SINGLE_CONDITION, build.scenario(data), deg["passages_per_year"]),)
+        traffic = (Traffic(SINGLE_CONDITION, build.scenario(data, variation),
+                           deg["passages_per_year"]),)
     law = deg["law"]
     params = tuple((arg, float(law[key])) for key, (arg, _) in LAW_PARAMETERS[law["name"]].items())
     mode = (data.get("optimisation") or {}).get("conditions") or "worst"
