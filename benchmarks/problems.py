@@ -454,13 +454,14 @@ def _ellipsoid_1e4(z):
 def fresh(family: str, seed: int) -> TestFunction:
     """The instance of ``family`` (a name of FRESH; "fresh-" may be left off) for ``seed``.
 
-    Mixed families: 8 variables, 5 of them integer (chosen at random) with 5 to 121 values
-    each ("fresh5-": 5 values each), continuous bounds [0, 10^U(-1, 3)]; the box maps onto
-    the classic function's usual domain (as ``paper_size``), its optimum moved to a random integer-feasible point x* away
-    from the bounds. Integer families: 8 integers of 11 to 51 values; "ellipsoid_int" a
-    rotated ellipsoid (condition 1e4), "rastrigin_int" Rastrigin with a local minimum every
-    4 steps. ``f(x) = g(z* + R ((x - x*) * step))``, R a random rotation for the families
-    of _FRESH_ROTATED (identity otherwise): g >= g(z*) everywhere, so f* = g(z*) at x*.
+    Mixed families: 8 variables, 5 of them integer (chosen at random) with 5 to 121 values each
+    ("fresh5-": 5 values each), continuous bounds [0, 10^U(-1, 3)]; the box maps onto the
+    classic function's usual domain (as ``paper_size``), its optimum moved to a random
+    integer-feasible point x* away from the bounds. Integer families: 8 integers of 11 to 51
+    values; "ellipsoid_int" a rotated ellipsoid (condition 1e4), "rastrigin_int" Rastrigin with
+    a local minimum every 4 steps. ``f(x) = g(z* + R ((x - x*) * step))``, R a random rotation
+    for the families of _FRESH_ROTATED (identity otherwise): g >= g(z*) everywhere, so f* =
+    g(z*) at x*.
     """
     five = family.startswith("fresh5-")
     name = family.removeprefix("fresh5-" if five else "fresh-")
