@@ -46,7 +46,7 @@ def test_configs_settlement_is_the_paper_crossing_under_ten_years_of_virm_bogies
     assert spec.law.name == "varandas"
     assert dict(spec.law.parameters) == {"alpha": 0.6, "beta": 0.82, "gamma": 0.01, "f0": 50e3,
                                          "n0": 1e6}
-    assert (spec.limit.measure, spec.limit.value) == ("differential_settlement", 3e-3)
+    assert (spec.limit.measure, spec.limit.value) == ("level_d1_max", 2e-3)
     assert case.conditions == () and case.traffic == ()      # one task per design
     # the resolved case (what a run keeps) says what the prediction ran with: the law's
     # defaults and the horizon, none of the other law's keys
@@ -228,5 +228,5 @@ def test_check_prints_the_prediction_in_80_columns(run_cli):
     assert "settlement: varandas law: alpha 0.6, beta 0.82, gamma 10 mm," in text
     assert "1e+06 axle passes, about 17.8 million gross tonnes a year" in text
     assert "horizon 10 years = 1e+07 axle passes; 20 settling sleepers" in text
-    assert "limit: differential_settlement 3 mm" in text
+    assert "limit: level_d1_max 2 mm" in text
     assert "at most 30 simulations x 1 condition(s), tolerance 2 kN" in text

@@ -23,11 +23,21 @@ from .data import BEST_COLOR, DPI, OKABE_ITO, fnum
 
 # What each settlement objective measures, for the report's summary (docs/settlement.md).
 MEANING = {
+    "level_d1_max": "the largest deviation of the rail's longitudinal level in EN 13848's D1 "
+                    "band (wavelengths 3-25 m) over the approach and the ERS at the horizon: "
+                    "what a track recording car reports as an isolated defect",
+    "level_d1_std": "the standard deviation of the rail's D1 level over the approach and the "
+                    "ERS at the horizon (EN 13848-6 takes it over 200 m sections: there it "
+                    "would be smaller by the root of the window's share of 200 m)",
+    "rail_step": "how far the rail sits below its level at the slab's edge within 3 m of the "
+                 "approach at the horizon (the slab's own settlement included)",
+    "rail_angle": "the largest slope of the rail within 3 m either side of the interface at "
+                  "the horizon, in mm/m: the ramp a wheel runs down off the slab",
     "differential_settlement": "the largest minus the smallest settlement of the settling "
                                "sleepers' ballast at the horizon: how uneven the approach has "
-                               "become (the slab, which does not settle, is not in it)",
-    "max_settlement": "the largest settlement at the horizon: the step down from the slab, "
-                      "which does not settle",
+                               "become (the slab is not in it; reported, not what the rail "
+                               "does)",
+    "max_settlement": "the largest settlement of a settling sleeper at the horizon",
     "max_void": "the largest gap between a sleeper and its ballast at rest at the horizon: a "
                 "hanging sleeper, held up by the rail",
     "level_std": "the standard deviation of the rail's level at rest (its own weight) over the "
@@ -222,6 +232,8 @@ def _time_marks(ax, h: dict, labels: bool) -> None:
 
 def _measure(h: dict, name: str) -> np.ndarray:
     """A SettlementResult measure from the stored histories."""
+    if f"settlement_{name}" in h:
+        return np.asarray(h[f"settlement_{name}"], float)
     s = np.asarray(h["settlement_sleepers"], float)
     if name == "differential_settlement":
         return np.ptp(s, axis=1)
@@ -277,8 +289,10 @@ def fig_settlement_profile(designs: list[Design], out: Path, title: str,
         ax.axvspan(0.0, right + 0.5, color="0.88", zorder=0)
         ax.axvline(0.0, color="0.3", lw=0.9)
         ax.set_xlim(right=right + 0.5)
-    a1.text(0.1, 0.02, "slab (ERS):\nno settlement", transform=a1.get_xaxis_transform(),
-            fontsize=8, color="0.3")
+    slab = designs[0].histories.get("settlement_slab")
+    said = ("slab (ERS): the rail's level\nwith the slab's own settlement" if slab is not None
+            else "slab (ERS):\nno settlement")
+    a1.text(0.1, 0.02, said, transform=a1.get_xaxis_transform(), fontsize=8, color="0.3")
     a1.set(ylabel="lowering (settlement) [mm]",
            title="ballast under each sleeper (markers) and the rail's level at rest (thin)")
     a2.set(xlabel="position from the slab edge [m] (the vehicle comes from the left)",

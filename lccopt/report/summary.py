@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..config.describe import pad_facts
 from ..vti.response import objective_unit
 from .data import (
     OBJECTIVE_DOC,
@@ -195,6 +196,10 @@ def build_summary(run: RunData, figs: dict, notes: dict, facts: list[str] | None
                      "integer" if v.integer else "continuous",
                      var_value(v, v.reference)])
     doc.table(["variable", "meaning", "unit", "bounds", "kind", "reference design"], rows, "llllll")
+    if run.case is not None:
+        doc.p("Pads, as entered and as simulated (under the wheel; docs/model.md, 'Pads as "
+              "bought'):")
+        doc.ul([fact[0].upper() + fact[1:] for fact in pad_facts(run.case)])
     if run.case is None and run.case_note:
         doc.p(f"Note: the run's case could not be loaded ({run.case_note}); bounds are not shown.")
 
