@@ -334,7 +334,8 @@ def test_an_objective_no_design_can_change_is_refused_by_check(tmp_path):
     reference simulation, then blamed an asf.worst the user never set, on every resume)."""
     settle = tmp_path / "one.yaml"
     settle.write_text(f"extends: {REPO_CONFIGS / 'settlement.yaml'}\nname: one\n"
-                      "degradation:\n  settling_sleepers: 1\n")
+                      "degradation:\n  settling_sleepers: 1\n  tamping: {unreachable_sleepers: 0}\n"
+                      "optimisation:\n  objectives: [differential_settlement, F_max]\n")
     zone = tmp_path / "zone.yaml"
     zone.write_text(f"extends: {REPO_CONFIGS / 'quickstart.yaml'}\nname: zone\n"
                     "evaluation:\n  sleepers: 1\n")
