@@ -31,7 +31,7 @@ from ..vti.response import PAPER_OBJECTIVES, REPORTED_ONLY, SETTLEMENT_OBJECTIVE
 from ..vti.specs import TrackDesign
 from ..vti.track import build_track
 from ..vti.vehicle import build_vehicle
-from .iteration import SettlementResult, predict_settlement
+from .iteration import SettlementResult, Tamping, predict_settlement
 from .laws import LAWS, SlabSettlement, SleeperLaw, SubgradeLaw
 from .loading import Condition, entry_zone, vti_condition
 from .specs import DegradationSpec, LawSpec, Limit, SubgradeSpec, Traffic
@@ -99,7 +99,17 @@ def predict(spec: DegradationSpec, design: TrackDesign) -> SettlementResult:
                               steps_per_decade=spec.steps_per_decade,
                               max_simulations=spec.max_simulations,
                               rail_seats=spec.rail_seats, reading=spec.reading,
-                              slab=slab_settlement(spec, conditions))
+                              slab=slab_settlement(spec, conditions), tamping=tamping(spec))
+
+
+def tamping(spec: DegradationSpec) -> Tamping | None:
+    """The tamping of the prediction: when the case's limit is reached, every settling
+    sleeper but the ``unreachable_sleepers`` nearest the slab; None without ``tamping``."""
+    t = spec.tamping
+    if t is None:
+        return None
+    reachable = np.arange(spec.settling_sleepers) >= t.unreachable_sleepers
+    return Tamping(spec.limit.measure, spec.limit.value, reachable, t.min_interval)
 
 
 def slab_settlement(spec: DegradationSpec, conditions) -> SlabSettlement | None:
@@ -296,6 +306,8 @@ def settlement_histories(result: SettlementResult) -> dict:
         "settlement_peak_force": result.peak_force,
         "settlement_wheel_force_max": result.wheel_force_max,
         "settlement_simulated": result.simulated.astype(np.int8),
+        "settlement_tamped": (np.zeros(len(result.years), np.int8) if result.tamped is None
+                              else result.tamped.astype(np.int8)),
         "settlement_load_errors": np.asarray(result.info["load_errors"], dtype=float),
         **{f"settlement_{k}": np.asarray(v, dtype=float) for k, v in result.rail.items()},
     }
@@ -314,4 +326,10 @@ def _settlement_info(result: SettlementResult, spec: DegradationSpec) -> dict:
         "settlement_limit_measure": limit.measure,
         "settlement_limit_value": float(limit.value),
         "settlement_limit_reached": reached,
+        "settlement_tamping": spec.tamping is not None,
+        "settlement_unreachable_sleepers": (-1 if spec.tamping is None
+                                            else int(spec.tamping.unreachable_sleepers)),
+        "settlement_interventions": int(0 if result.tamped is None else result.tamped.sum()),
+        "settlement_tamping_ineffective": (-1.0 if result.info.get("tamping_ineffective") is None
+                                           else float(result.info["tamping_ineffective"])),
     }

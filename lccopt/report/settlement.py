@@ -47,8 +47,10 @@ MEANING = {
                     "track's: how much the settled geometry amplifies the dynamic load",
     "maintenance_rate": "1 / years_to_limit: how often the limit is reached, in 1/year "
                         "(the minimised form of a life: smaller is better)",
-    "years_to_limit": "years until the limit's measure first reaches its value (the horizon "
-                      "if it never does)",
+    "interventions": "the tampings over the horizon (each when the limit was reached; the "
+                     "sleepers next to the slab out of the machine's reach are not lifted)",
+    "years_to_limit": "years until the limit's measure first reaches its value: the first "
+                      "tamping, if the track is tamped (the horizon if it never does)",
 }
 TIMES = (1 / 12, 1.0, 3.0, 10.0, 30.0, 100.0)    # [year] candidate times of the profiles
 STYLES = ("-", "--", ":", "-.")                 # designs side by side, in this order
@@ -206,6 +208,10 @@ def _measures_panel(ax, designs: list[Design], limit) -> None:
         v = np.asarray(h["settlement_void"], float).max(axis=1) * 1e3
         ax.plot(p[keep], m[keep], color=d.color, lw=1.8, label=f"{d.label}: {name}")
         ax.plot(p[keep], v[keep], color=d.color, lw=1.2, ls="--", label=f"{d.label}: max_void")
+        tamped = np.asarray(h.get("settlement_tamped", np.zeros(len(p))), bool)
+        for j, at in enumerate(p[tamped]):
+            ax.axvline(at, color=d.color, lw=1.0, ls=d.style if d.style != "-" else "-.",
+                       alpha=0.8, label=f"{d.label}: tamped" if j == 0 else None)
     if limit:
         ax.axhline(limit[1] * 1e3, color=OKABE_ITO["vermillion"], lw=1.0, ls=":",
                    label=f"limit: {name} {limit[1] * 1e3:g} mm")
@@ -348,6 +354,20 @@ def facts(d: Design) -> str:
         out += (f"; {measure} reaches {value * 1e3:g} mm after "
                 f"{_limit_years(h, measure, value)}" if reached else
                 f"; {measure} stays below {value * 1e3:g} mm over the horizon")
+    tamped = np.asarray(h.get("settlement_tamped", np.zeros(len(s))), bool)
+    if info.get("settlement_tamping"):
+        t = np.asarray(h["settlement_years"], float)[tamped]
+        if t.size:
+            shown = ", ".join(_years_text(float(v)) for v in t[:6]) + (", ..." if t.size > 6
+                                                                        else "")
+            out += (f"; tamped {t.size} time{'s' if t.size > 1 else ''} over the horizon "
+                    f"(after {shown})")
+        else:
+            out += "; never tamped over the horizon"
+        if float(info.get("settlement_tamping_ineffective", -1.0)) >= 0:
+            when = _years_text(float(info["settlement_tamping_ineffective"]))
+            out += (f"; a tamping after {when} left the limit reached (the sleepers out of "
+                    f"reach): tamping ended there")
     sims = info.get("settlement_simulations")
     return out + (f" ({sims} simulations)." if sims else ".")
 

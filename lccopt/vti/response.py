@@ -15,13 +15,13 @@ PAPER_OBJECTIVES = ("F_rms", "F_max", "E_rms", "E_max")
 # point 0.8 x f(x_ref) and worst values 1.5 x f(x_ref) keep their meaning).
 SETTLEMENT_OBJECTIVES = ("level_d1_max", "level_d1_std", "rail_step", "rail_angle",
                          "differential_settlement", "max_settlement", "max_void", "level_std",
-                         "force_growth", "maintenance_rate")
+                         "force_growth", "maintenance_rate", "interventions")
 REPORTED_ONLY = ("years_to_limit",)
 OBJECTIVE_UNITS = {"F_rms": "N", "F_max": "N", "E_rms": "J", "E_max": "J",
                    "differential_settlement": "m", "max_settlement": "m", "max_void": "m",
                    "level_std": "m", "force_growth": "-", "maintenance_rate": "1/year",
                    "level_d1_max": "m", "level_d1_std": "m", "rail_step": "m",
-                   "rail_angle": "m/m",
+                   "rail_angle": "m/m", "interventions": "-",
                    "years_to_limit": "year"}
 OBJECTIVE_DOC = {  # short enough for one line of `lccopt simulate` on 80 columns
     "F_rms": "rms of the wheel-rail contact forces in the force zone",
@@ -33,6 +33,7 @@ OBJECTIVE_DOC = {  # short enough for one line of `lccopt simulate` on 80 column
     "level_d1_std": "std of the D1 level, approach + ERS",
     "rail_step": "rail below the slab edge within 3 m",
     "rail_angle": "rail slope at the interface, mm/m",
+    "interventions": "tampings over the horizon",
     "differential_settlement": "max - min over the settling sleepers",
     "max_settlement": "the largest: the step from the slab",
     "max_void": "largest void under a sleeper",
@@ -149,6 +150,7 @@ HISTORY_DOC = {
     "settlement_wheel_force_max": "largest wheel-rail force of a simulated passage [N] (blocks x "
                                   "conditions), NaN where not simulated",
     "settlement_simulated": "1 where every condition was simulated at the block's end",
+    "settlement_tamped": "1 for the record of a tamping (the track just after it)",
     "settlement_load_errors": "largest error of the predicted loads at each re-simulation [N]",
     "settlement_slab": "settlement of the ERS slab [m] per block",
     "settlement_rail_step": "rail_step [m] per block (lccopt/degradation/rail.py)",
