@@ -166,6 +166,11 @@ def _simulate_settlement(case, case_path: Path, x, out: Path, plots: bool, evalu
         typer.echo(f"  (the limit, {info['settlement_limit_measure']} "
                    f"{info['settlement_limit_value'] * 1e3:g} mm, is not reached within the "
                    f"horizon)")
+    if info.get("settlement_tamping"):
+        years = ev.histories["settlement_years"][ev.histories["settlement_tamped"].astype(bool)]
+        typer.echo(f"  tamped {len(years)} time(s)"
+                   + (": after " + ", ".join(f"{y:.3g}" for y in years) + " years"
+                      if len(years) else ""))
     if info.get("settlement_budget_bound"):
         typer.echo("note: the prediction used its whole budget of simulations "
                    "(degradation.max_simulations): the loads between them were spread wider "
@@ -221,8 +226,10 @@ def _simulate_realisations(case, case_path: Path, x, out: Path, plots: bool,
         typer.echo(f"vehicle: {vehicle_line(case.vehicle)}")
     typer.echo(zone_line(case))
     typer.echo("\n".join(line[2:] for line in uncertainty_lines(case)[:-1]))
-    head = "".join(f"{k[:9] + ' [' + objective_display(k)[1] + ']':>14}" for k in keys)
+    head = "".join(f"{k[:13]:>14}" for k in keys)
+    units = "".join(f"{'[' + (objective_display(k)[1] or '-') + ']':>14}" for k in keys)
     typer.echo(f"{'track':<16}{head}{'time':>7}")
+    typer.echo(f"{'':<16}{units}")
     names = [c.name for c in case.conditions]
     weights = [c.weight for c in case.conditions]
     conditions = list(range(len(case.conditions))) or [-1]

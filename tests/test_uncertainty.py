@@ -133,6 +133,8 @@ def test_the_seed_defaults_to_the_optimisation_seed(tmp_path):
     ("  realisations: 3\n  pad_stiffness: {mean: 1.1}\n", "", "uncertainty.pad_stiffness",
      "missing key 'cov'"),
     ("  realisations: 3\n", "", "uncertainty", "no quantity varies"),
+    ("  realisations: 3\n  settlement_coefficient: {cov: 0.2}\n", "",
+     "uncertainty.settlement_coefficient", "needs a degradation: section"),
     ("  realisations: 3\n  support_stiffness: {}\n", "q90(F_mx)", "optimisation.objectives",
      "unknown name 'q90(F_mx)'"),
     ("  realisations: 3\n  support_stiffness: {}\n", "q90(years_to_limit)",
@@ -185,6 +187,24 @@ def test_check_prints_the_realisations_and_what_they_cost(tmp_path):
     assert "per design: 4 tracks (the drawing and 3 realisations) = 4 tasks" in out
     assert "budget 10: 40 tasks (4 x a deterministic run)" in out
     assert max(len(line) for line in out.splitlines()[1:]) <= 80
+
+
+def test_a_realisation_reaches_the_settlement_prediction_s_sleepers(tmp_path):
+    path = tmp_path / "s.yaml"
+    path.write_text(f"extends: {REFERENCE.parent / 'settlement.yaml'}\nname: s\nuncertainty:\n"
+                    f"  realisations: 2\n  settlement_coefficient: {{cov: 0.2}}\n"
+                    f"  initial_void: {{probability: 0.3, gap: 1 mm}}\n")
+    case = load_case(path)
+    drawn = case.degradation_spec()
+    assert drawn.sleeper_gamma is None and drawn.initial_gap is None
+    n = drawn.settling_sleepers
+    for r, v in enumerate(case.variations):
+        spec = case.part_case(-1, r).degradation_spec()
+        assert spec.sleeper_gamma == tuple(v.settlement[0][:n])
+        assert spec.initial_gap == tuple(v.void[0][:n])
+        assert len(set(spec.sleeper_gamma)) == n and 0 < spec.initial_gap.count(0.0) < n
+        # the same track in the paper's passages of the prediction
+        assert spec.traffic[0].scenario.variation is v
 
 
 # -- realisations in the model ---------------------------------------------------------------

@@ -49,6 +49,44 @@ def is_multiple(length: float, unit: float) -> bool:
     return abs(q - round(q)) < 1e-9 * max(1.0, q)
 
 
+def check_railpad(data: dict, err) -> None:
+    """``track.railpad`` gives its pad one way: a named pad alone; or its stiffness under the
+    wheel (with its static stiffness if known); or its static stiffness and ratio; with its
+    damping but for a named pad. A static stiffness above the one under the wheel is refused:
+    elastomers stiffen with the rate of loading, so a pad is no softer under the wheel than
+    bought (lccopt/vti/pads.py)."""
+    pad = data["track"]["railpad"]
+    at = ("track", "railpad")
+    given = [k for k in ("type", "stiffness", "static_stiffness", "dynamic_to_static",
+                         "damping") if pad.get(k) is not None]
+    if "type" in given:
+        if len(given) > 1:
+            raise err(at + (given[1],), f"the named pad '{pad['type']}' sets the pad's values: "
+                                        f"give type alone (over a base case's values: "
+                                        f"{given[1]}: null)")
+        return
+    if "stiffness" in given and "dynamic_to_static" in given:
+        raise err(at + ("dynamic_to_static",), "give the stiffness under the wheel or "
+                                               "static_stiffness x dynamic_to_static, not both "
+                                               "(over a base case's stiffness: stiffness: null)")
+    if "stiffness" not in given:
+        as_bought = [k for k in ("static_stiffness", "dynamic_to_static") if k in given]
+        if not as_bought:
+            raise err(at, "missing key 'stiffness' (the pad's stiffness under the wheel), or "
+                          "'type' (a named pad), or 'static_stiffness' and 'dynamic_to_static'")
+        if len(as_bought) == 1:
+            other = ({"static_stiffness", "dynamic_to_static"} - set(as_bought)).pop()
+            raise err(at, f"missing key '{other}': the stiffness under the wheel is "
+                          f"static_stiffness x dynamic_to_static (or give it as 'stiffness')")
+    elif "static_stiffness" in given and pad["static_stiffness"] > pad["stiffness"]:
+        raise err(at + ("static_stiffness",),
+                  f"{pad['static_stiffness'] / 1e6:g} MN/m is above the stiffness under the "
+                  f"wheel ({pad['stiffness'] / 1e6:g} MN/m): a pad is no softer under the "
+                  f"wheel than bought")
+    if "damping" not in given:
+        raise err(at, "missing key 'damping'")
+
+
 def check_mesh_units(data: dict, err) -> None:
     """Lengths sit on the 0.1 m grid that sleeper spans are counted in."""
     le = data["simulation"]["element_length"]
@@ -250,9 +288,15 @@ def check_optimisation(data: dict, err, n_variables: int) -> None:
     budget = opt["budget"]
     if opt["initial_points"] is None and budget is not None:
         opt["initial_points"] = default_initial_points(budget, n_variables)
+    check_degenerate_objectives(data, err)
+    budget_at, points_at = ("optimisation", "budget"), ("optimisation", "initial_points")
     if budget is not None and opt["initial_points"] is not None \
             and opt["initial_points"] > budget:
-        raise err(("optimisation", "initial_points"),
+        if _typed(err, budget_at, points_at):
+            raise err(budget_at, f"{budget} is below the {opt['initial_points']} initial points "
+                                 f"({_where(err, points_at)}): give at least "
+                                 f"{opt['initial_points']}, or set initial_points too")
+        raise err(points_at,
                   f"{opt['initial_points']} initial points exceed the budget of {budget}")
     worst = opt["asf"]["worst"]
     if worst is None or not opt["objectives"]:
@@ -262,8 +306,57 @@ def check_optimisation(data: dict, err, n_variables: int) -> None:
     if len(worst) not in (n_obj, n_obj * n_each):
         also = (f" or {n_obj * n_each} (one per objective and condition)"
                 if n_each > 1 else "")
-        raise err(("optimisation", "asf", "worst"),
+        objectives_at, worst_at = ("optimisation", "objectives"), ("optimisation", "asf", "worst")
+        if _typed(err, objectives_at, worst_at):
+            raise err(objectives_at, f"{n_obj} objective(s), but asf.worst "
+                                     f"({_where(err, worst_at)}) gives {len(worst)} values: set "
+                                     f"asf.worst too")
+        raise err(worst_at,
                   f"expected {n_obj} values (one per objective){also}, got {len(worst)}")
+
+
+# Objectives that are a spread (max - min) over a set of sleepers: with one sleeper they are 0
+# for every design. (objective -> the key that counts the sleepers, what they are)
+_SPREADS = {"E_max": (("evaluation", "sleepers"), "zone sleeper"),
+            "differential_settlement": (("degradation", "settling_sleepers"), "settling sleeper")}
+
+
+def check_degenerate_objectives(data: dict, err) -> None:
+    """An objective the case makes the same for every design is refused here, before any
+    simulation: a spread over one sleeper (0 for every design: nothing to minimise, and an ASF
+    whose reference point and worst value are both 0), or maintenance_rate counting to a limit
+    on such a spread (the limit is never reached: 1 / horizon for every design). The key
+    blamed is the count that makes it so."""
+    opt = data["optimisation"]
+    objectives = list(opt.get("objectives") or [])
+    deg = data.get("degradation") or {}
+    limit = (deg.get("limit") or {}).get("measure") if deg else None
+    asked = [(k, k) for k in objectives]
+    if "maintenance_rate" in objectives and limit in _SPREADS:
+        asked.append((limit, f"maintenance_rate (its limit is on {limit})"))
+    for measure, objective in asked:
+        if measure not in _SPREADS:
+            continue
+        at, what = _SPREADS[measure]
+        section = data.get(at[0]) or {}
+        count = section.get(at[1])
+        if count == 1:
+            listed = _where(err, ("optimisation", "objectives"))
+            raise err(at, f"1 {what} makes {measure} (max - min over them) 0 for every design, so "
+                          f"{objective}, an objective of this case ({listed}), cannot be "
+                          f"minimised: at least 2, or another objective")
+
+
+def _where(err, at: tuple) -> str:
+    """Where key ``at`` was set (file:line or --set), if ``err`` can tell; else its name."""
+    where = getattr(err, "where", None)
+    return where(at) if where is not None else ".".join(at)
+
+
+def _typed(err, first: tuple, second: tuple) -> bool:
+    """Whether of two keys that disagree ``first`` came from the command line (--set) and
+    ``second`` did not: the message then names what the user typed."""
+    return _where(err, first) == "--set" and _where(err, second) != "--set"
 
 
 def check_design_size(sizes: list[tuple[int, int]], err) -> None:

@@ -9,10 +9,11 @@ add up to the real vehicle, shows before anything is simulated.
 from __future__ import annotations
 
 from ..terminal import WIDTH, wrap_items
+from ..vti import pads
 from ..vti.vehicle import build_vehicle
 from .build import vehicle_spec
 from .checks import simulation_size
-from .degradation import SINGLE_CONDITION, axles
+from .degradation import SINGLE_CONDITION, axles, bearing_areas
 from .uncertainty import uncertainty_lines
 from .zones import force_zone_end, zone_end_x
 
@@ -40,6 +41,67 @@ def variable_items(case) -> list[str]:
                    f"{v.upper * scale:g}]{f' {unit}' if unit else ''}"
                    f"{f' in {scale:g} m steps' if steps else ''}{' log' if v.log else ''}")
     return out
+
+
+def _mn(k: float) -> str:
+    return f"{k / 1e6:.4g}"
+
+
+def pad_facts(case) -> list[str]:
+    """The pads as entered and as simulated (under the wheel): the pads of the sleepers not
+    designed, then the designed ones, one sentence each. ``lccopt check`` prints them
+    (:func:`pad_lines`) and the report repeats them.
+
+    Parameters
+    ----------
+    case
+        a loaded case.
+
+    Returns
+    -------
+    list of str
+        e.g. ``["pads: 560 MN/m as bought x 2 = 1120 MN/m under the wheel, 120 kN s/m",
+        "designed pads x_r1-x_r3: 20-480 MN/m as bought x 2.5 = 50-1200 MN/m under the
+        wheel, damping 120 kN s/m per 1120 MN/m"]``.
+    """
+    section = case.track["railpad"]
+    pad = pads.resolve(section)
+    if pad.name:
+        bought = f"{pad.name} (named; static not published), "
+    elif pad.static_stiffness is None:
+        bought = "static not given, "
+    elif section.get("stiffness") is None:
+        bought = f"{_mn(pad.static_stiffness)} MN/m as bought x {pad.ratio:.3g} = "
+    else:
+        bought = f"{_mn(pad.static_stiffness)} MN/m as bought (x {pad.ratio:.3g}), "
+    facts = [f"pads: {bought}{_mn(pad.stiffness)} MN/m under the wheel, "
+             f"{pad.damping / 1e3:.4g} kN s/m"]
+    designed = [v for v in case.variables if v.group == "railpad_stiffness"]
+    if designed:
+        ratio = case.data["design"]["railpad_stiffness"].get("dynamic_to_static")
+        names = designed[0].name + (f"-{designed[-1].name}" if len(designed) > 1 else "")
+        lo, hi = designed[0].lower, designed[0].upper
+        sim = (f"{_mn(pads.under_wheel(lo, ratio))}-{_mn(pads.under_wheel(hi, ratio))} MN/m "
+               f"under the wheel")
+        bought = f"{_mn(lo)}-{_mn(hi)} MN/m as bought x {ratio:.3g} = " if ratio else ""
+        facts.append(f"designed pads {names}: {bought}{sim}, damping "
+                     f"{pad.damping / 1e3:.4g} kN s/m per {_mn(pad.stiffness)} MN/m")
+    return facts
+
+
+def pad_lines(case) -> list[str]:
+    """:func:`pad_facts` in lines of at most 78 columns (broken at ': ', ' = ' and ', ')."""
+    lines = []
+    for fact in pad_facts(case):
+        head, rest = fact.split(": ", 1)
+        items = rest.replace(" = ", ", = ").split(", ")
+        wrapped = [line.replace(", =", " =") for line in
+                   wrap_items(items, f"{head}: ", width=WIDTH - 2)]
+        for i in range(len(wrapped) - 1):       # no comma before a line that goes on with =
+            if wrapped[i + 1].lstrip().startswith("="):
+                wrapped[i] = wrapped[i].rstrip(",")
+        lines += wrapped
+    return lines
 
 
 def zone_line(case) -> str:
@@ -126,6 +188,7 @@ def degradation_lines(case) -> list[str]:
     limit = deg["limit"]
     simulated = sum(p > 0 for _, p, _ in rows)
     lines = wrap_items(law_items(deg["law"]), f"  settlement: {deg['law']['name']} law: ")
+    lines += _pressure_lines(case)
     lines += wrap_items(items, "    traffic: ")
     lines.append(f"    {per_year:.3g} axle passes, about {tonnes / 1e6:.3g} million gross tonnes "
                  f"a year")
@@ -134,9 +197,35 @@ def degradation_lines(case) -> list[str]:
                  f"{deg['settling_sleepers']} settling sleepers")
     lines.append(f"    limit: {limit['measure']} {limit['value'] * 1e3:g} mm (years_to_limit, "
                  f"maintenance_rate)")
+    tamping = deg.get("tamping")
+    if tamping is not None:
+        lines.append(f"    tamped at the limit, not the {tamping['unreachable_sleepers']} "
+                     f"sleeper(s) by the slab; at most every {tamping['min_interval']:g} yr")
     lines.append(f"    per design: at most {deg['max_simulations']} simulations x {simulated} "
                  f"condition(s), tolerance {deg['tolerance'] / 1e3:g} kN")
     return lines
+
+
+def _pressure_lines(case) -> list[str]:
+    """How the law is fed: the bearing areas and reference pressure; the subgrade layer."""
+    deg = case.degradation
+    standard, strengthened = bearing_areas(case.data)
+    f0 = deg["law"]["reference_force"]
+    lines = wrap_items([f"bearing area {standard:g} m^2 a rail seat",
+                        f"strengthened {strengthened:.3g} m^2",
+                        f"reference pressure {f0 / standard / 1e3:.3g} kPa",
+                        f"{deg['reading']} reading"], "    fed the sleeper-ballast pressure: ")
+    sub = deg["subgrade"]
+    if sub["soil"] == "none":
+        return lines + ["    subgrade: none (the ballast law alone: a softer support settles "
+                        "less)"]
+    k = case.data["track"]["support"]["stiffness"]
+    here = sub["strength"] * k / sub["reference_stiffness"]
+    return lines + wrap_items(
+        [f"soil {sub['soil']}", f"strength {here / 1e3:.3g} kPa on this {k / 1e6:g} MN/m support",
+         f"{sub['strength'] / 1e3:g} kPa on {sub['reference_stiffness'] / 1e6:g} MN/m",
+         f"{sub['depth']:g}-{sub['depth'] + sub['thickness']:g} m below the sleepers"],
+        "    subgrade (Li & Selig): ")
 
 
 def case_lines(case, file) -> list[str]:
@@ -147,6 +236,7 @@ def case_lines(case, file) -> list[str]:
         lines += condition_lines(case)
     else:
         lines.append(f"  vehicle: {vehicle_line(case.vehicle)}")
+    lines += [f"  {line}" for line in pad_lines(case)]
     lines.append(f"  {zone_line(case)}")
     steps, dofs = max(simulation_size(one.data) for one in (case.traffic or [case]))
     lines.append(f"  {'the longest simulation' if case.traffic else 'one simulation'}: at "

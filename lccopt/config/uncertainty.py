@@ -30,10 +30,11 @@ from ..vti.specs import TrackVariation
 from .checks import MAX_DESIGN_STEP_DOFS, simulation_size
 
 # the quantities of the section, in the order check prints them
-QUANTITIES = ("support_stiffness", "support_damping", "pad_stiffness", "initial_void")
+QUANTITIES = ("support_stiffness", "support_damping", "pad_stiffness", "settlement_coefficient",
+              "initial_void")
 # one random stream per quantity (never renumbered: a run's realisations depend on them)
 _STREAMS = {"support_stiffness": 1, "support_damping": 2, "pad_stiffness": 3,
-            "initial_void": 4, "void_gap": 5}
+            "initial_void": 4, "void_gap": 5, "settlement_coefficient": 6}
 # Work of one design's simulations in all, its realisations included: ten times what one
 # design of a deterministic case may take (MAX_DESIGN_STEP_DOFS, about 35 minutes), about six
 # hours of one core. The realisations run as tasks of their own, so workers share them.
@@ -116,6 +117,10 @@ def draw(data: dict) -> tuple[TrackVariation, ...]:
             z = field("pad_stiffness", r, q["correlation_length"])
             values["pad_stiffness"] = split(
                 fields.factors(z, q["distribution"], q["mean"], q["cov"]))
+        q = unc.get("settlement_coefficient")
+        if q is not None:
+            z = field("settlement_coefficient", r, q["correlation_length"])
+            values["settlement"] = split(fields.factors(z, q["distribution"], 1.0, q["cov"]))
         q = unc.get("initial_void")
         if q is not None:
             hang = fields.hanging(field("initial_void", r, q["correlation_length"]),
@@ -165,8 +170,8 @@ def check_uncertainty(data: dict, conditions: tuple, err) -> None:
     CaseError
         (from ``err``) the first problem found: a robust objective without the section, or of
         an objective that is reported only or needs ``degradation:``; a uniform spread that
-        would make a factor negative; initial voids in a settlement prediction; a design
-        whose realisations cost more than ``MAX_ROBUST_DESIGN_WORK``.
+        would make a factor negative; a settlement coefficient without a settlement
+        prediction; a design whose realisations cost more than ``MAX_ROBUST_DESIGN_WORK``.
     """
     unc = data.get("uncertainty")
     objectives = (data.get("optimisation") or {}).get("objectives") or []
@@ -194,10 +199,10 @@ def check_uncertainty(data: dict, conditions: tuple, err) -> None:
     if not any(unc.get(name) for name in QUANTITIES):
         raise err(("uncertainty",), f"no quantity varies: list some of {', '.join(QUANTITIES)} "
                                     f"({{}} takes a quantity's defaults)")
-    if unc.get("initial_void") is not None and data.get("degradation") is not None:
-        raise err(("uncertainty", "initial_void"),
-                  "initial voids are not part of a settlement prediction yet (its iteration "
-                  "starts from a track without voids); vary the supports or pads instead")
+    if unc.get("settlement_coefficient") is not None and data.get("degradation") is None:
+        raise err(("uncertainty", "settlement_coefficient"),
+                  "varies the settlement law of a settlement prediction: it needs a "
+                  "degradation: section (docs/settlement.md)")
     per_design = design_work(data, conditions)
     n = int(unc["realisations"])
     if (n + 1) * per_design > MAX_ROBUST_DESIGN_WORK:

@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..config.describe import pad_facts
 from ..vti.response import objective_unit
 from .data import (
     OBJECTIVE_DOC,
@@ -197,6 +198,10 @@ def build_summary(run: RunData, figs: dict, notes: dict, facts: list[str] | None
                      "integer" if v.integer else "continuous",
                      var_value(v, v.reference)])
     doc.table(["variable", "meaning", "unit", "bounds", "kind", "reference design"], rows, "llllll")
+    if run.case is not None:
+        doc.p("Pads, as entered and as simulated (under the wheel; docs/model.md, 'Pads as "
+              "bought'):")
+        doc.ul([fact[0].upper() + fact[1:] for fact in pad_facts(run.case)])
     if run.case is None and run.case_note:
         doc.p(f"Note: the run's case could not be loaded ({run.case_note}); bounds are not shown.")
 
@@ -452,17 +457,25 @@ def _settlement_section(doc: Doc, run: RunData, designs: list, limit, figs: dict
         what += (f" of the traffic ({traffic}), by the {deg['law']['name']} law "
                  f"({', '.join(law_items(deg['law']))}), {deg['settling_sleepers']} settling "
                  f"sleepers next to the slab")
+    tamping = ""
+    if info.get("settlement_tamping"):
+        tamping = (f" The track is tamped whenever the limit is reached (the "
+                   f"{info.get('settlement_unreachable_sleepers', '?')} sleepers next to the "
+                   f"slab out of the machine's reach are not lifted; the tamped ballast "
+                   f"settles anew).")
     doc.p(f"Every design's settlement was predicted {what} (docs/settlement.md): blocks of load "
-          f"cycles, each sleeper's ballast settling by the law from the peak force of every axle, "
-          f"the track re-simulated as it settles. The objectives at the horizon:")
+          f"cycles, each sleeper's ballast settling by the law from the pressure under it at "
+          f"every axle, its subgrade by its own law, the track re-simulated as it settles."
+          f"{tamping} The millimetres are the law's values, not a forecast: the law is not "
+          f"calibrated to a measured crossing. The objectives at the horizon:")
     doc.ul(meaning_items(limit))
     for d in designs:
         doc.p(facts(d))
     captions = {
         "settlement-history": "Top: settlement of every settling sleeper against axle passes "
                               "(colour: distance from the slab; ticks: the simulated passages). "
-                              "Bottom: the limit's measure and the largest void against axle "
-                              "passes and years.",
+                              "Bottom: the limit's measure (the rail's level) and the largest "
+                              "void against axle passes and years, with the tampings.",
         "settlement-profile": "Top: the ballast's lowering under each sleeper (markers) and the "
                               "rail's level at rest (thin) along the approach at chosen times; "
                               "bottom: the voids under the sleepers. Solid: the best design, "
