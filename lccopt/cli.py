@@ -80,6 +80,30 @@ def check(case: Path = typer.Argument(..., help="case file (YAML)"),
 
 
 @app.command()
+def example(
+    names: Optional[List[str]] = typer.Argument(
+        None, metavar="[NAME]...", help="bundled case(s), e.g. quickstart, reference, "
+                                        "vehicles/virm-bogie (lccopt example --list)"),
+    list_: bool = typer.Option(False, "--list", help="list the bundled cases and exit"),
+    all_: bool = typer.Option(False, "--all", help="write every bundled case"),
+    out: Path = typer.Option(Path("."), "--out", help="folder to write into (default: the "
+                             "current one)"),
+    force: bool = typer.Option(False, "--force", help="replace files that differ from the "
+                               "bundled ones"),
+) -> None:
+    """Write a bundled case (and the cases it extends) into the current folder, or list them."""
+    from .config.bundled import example_names
+    from .example_command import list_lines, write_examples
+
+    if list_ or not (names or all_):
+        typer.echo("\n".join(list_lines()))
+        return
+    if names and all_:
+        raise UsageError("give case names or --all, not both")
+    typer.echo("\n".join(write_examples(example_names() if all_ else names, out, force)))
+
+
+@app.command()
 def simulate(
     case: Path = typer.Argument(..., help="case file (YAML)"),
     design: Optional[str] = typer.Option(

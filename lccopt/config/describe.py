@@ -8,7 +8,9 @@ add up to the real vehicle, shows before anything is simulated.
 
 from __future__ import annotations
 
-from ..terminal import WIDTH, wrap_items
+import math
+
+from ..terminal import WIDTH, wrap_items, wrap_message
 from ..vti.vehicle import build_vehicle
 from .build import vehicle_spec
 from .checks import simulation_size
@@ -39,6 +41,79 @@ def variable_items(case) -> list[str]:
                    f"{v.upper * scale:g}]{f' {unit}' if unit else ''}"
                    f"{f' in {scale:g} m steps' if steps else ''}{' log' if v.log else ''}")
     return out
+
+
+# A strengthened sleeper's support against the standard one's outside this range is flagged by
+# check: its larger base makes it stiffer (the bundled cases take 1.25 x), but rarely more than
+# twice as stiff, and never softer; a ratio outside is usually a support changed in one key and
+# not the other (the two are separate keys).
+STRENGTHENED_SUPPORT_RATIO = (1.0, 2.0)
+
+
+def _mn(v: float, per: str = "") -> str:
+    return f"{v / 1e6:.4g} MN/m{per}"
+
+
+def _kns(v: float, per: str = "") -> str:
+    return f"{v / 1e3:.4g} kN s/m{per}"
+
+
+def track_lines(case) -> list[str]:
+    """The track lccopt resolved, in 80 columns: support, pads, sleepers, strengthened sleepers
+    (and their ratio to the standard ones), the ERS; per rail, pads and supports per rail
+    seat, as the simulation takes them."""
+    t = case.data["track"]
+    lay, pad, sup, ss, ers = (t["layout"], t["railpad"], t["support"],
+                              t["strengthened_sleeper"], t["ers"])
+    slab = ers["slab"]
+    lines = ["  track, one rail (pads and supports per rail seat):",
+             f"    support: {_mn(sup['stiffness'])}, {_kns(sup['damping'])} under each sleeper",
+             f"    pads: {_mn(pad['stiffness'])}, {_kns(pad['damping'])} where the design does "
+             f"not set them"]
+    lines += wrap_items([f"{t['sleeper']['mass']:.4g} kg", f"{lay['sleeper_spacing']:g} m apart",
+                         f"{lay['entry_length']:g} m of ballast before the ERS",
+                         f"{lay['exit_length']:g} m after it"], "    sleepers: ")
+    ratio = (ss["mass"] / t["sleeper"]["mass"], ss["support_stiffness"] / sup["stiffness"],
+             ss["support_damping"] / sup["damping"] if sup["damping"] else math.nan)
+    lines += wrap_items([f"{ss['mass']:.4g} kg ({ratio[0]:.3g} x)",
+                         f"support {_mn(ss['support_stiffness'])} ({ratio[1]:.3g} x)",
+                         f"{_kns(ss['support_damping'])} ({ratio[2]:.3g} x the standard)"],
+                        "    strengthened sleepers: ", width=WIDTH)
+    lengths = " + ".join(f"{x:g}" for x in ers["slab_lengths"])
+    lines += wrap_items([f"{lengths} m of slab{'s' if len(ers['slab_lengths']) > 1 else ''}",
+                         f"{slab['width_bottom']:g}/{slab['width_top']:g} m wide",
+                         f"{slab['height']:g} m high", f"{slab['youngs_modulus'] / 1e9:g} GPa",
+                         f"on {_mn(ers['foundation']['stiffness'], '/m')} "
+                         f"({ers['share_per_rail']:g} of it per rail)",
+                         f"compound {_mn(ers['compound']['stiffness'], '/m')}",
+                         f"Type II strip {_mn(ers['type_ii_compound']['stiffness'], '/m')}"],
+                        "    ERS: ")
+    return lines + track_warnings(case)
+
+
+def track_warnings(case) -> list[str]:
+    """``warning:`` lines for a track that is valid but probably not what was meant: a
+    strengthened sleeper's support much stiffer or softer than the standard support."""
+    t = case.data["track"]
+    sup, ss = t["support"], t["strengthened_sleeper"]
+    lo, hi = STRENGTHENED_SUPPORT_RATIO
+    out = []
+    for what, own, standard, shown in (("stiffness", "support_stiffness", "stiffness", _mn),
+                                       ("damping", "support_damping", "damping", _kns)):
+        if not standard_value_ok(ss[own], sup[standard], lo, hi):
+            out.append(wrap_message(
+                f"warning: strengthened_sleeper.{own} {shown(ss[own])} is "
+                f"{ss[own] / sup[standard]:.3g} x support.{standard} {shown(sup[standard])} "
+                f"(the bundled cases assume 1.25 x, for a larger base; check warns outside "
+                f"{lo:g}-{hi:g} x): if you changed the support, change this key too", WIDTH - 2))
+    return ["  " + line.replace("\n", "\n  ") for line in out]
+
+
+def standard_value_ok(value: float, standard: float, lo: float, hi: float) -> bool:
+    """Whether VALUE lies within [LO, HI] x STANDARD (a zero standard: only zero is)."""
+    if standard == 0:
+        return value == 0
+    return lo * (1 - 1e-9) <= value / standard <= hi * (1 + 1e-9)
 
 
 def zone_line(case) -> str:
@@ -146,6 +221,7 @@ def case_lines(case, file) -> list[str]:
         lines += condition_lines(case)
     else:
         lines.append(f"  vehicle: {vehicle_line(case.vehicle)}")
+    lines += track_lines(case)
     lines.append(f"  {zone_line(case)}")
     steps, dofs = max(simulation_size(one.data) for one in (case.traffic or [case]))
     lines.append(f"  {'the longest simulation' if case.traffic else 'one simulation'}: at "
