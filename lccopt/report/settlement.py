@@ -195,14 +195,18 @@ def _measures_panel(ax, designs: list[Design], limit) -> None:
         m = _measure(h, name) * 1e3
         v = np.asarray(h["settlement_void"], float).max(axis=1) * 1e3
         ax.plot(p[keep], m[keep], color=d.color, lw=1.8, label=f"{d.label}: {name}")
-        ax.plot(p[keep], v[keep], color=d.color, lw=1.2, ls="--", label=f"{d.label}: max_void")
+        if name != "max_void":    # else the solid line is it already
+            ax.plot(p[keep], v[keep], color=d.color, lw=1.2, ls="--",
+                    label=f"{d.label}: max_void")
     if limit:
         ax.axhline(limit[1] * 1e3, color=OKABE_ITO["vermillion"], lw=1.0, ls=":",
                    label=f"limit: {name} {limit[1] * 1e3:g} mm")
     ax.set_xscale("log")
     _time_marks(ax, designs[0].histories, labels=True)
     ax.set(xlabel="axle passes", ylabel="[mm]")
-    ax.legend(loc="upper left", frameon=False, fontsize=7.5, ncol=2)
+    # below the axis, clear of the curves, the limit line and the time labels above
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.2), frameon=False, fontsize=7.5,
+              ncol=3)
 
 
 def _time_marks(ax, h: dict, labels: bool) -> None:
@@ -210,14 +214,23 @@ def _time_marks(ax, h: dict, labels: bool) -> None:
     proportional to time)."""
     t = np.asarray(h["settlement_years"], float)
     per = float(np.asarray(h["settlement_axle_passes"], float)[-1]) / t[-1]
+    at, texts = [], []
     for years, text in ((1 / 365, "1 day"), (7 / 365, "1 week"), (1 / 12, "1 month"),
                         (1.0, "1 year"), (10.0, "10 years"), (100.0, "100 years")):
         if years * per < 2.0 or years > t[-1] * 1.0001:
             continue
         ax.axvline(years * per, color="0.6", lw=0.7, ls=":", zorder=1)
-        if labels:
-            ax.text(years * per, 0.98, f" {text}", transform=ax.get_xaxis_transform(),
-                    fontsize=7, color="0.4", va="top", rotation=90)
+        at.append(years * per)
+        texts.append(text)
+    if labels and at:
+        # on an axis of their own above the panel: inside it they ran into the legend, the
+        # curves and the limit line
+        from matplotlib.ticker import NullLocator
+
+        top = ax.secondary_xaxis("top")
+        top.set_xticks(at, texts, fontsize=7, color="0.35")
+        top.xaxis.set_minor_locator(NullLocator())
+        top.tick_params(length=3, color="0.6")
 
 
 def _measure(h: dict, name: str) -> np.ndarray:

@@ -196,7 +196,7 @@ def test_resume_rules(tmp_path, capsys):
     resume(run, workers=1, allow_changed_case=True, evaluator=FAKE, progress=False)
     assert len(read_table(run)["id"]) == 11
     case.write_text(case.read_text() + "design:\n  strengthened_sleepers:\n    bounds: [0, 19]\n")
-    with pytest.raises(UsageError, match="other design variables"):
+    with pytest.raises(UsageError, match="design.strengthened_sleepers.bounds changed"):
         resume(run, allow_changed_case=True, evaluator=FAKE)
 
     # --force starts again.
