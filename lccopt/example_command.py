@@ -22,8 +22,14 @@ import textwrap
 from pathlib import Path
 
 from .atomic import atomic_write_bytes
-from .config.bundled import bundled_root, example_names, files_of, optimisable, read_bundled, \
-    resolve_name
+from .config.bundled import (
+    bundled_root,
+    example_names,
+    files_of,
+    optimisable,
+    read_bundled,
+    resolve_name,
+)
 from .errors import UsageError
 from .safeio import UnsafeFile, read_input
 from .terminal import WIDTH
@@ -34,8 +40,8 @@ _NAME_WIDTH = 24
 
 def list_lines() -> list[str]:
     """``lccopt example --list``: each bundled case with its description, in 80 columns."""
-    lines = ["bundled cases (lccopt example NAME writes NAME.yaml and the files it extends "
-             "into the", "current folder, or --out DIR):"]
+    lines = ["bundled cases (lccopt example NAME writes NAME.yaml and the files it extends",
+             "into the current folder, or into --out DIR):"]
     for name in example_names():
         text = " ".join(str(read_bundled(f"{name}.yaml").get("description") or "").split())
         body = textwrap.wrap(text or "(no description)", WIDTH - _NAME_WIDTH,

@@ -12,7 +12,12 @@ import subprocess
 import termios
 import time
 
+import pytest
+
 from tests.conftest import CONFIGS, REFERENCE, lccopt_command, subprocess_env, write_case
+
+# seconds a test: runs on a pseudo-terminal
+pytestmark = pytest.mark.slow
 
 ANSI = re.compile(r"\x1b\[[0-9;?]*[A-Za-z]")
 

@@ -20,6 +20,9 @@ import pytest
 from lccopt.engine.journal import read_journal
 from tests.conftest import CONFIGS, lccopt_command
 
+# seconds a test: settlement runs through the command line
+pytestmark = pytest.mark.slow
+
 BOGIE = (CONFIGS / "vehicles" / "virm-bogie.yaml").as_posix()
 SETTLEMENT = ("differential_settlement", "max_settlement", "max_void", "level_std",
               "force_growth", "maintenance_rate", "years_to_limit")

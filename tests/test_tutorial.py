@@ -9,7 +9,12 @@ from __future__ import annotations
 import re
 import shlex
 
+import pytest
+
 from tests.conftest import ROOT
+
+# seconds a test: the whole tutorial: simulations, optimisations, reports
+pytestmark = pytest.mark.slow
 
 TUTORIAL = ROOT / "docs" / "tutorial.md"
 BLOCK = re.compile(r"(?:<!-- (file|exit): ([^ ]+) -->\n)?```(\w+)\n(.*?)```", re.S)

@@ -118,7 +118,6 @@ class Progress:
         )
         from rich.progress import Progress as RichProgress
         from rich.table import Column
-
         from rich.text import Text
 
         class _Lines(RichProgress):

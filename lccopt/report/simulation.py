@@ -13,8 +13,14 @@ import numpy as np
 
 from ..vti.response import Evaluation
 from .data import OKABE_ITO, TYPE_II_COLOR
-from .plotting import ALONG_TRACK, from_slab_edge, range_bracket, sleeper_ticks, speed_text, \
-    zone_marks
+from .plotting import (
+    ALONG_TRACK,
+    from_slab_edge,
+    range_bracket,
+    sleeper_ticks,
+    speed_text,
+    zone_marks,
+)
 
 
 def simulation_figures(ev: Evaluation, name: str, out: Path) -> list[Path]:

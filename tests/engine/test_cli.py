@@ -29,6 +29,9 @@ from .conftest import (
     write_case,
 )
 
+# seconds a test: runs killed and resumed through the command line
+pytestmark = pytest.mark.slow
+
 
 def _children(pid: int) -> list[int]:
     out = []

@@ -22,6 +22,9 @@ from lccopt.store import read_evaluation
 
 from .conftest import FAKE, FAULTY, REFERENCE, read_table, write_case
 
+# seconds a test: whole runs of the engine
+pytestmark = pytest.mark.slow
+
 
 def test_run_directory_and_results_layout(tmp_path, capsys):
     case = write_case(tmp_path, "moo", budget=10, initial=4)

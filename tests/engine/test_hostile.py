@@ -32,6 +32,9 @@ from .conftest import (
     write_case,
 )
 
+# seconds a test: runs attacked through their files, in subprocesses
+pytestmark = pytest.mark.slow
+
 ENV = {"LCCOPT_EVALUATOR": FAKE}
 
 

@@ -6,10 +6,15 @@ import re
 import signal
 import time
 
+import pytest
+
 from lccopt.engine.journal import read_journal
 from lccopt.engine.runner import optimise
 
 from .conftest import FAKE, cli, cli_run, write_case
+
+# seconds a test: status read while runs go
+pytestmark = pytest.mark.slow
 
 ENV = {"LCCOPT_EVALUATOR": FAKE}
 

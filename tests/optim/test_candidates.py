@@ -61,6 +61,7 @@ def test_at_least_one_coordinate_moves_and_a_held_one_never_does():
         assert np.all(np.sum(C[:, :2] != best[:2], axis=1) == 1)  # probability 0: one each
 
 
+@pytest.mark.slow
 def test_the_perturbation_probability_shrinks_over_the_whole_run():
     """"run" (pySOT): min(20/d, 1) (1 - ln n / ln N) with n the proposals since the first
     initial design and N the budget after it, floored at 1/d, not reset by a restart;

@@ -13,6 +13,9 @@ import pytest
 
 from .helpers import FIGURES, lccopt, png_size, write_case
 
+# seconds a test: a real optimisation, then its report
+pytestmark = pytest.mark.slow
+
 
 @pytest.fixture(scope="module")
 def run_dir(tmp_path_factory):

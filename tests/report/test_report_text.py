@@ -5,6 +5,8 @@ from __future__ import annotations
 import json
 import re
 
+import pytest
+
 from lccopt.engine.runner import optimise
 from tests.engine.conftest import FAKE, cli_run, write_case
 
@@ -15,6 +17,7 @@ conditions:
 """
 
 
+@pytest.mark.slow
 def test_a_traffic_report_names_the_condition_that_sets_each_worst_case(tmp_path):
     # the stand-in's objectives grow with speed: 'fast' sets both worst cases
     case = write_case(tmp_path, "tr", budget=8, initial=4, worst=(90000.0, 9.0), extra=CONDITIONS)
@@ -27,6 +30,7 @@ def test_a_traffic_report_names_the_condition_that_sets_each_worst_case(tmp_path
     assert "In condition fast (which sets the best design's worst E_max)" in text, text
 
 
+@pytest.mark.slow
 def test_a_best_design_equal_to_the_reference_is_said_to_be_unchanged(tmp_path):
     case = write_case(tmp_path, "same", objectives=("F_max",), budget=6, initial=4)
     run = optimise(case, workers=1, runs=tmp_path, evaluator=FAKE, progress=False)
@@ -45,6 +49,7 @@ def test_a_best_design_equal_to_the_reference_is_said_to_be_unchanged(tmp_path):
     assert "rises from" not in text and "+0.0 %" not in text   # an equal value is "0 %"
 
 
+@pytest.mark.slow
 def test_the_summary_names_every_variable_on_a_bound_and_every_objective_made_worse(tmp_path):
     """A best design with a pad on its upper bound (a bound the case chose: widen it), no
     strengthened sleeper and a Type II strip over the whole ERS (fixed limits), that is better
