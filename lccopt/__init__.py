@@ -20,6 +20,61 @@ from .version import __version__ as __version__
 __all__ = ["load_case", "simulate", "optimise", "resume"]
 
 
+# -- the arguments' checks: a wrong type is a TypeError, a wrong value a ValueError, each naming
+# the argument (never an error from deep inside, nor a value silently rounded)
+
+def _path(value, name: str, what: str):
+    import os
+
+    if isinstance(value, bool) or not isinstance(value, (str, os.PathLike)):
+        raise TypeError(f"{name} must be {what} (str or pathlib.Path), not "
+                        f"{type(value).__name__}")
+    return value
+
+
+def _case_arg(case):
+    if not isinstance(case, (str, bytes)) and hasattr(case, "variables"):
+        return case
+    import os
+
+    if isinstance(case, (str, os.PathLike)):
+        return case
+    hint = ": write the mapping to a YAML file" if isinstance(case, dict) else ""
+    raise TypeError(f"case must be a case file (str or pathlib.Path) or a case from "
+                    f"lccopt.load_case, not {type(case).__name__}{hint}")
+
+
+def _count(value, name: str, least: int):
+    """A whole number (an int or a numpy integer; never a float, a bool or a text)."""
+    import operator
+
+    if value is None:
+        return None
+    if isinstance(value, bool):
+        raise TypeError(f"{name} must be a whole number, not {value!r}")
+    try:
+        n = operator.index(value)
+    except TypeError:
+        raise TypeError(f"{name} must be a whole number (int), not {type(value).__name__} "
+                        f"{value!r}"[:120]) from None
+    if n < least:
+        raise ValueError(f"{name} must be at least {least}, not {n}")
+    return n
+
+
+def _flag(value, name: str) -> bool:
+    if not isinstance(value, bool):
+        raise TypeError(f"{name} must be True or False, not {type(value).__name__} {value!r}"[:120])
+    return value
+
+
+def _scheduler(value):
+    if value is None or isinstance(value, str) or hasattr(value, "scheduler_address"):
+        return value
+    raise TypeError(f"scheduler must be a Dask scheduler address (str, e.g. "
+                    f"'tcp://host:8786') or a Dask cluster, not {type(value).__name__}")
+
+
 def load_case(path):
     """Read and validate a case file.
 
@@ -40,7 +95,7 @@ def load_case(path):
     """
     from .config import load_case as load
 
-    return load(path)
+    return load(_path(path, "path", "a case file"))
 
 
 def simulate(case, design=None):
@@ -62,14 +117,29 @@ def simulate(case, design=None):
 
     Raises
     ------
+    TypeError
+        ``case`` or ``design`` of a wrong type.
     ValueError
         the design is not a valid design of the case.
     """
+    import numpy as np
+
     from .problem import evaluate
 
-    is_loaded = not isinstance(case, (str, bytes)) and hasattr(case, "variables")
-    case = case if is_loaded else load_case(case)
-    x = case.reference if design is None else design
+    case = _case_arg(case)
+    case = case if hasattr(case, "variables") else load_case(case)
+    if design is None:
+        x = case.reference
+    else:
+        try:
+            x = np.asarray(design, dtype=float)
+        except (TypeError, ValueError):
+            raise TypeError(f"design must be a sequence of numbers, one per design variable "
+                            f"({', '.join(case.names)}), not {design!r}"[:200]) from None
+        try:
+            x = case.check_design(x)
+        except ValueError as exc:
+            raise ValueError(f"design: {exc}") from None
     if case.conditions:
         return {c.name: evaluate(case.condition_case(i), x) for i, c in enumerate(case.conditions)}
     return evaluate(case, x)
@@ -100,6 +170,8 @@ def optimise(case, *, workers=None, scheduler=None, runs="runs", force=False, pr
 
     Raises
     ------
+    TypeError, ValueError
+        an argument of a wrong type or value (named).
     lccopt.errors.CaseError, lccopt.errors.UsageError
         a bad case, bad options, a run directory that exists or is in use.
     """
@@ -107,8 +179,10 @@ def optimise(case, *, workers=None, scheduler=None, runs="runs", force=False, pr
 
     from .engine.runner import optimise as run
 
-    return run(case, workers=workers, scheduler=scheduler, runs=Path(runs), force=force,
-               progress=progress)
+    return run(_case_arg(case), workers=_count(workers, "workers", 1),
+               scheduler=_scheduler(scheduler),
+               runs=Path(_path(runs, "runs", "the folder of run directories")),
+               force=_flag(force, "force"), progress=_flag(progress, "progress"))
 
 
 def resume(run, *, budget=None, workers=None, scheduler=None, progress=True):
@@ -127,10 +201,18 @@ def resume(run, *, budget=None, workers=None, scheduler=None, progress=True):
     -------
     pathlib.Path
         the run directory.
+
+    Raises
+    ------
+    TypeError, ValueError
+        an argument of a wrong type or value (named).
+    lccopt.errors.UsageError
+        not a run directory, a run in use, a budget below what the run asked.
     """
     from pathlib import Path
 
     from .engine.runner import resume as carry_on
 
-    return carry_on(Path(run), workers=workers, scheduler=scheduler, budget=budget,
-                    progress=progress)
+    return carry_on(Path(_path(run, "run", "a run directory")),
+                    workers=_count(workers, "workers", 1), scheduler=_scheduler(scheduler),
+                    budget=_count(budget, "budget", 2), progress=_flag(progress, "progress"))

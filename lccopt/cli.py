@@ -12,6 +12,29 @@ import sys
 from pathlib import Path
 from typing import List, Optional
 
+from .errors import STOP_SIGNALS
+
+
+def _exit_at_once(signum, frame) -> None:
+    """A stopping signal while the command line loads: nothing is open yet, so exit 130 with
+    its one line at once (``main`` then makes these signals raise, to clean up)."""
+    import signal
+
+    try:
+        os.write(2, f"lccopt: interrupted by {signal.Signals(signum).name}\n".encode())
+    except OSError:
+        pass
+    os._exit(130)
+
+
+if Path(sys.argv[0]).name in ("lccopt", "__main__.py"):
+    # the command itself (not a program importing this module): SIGTERM, SIGHUP, ... end it
+    # with exit 130 from here on, its first ~0.05 s of interpreter start-up aside
+    import signal
+
+    for _sig in STOP_SIGNALS:
+        signal.signal(_sig, _exit_at_once)
+
 # One BLAS thread in the lccopt process, set before numpy loads OpenBLAS: the engine's
 # optimiser runs while the worker simulations use the cores, and multi-threaded BLAS then
 # spins against them (measured: ask/tell 2.5x slower, parallel efficiency 0.94 -> 0.87).
@@ -22,8 +45,15 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
 
 import typer  # noqa: E402
 
-from .errors import CaseError, UsageError, describe_os_error  # noqa: E402
-from .terminal import PipeGuard, wrap_message  # noqa: E402
+from .errors import (  # noqa: E402
+    CaseError,
+    Interrupted,
+    UsageError,
+    describe_os_error,
+    printable,
+    stop_on_signals,
+)
+from .terminal import PipeGuard, guard_streams, wrap_message  # noqa: E402
 
 EXIT_OK, EXIT_INTERNAL, EXIT_USAGE, EXIT_INTERRUPTED, EXIT_PIPE = 0, 1, 2, 130, 141
 
@@ -177,12 +207,13 @@ def resume(
 @app.command()
 def status(run: Path = typer.Argument(..., help=_RUN_HELP)) -> None:
     """Where a run stands: state, evaluations, best so far, pace (safe while it runs)."""
+    from .engine.journal import JournalError
     from .engine.rundir import RunError
     from .engine.status import status_lines
 
     try:
         lines = status_lines(_run_dir(run))
-    except RunError as exc:
+    except (RunError, JournalError) as exc:
         raise UsageError(str(exc)) from None
     typer.echo("\n".join(lines))
 
@@ -203,11 +234,26 @@ def report(
 
 def main(argv: list[str] | None = None) -> int:
     """Console entry point: map errors to exit codes and one-line messages."""
-    usage_errors, aborts = _click_exception_types()
-    if not isinstance(sys.stdout, PipeGuard):
-        sys.stdout, sys.stderr = PipeGuard(sys.stdout), PipeGuard(sys.stderr)
-    code = _main(argv, usage_errors, aborts)
-    return EXIT_PIPE if PipeGuard.closed_pipe else code
+    try:
+        stop_on_signals()
+        sys.unraisablehook = _unraisable
+        guard_streams()
+        usage_errors, aborts = _click_exception_types()
+        code = _main(argv, usage_errors, aborts)
+    except KeyboardInterrupt as exc:  # before or after the command's own handling
+        code = _interrupted(exc)
+    if _swallowed and code == EXIT_OK:
+        code = _interrupted(_swallowed[0])
+    # done: a signal from here on (the interpreter's shutdown, which restores the default
+    # handlers of Python-level ones) must not turn the exit code into a kill's
+    _ignore_stop_signals()
+    if PipeGuard.closed_pipe:
+        return EXIT_PIPE
+    out = sys.stdout
+    if code == EXIT_OK and isinstance(out, PipeGuard) and out.lost:
+        # the command's work is done; what it had to say is not, and a script must know
+        return _fail(f"lccopt: error: cannot write to {out.name}: {out.failed}", EXIT_USAGE)
+    return code
 
 
 def _main(argv, usage_errors, aborts) -> int:
@@ -216,14 +262,17 @@ def _main(argv, usage_errors, aborts) -> int:
     try:
         # non-standalone click returns the code of a typer.Exit instead of raising it
         code = app(args=argv, standalone_mode=False)
+        if code == EXIT_INTERRUPTED and Interrupted.last is not None:
+            # recent typer returns an interruption as a bare 130: say which signal it was
+            return _interrupted(Interrupted(Interrupted.last))
         if isinstance(code, int) and code != EXIT_OK:
             return code
     except (CaseError, UsageError) as exc:
         return _fail(f"lccopt: error: {exc}", EXIT_USAGE)
     except typer.Exit as exc:
         return exc.exit_code
-    except (KeyboardInterrupt, *aborts):
-        return _fail("lccopt: interrupted", EXIT_INTERRUPTED)
+    except (KeyboardInterrupt, *aborts) as exc:
+        return _interrupted(exc)
     except usage_errors as exc:  # usage errors: one line naming the command, exit 2
         return _fail(_usage_line(exc, sys.argv[1:] if argv is None else argv), EXIT_USAGE)
     except BrokenPipeError:  # the reader went away (| head): stop quietly, as SIGPIPE would
@@ -288,6 +337,7 @@ def _set_hint(argv: list[str]) -> str:
 def _fail(message: str, code: int) -> int:
     """Print the message to stderr (if anyone is still reading it) and return the exit code:
     one line for a log or a script, wrapped to the width of a terminal for a person."""
+    message = printable(message)  # one line, whatever stored string it quotes
     try:
         if sys.stderr.isatty():
             message = wrap_message(message)
@@ -295,6 +345,34 @@ def _fail(message: str, code: int) -> int:
     except OSError:  # stderr closed or a broken pipe: the exit code still tells
         _silence_stdio()
     return code
+
+
+_swallowed: list[BaseException] = []   # interruptions raised where they could not propagate
+
+
+def _unraisable(info) -> None:
+    """An interruption raised inside a finaliser (``__del__``, a weak reference's callback)
+    cannot propagate: instead of a traceback, the command ends with exit 130 once done."""
+    if isinstance(info.exc_value, KeyboardInterrupt):
+        _swallowed.append(info.exc_value)
+        return
+    sys.__unraisablehook__(info)
+
+
+def _interrupted(exc: BaseException) -> int:
+    _ignore_stop_signals()  # a second signal must not break the message or the exit code
+    how = f" by {exc.name}" if isinstance(exc, Interrupted) else ""
+    return _fail(f"lccopt: interrupted{how}", EXIT_INTERRUPTED)
+
+
+def _ignore_stop_signals() -> None:
+    import signal
+
+    for sig in STOP_SIGNALS:
+        try:
+            signal.signal(sig, signal.SIG_IGN)
+        except (OSError, ValueError):
+            pass
 
 
 def _silence_stdio() -> None:

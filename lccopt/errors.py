@@ -6,9 +6,11 @@ command can raise them without importing the command line (which imports them).
 
 from __future__ import annotations
 
+import contextlib
 import errno
 import os
 import re
+import signal
 
 
 class CaseError(ValueError):
@@ -28,6 +30,91 @@ def printable(text: str) -> str:
     if text.isprintable():
         return text
     return "".join(c if c.isprintable() or c == " " else repr(c)[1:-1] for c in text)
+
+
+def printable_lines(text: str) -> str:
+    """``text`` as the lines it has: :func:`printable` between its newlines. What lccopt
+    prints of a run's stored strings (a case file's path, variable names, failure reasons,
+    from run.json, the journal, results.h5) can never move the cursor, clear the screen,
+    retitle the terminal or forge a line of its own."""
+    if text.isprintable():
+        return text
+    return "\n".join(printable(line) for line in text.split("\n"))
+
+
+# The signals that end lccopt in an orderly way: Ctrl-C, what Slurm, systemd, `timeout` and a
+# closed terminal send (SIGTERM, SIGHUP), and the other signals whose default is to end a
+# process that a scheduler or a limit may send (Slurm's --signal=USR1, a CPU time limit's
+# SIGXCPU). Each stops a command with exit 130, and a run saved; the workers ignore them (they
+# reach the whole process group). SIGKILL and SIGQUIT end the process at once: a run's journal
+# keeps everything committed, as after a crash.
+STOP_SIGNALS = tuple(getattr(signal, name) for name in
+                     ("SIGINT", "SIGTERM", "SIGHUP", "SIGUSR1", "SIGUSR2", "SIGALRM", "SIGXCPU")
+                     if hasattr(signal, name))
+
+
+class Interrupted(KeyboardInterrupt):
+    """A stopping signal outside a run's loop (which handles its own): exit 130."""
+
+    last: int | None = None   # the last signal raised as Interrupted (the command line's note)
+
+    def __init__(self, signum: int = signal.SIGINT):
+        super().__init__(signum)
+        self.signum = signum
+
+    @property
+    def name(self) -> str:
+        try:
+            return signal.Signals(self.signum).name
+        except ValueError:
+            return f"signal {self.signum}"
+
+
+def _raise_interrupted(signum, frame):
+    Interrupted.last = signum
+    raise Interrupted(signum)
+
+
+def stop_on_signals() -> None:
+    """Make every stopping signal raise :class:`Interrupted` (as Ctrl-C raises
+    KeyboardInterrupt), from the main thread of the command line only: the library leaves
+    a program's signals alone (a run's loop sets and restores its own)."""
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        return
+    for sig in STOP_SIGNALS:
+        try:
+            signal.signal(sig, _raise_interrupted)
+        except (OSError, ValueError):
+            pass
+
+
+@contextlib.contextmanager
+def signals_deferred():
+    """A step that must not be cut in two by a stopping signal (replacing or creating a run
+    directory, a journal line and the file that goes with it): a signal that arrives meanwhile
+    takes effect when the step is done, as it would have then. Handlers rather than a signal
+    mask: a process signal may be delivered to any thread that does not block it (Dask's)."""
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    pending: list[int] = []
+    old = {}
+    for sig in STOP_SIGNALS:
+        try:
+            old[sig] = signal.signal(sig, lambda signum, frame: pending.append(signum))
+        except (OSError, ValueError):
+            pass
+    try:
+        yield
+    finally:
+        for sig, handler in old.items():
+            signal.signal(sig, signal.SIG_DFL if handler is None else handler)
+        if pending:
+            signal.raise_signal(pending[0])
 
 
 class UsageError(Exception):

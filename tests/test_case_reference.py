@@ -78,7 +78,7 @@ def test_every_key_has_a_row_with_its_unit_default_and_range():
     ("vehicle:\n  colour: red\n", "vehicle.colour",
      "unknown key (the keys of vehicle: docs/case-reference.md)"),
     ("track:\n  sleeper:\n    weight: 125\n", "track.sleeper.weight",
-     "unknown key (expected one of: mass)"),
+     "unknown key (expected one of: mass, bearing_area)"),
 ])
 def test_an_unknown_key_gets_the_closest_known_key(tmp_path, text, key, message):
     p = tmp_path / "c.yaml"

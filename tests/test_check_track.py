@@ -26,7 +26,8 @@ def _track(lines: list[str]) -> list[str]:
 def test_check_prints_the_resolved_track(run_cli):
     track = "\n".join(_track(_check(run_cli, CONFIGS / "reference.yaml")))
     for text in ("support: 45 MN/m, 96 kN s/m under each sleeper",
-                 "pads: 1120 MN/m, 120 kN s/m where the design does not set them",
+                 "pads: static not given, 1120 MN/m under the wheel, 120 kN s/m",
+                 "designed pads x_r1-x_r3: 50-1200 MN/m under the wheel,",
                  "sleepers: 125.5 kg, 0.6 m apart, 100 m of ballast before the ERS",
                  "strengthened sleepers: 188.2 kg (1.5 x), support 56.25 MN/m (1.25 x)",
                  "120 kN s/m (1.25 x the standard)", "ERS: 6 + 6 m of slabs",
@@ -42,7 +43,8 @@ def test_a_case_of_ones_own_shows_what_it_changed(run_cli, tmp_path):
                     "  railpad: {stiffness: 600 MN/m}\n  ers: {slab_lengths: [7.2]}\n"
                     "  layout: {sleeper_spacing: 600 mm}\n")
     track = "\n".join(_track(_check(run_cli, case)))
-    assert "pads: 600 MN/m, 120 kN s/m" in track and "ERS: 7.2 m of slab," in track, track
+    assert "pads: static not given, 600 MN/m under the wheel, 120 kN s/m" in track, track
+    assert "ERS: 7.2 m of slab," in track, track
 
 
 def test_a_support_changed_in_one_key_only_is_warned_about(run_cli):

@@ -43,3 +43,39 @@ def test_optimise_and_resume_from_python(tmp_path, monkeypatch):
     run = lccopt.optimise(case, workers=1, runs=tmp_path / "runs", progress=False)
     assert (run / "results.h5").is_file()
     assert lccopt.resume(run, progress=False) == run     # finished: nothing to do
+
+
+def test_every_argument_of_a_wrong_type_or_value_is_named(tmp_path):
+    """A float worker count is not rounded, a text is not compared with a number, a dict is
+    not taken for a path: TypeError or ValueError naming the argument, before anything runs."""
+    import pytest
+
+    case = write_case(tmp_path, "args", budget=6, initial=4)
+    runs = tmp_path / "runs"
+    wrong = [(dict(workers=2.5), TypeError, "workers must be a whole number"),
+             (dict(workers="2"), TypeError, "workers must be a whole number"),
+             (dict(workers=True), TypeError, "workers must be a whole number"),
+             (dict(workers=0), ValueError, "workers must be at least 1"),
+             (dict(runs=3), TypeError, "runs must be"),
+             (dict(force="no"), TypeError, "force must be True or False"),
+             (dict(progress=None), TypeError, "progress must be True or False"),
+             (dict(scheduler=8786), TypeError, "scheduler must be a Dask scheduler address")]
+    for kwargs, kind, text in wrong:
+        with pytest.raises(kind, match=text):
+            lccopt.optimise(case, **{"runs": runs, "progress": False, **kwargs})
+    assert not runs.exists()
+    for bad in ({"name": "x"}, 3, None):
+        with pytest.raises(TypeError, match="case must be a case file"):
+            lccopt.optimise(bad, runs=runs)
+    with pytest.raises(TypeError, match="path must be a case file"):
+        lccopt.load_case({"name": "x"})
+    with pytest.raises(ValueError, match="budget must be at least 2, not -5"):
+        lccopt.resume(runs / "args", budget=-5)
+    with pytest.raises(TypeError, match="budget must be a whole number"):
+        lccopt.resume(runs / "args", budget=3.0)
+    with pytest.raises(TypeError, match="run must be a run directory"):
+        lccopt.resume(None)
+    with pytest.raises(TypeError, match="design must be a sequence of numbers, one per design"):
+        lccopt.simulate(case, "abc")
+    with pytest.raises(ValueError, match="design: a design vector has 8 values"):
+        lccopt.simulate(case, [1.0, 2.0])

@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..vti import irregularity as spectra
+from ..vti import pads
 from ..vti.specs import (
     ERS,
     Compound,
@@ -43,6 +44,13 @@ def vehicle_spec(vehicle: dict) -> VehicleSpec:
                        model=vehicle.get("model") or "paper", **values)
 
 
+def railpad(section: dict) -> SpringDamper:
+    """The pads of the sleepers not designed: their stiffness under the wheel and damping
+    (``lccopt.vti.pads``: a named pad, or as bought with its ratio)."""
+    pad = pads.resolve(section)
+    return SpringDamper(stiffness=pad.stiffness, damping=pad.damping)
+
+
 def track_spec(track: dict) -> TrackSpec:
     """The ``track:`` section."""
     ers = track["ers"]
@@ -50,7 +58,7 @@ def track_spec(track: dict) -> TrackSpec:
     return TrackSpec(
         rail=Rail(**track["rail"]),
         layout=Layout(**track["layout"]),
-        railpad=SpringDamper(**track["railpad"]),
+        railpad=railpad(track["railpad"]),
         sleeper_mass=track["sleeper"]["mass"],
         support=SpringDamper(**track["support"]),
         strengthened_sleeper=StrengthenedSleeper(mass=ss["mass"],
@@ -113,13 +121,15 @@ def scenario(data: dict) -> Scenario:
                     irregularity=profile(data))
 
 
-def track_design(variables, x) -> TrackDesign:
-    """A design vector (checked) split into its groups."""
+def track_design(variables, x, dynamic_to_static: float | None = None) -> TrackDesign:
+    """A design vector (checked) split into its groups; designed pads entered as bought
+    (``dynamic_to_static`` given) become their stiffness under the wheel."""
     groups: dict[str, list] = {}
     for v, xi in zip(variables, x):
         groups.setdefault(v.group, []).append(xi)
     g = {k: np.asarray(v, dtype=float) for k, v in groups.items()}
-    return TrackDesign(railpad_stiffness=g["railpad_stiffness"],
+    return TrackDesign(railpad_stiffness=pads.under_wheel(g["railpad_stiffness"],
+                                                          dynamic_to_static),
                        strengthened_sleepers=float(g["strengthened_sleepers"][0]),
                        sleeper_spans=g["sleeper_spans"],
                        type_ii_strip=float(g["type_ii_strip"][0]))

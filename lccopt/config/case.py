@@ -28,6 +28,7 @@ from .checks import (
     check_mesh_units,
     check_optimisation,
     check_profile,
+    check_railpad,
     simulation_size,
 )
 from .degradation import check_degradation, degradation_spec
@@ -232,7 +233,9 @@ class Case:
 
     def track_design(self, x) -> TrackDesign:
         """Design vector x, checked (ValueError), as the simulator takes it."""
-        return build.track_design(self.variables, self.check_design(x))
+        return build.track_design(self.variables, self.check_design(x),
+                                  self.data["design"]["railpad_stiffness"].get(
+                                      "dynamic_to_static"))
 
 
 @dataclass(frozen=True)
@@ -338,10 +341,14 @@ def load_case(path: str | Path, overrides=()) -> Case:
     def err(at: tuple, msg: str) -> CaseError:
         return CaseError(f"{locate(lines, at, file)}: {dotted(at)}: {msg}")
 
+    err.where = lambda at: locate(lines, at, file)   # where a key was set (a check of two
+    # keys blames the one the user typed on the command line)
+
     if not SAFE_NAME.fullmatch(data["name"]):
         raise err(("name",), "1-64 letters, digits, '.', '-' and '_', starting with a letter or "
                              "digit (it names the run directory)")
     resolve_zone(data, err)
+    check_railpad(data, err)
     check_mesh_units(data, err)
     derive_strip_bounds(data)
     variables = _variables(data["design"], lines, file)

@@ -49,6 +49,44 @@ def is_multiple(length: float, unit: float) -> bool:
     return abs(q - round(q)) < 1e-9 * max(1.0, q)
 
 
+def check_railpad(data: dict, err) -> None:
+    """``track.railpad`` gives its pad one way: a named pad alone; or its stiffness under the
+    wheel (with its static stiffness if known); or its static stiffness and ratio; with its
+    damping but for a named pad. A static stiffness above the one under the wheel is refused:
+    elastomers stiffen with the rate of loading, so a pad is no softer under the wheel than
+    bought (lccopt/vti/pads.py)."""
+    pad = data["track"]["railpad"]
+    at = ("track", "railpad")
+    given = [k for k in ("type", "stiffness", "static_stiffness", "dynamic_to_static",
+                         "damping") if pad.get(k) is not None]
+    if "type" in given:
+        if len(given) > 1:
+            raise err(at + (given[1],), f"the named pad '{pad['type']}' sets the pad's values: "
+                                        f"give type alone (over a base case's values: "
+                                        f"{given[1]}: null)")
+        return
+    if "stiffness" in given and "dynamic_to_static" in given:
+        raise err(at + ("dynamic_to_static",), "give the stiffness under the wheel or "
+                                               "static_stiffness x dynamic_to_static, not both "
+                                               "(over a base case's stiffness: stiffness: null)")
+    if "stiffness" not in given:
+        as_bought = [k for k in ("static_stiffness", "dynamic_to_static") if k in given]
+        if not as_bought:
+            raise err(at, "missing key 'stiffness' (the pad's stiffness under the wheel), or "
+                          "'type' (a named pad), or 'static_stiffness' and 'dynamic_to_static'")
+        if len(as_bought) == 1:
+            other = ({"static_stiffness", "dynamic_to_static"} - set(as_bought)).pop()
+            raise err(at, f"missing key '{other}': the stiffness under the wheel is "
+                          f"static_stiffness x dynamic_to_static (or give it as 'stiffness')")
+    elif "static_stiffness" in given and pad["static_stiffness"] > pad["stiffness"]:
+        raise err(at + ("static_stiffness",),
+                  f"{pad['static_stiffness'] / 1e6:g} MN/m is above the stiffness under the "
+                  f"wheel ({pad['stiffness'] / 1e6:g} MN/m): a pad is no softer under the "
+                  f"wheel than bought")
+    if "damping" not in given:
+        raise err(at, "missing key 'damping'")
+
+
 def check_mesh_units(data: dict, err) -> None:
     """Lengths sit on the 0.1 m grid that sleeper spans are counted in."""
     le = data["simulation"]["element_length"]
@@ -250,9 +288,14 @@ def check_optimisation(data: dict, err, n_variables: int) -> None:
     budget = opt["budget"]
     if opt["initial_points"] is None and budget is not None:
         opt["initial_points"] = default_initial_points(budget, n_variables)
+    budget_at, points_at = ("optimisation", "budget"), ("optimisation", "initial_points")
     if budget is not None and opt["initial_points"] is not None \
             and opt["initial_points"] > budget:
-        raise err(("optimisation", "initial_points"),
+        if _typed(err, budget_at, points_at):
+            raise err(budget_at, f"{budget} is below the {opt['initial_points']} initial points "
+                                 f"({err.where(points_at)}): give at least "
+                                 f"{opt['initial_points']}, or set initial_points too")
+        raise err(points_at,
                   f"{opt['initial_points']} initial points exceed the budget of {budget}")
     worst = opt["asf"]["worst"]
     if worst is None or not opt["objectives"]:
@@ -262,8 +305,20 @@ def check_optimisation(data: dict, err, n_variables: int) -> None:
     if len(worst) not in (n_obj, n_obj * n_each):
         also = (f" or {n_obj * n_each} (one per objective and condition)"
                 if n_each > 1 else "")
-        raise err(("optimisation", "asf", "worst"),
+        objectives_at, worst_at = ("optimisation", "objectives"), ("optimisation", "asf", "worst")
+        if _typed(err, objectives_at, worst_at):
+            raise err(objectives_at, f"{n_obj} objective(s), but asf.worst "
+                                     f"({err.where(worst_at)}) gives {len(worst)} values: set "
+                                     f"asf.worst too")
+        raise err(worst_at,
                   f"expected {n_obj} values (one per objective){also}, got {len(worst)}")
+
+
+def _typed(err, first: tuple, second: tuple) -> bool:
+    """Whether of two keys that disagree ``first`` came from the command line (--set) and
+    ``second`` did not: the message then names what the user typed."""
+    where = getattr(err, "where", None)
+    return where is not None and where(first) == "--set" and where(second) != "--set"
 
 
 def check_design_size(sizes: list[tuple[int, int]], err) -> None:

@@ -12,7 +12,7 @@ reach the rail's pinned end, and a prediction beyond what one design may cost.
 
 from __future__ import annotations
 
-from ..degradation.specs import DegradationSpec, LawSpec, Limit, Traffic
+from ..degradation.specs import DegradationSpec, LawSpec, Limit, SubgradeSpec, Traffic
 from ..vti.response import REPORTED_ONLY, SETTLEMENT_OBJECTIVES
 from ..vti.specs import ELEMENT_UNIT
 from . import build
@@ -241,6 +241,11 @@ def degradation_spec(data: dict, conditions: tuple) -> DegradationSpec:
     law = deg["law"]
     params = tuple((arg, float(law[key])) for key, (arg, _) in LAW_PARAMETERS[law["name"]].items())
     mode = (data.get("optimisation") or {}).get("conditions") or "worst"
+    standard, strengthened = bearing_areas(data)
+    sub = deg["subgrade"]
+    subgrade = None if sub["soil"] == "none" else SubgradeSpec(
+        sub["soil"], sub["strength"], sub["reference_stiffness"], sub["depth"],
+        sub["thickness"])
     return DegradationSpec(
         traffic=traffic, horizon_years=deg["horizon_years"],
         law=LawSpec(law["name"], params),
@@ -248,5 +253,32 @@ def degradation_spec(data: dict, conditions: tuple) -> DegradationSpec:
         follower_taper=deg["follower_taper"], rail_seats=deg["rail_seats"],
         tolerance=deg["tolerance"], steps_per_decade=deg["steps_per_decade"],
         max_simulations=deg["max_simulations"],
-        limit=Limit(deg["limit"]["measure"], deg["limit"]["value"]), condition_mode=mode)
+        limit=Limit(deg["limit"]["measure"], deg["limit"]["value"]), condition_mode=mode,
+        bearing_area=standard, strengthened_bearing_area=strengthened, subgrade=subgrade,
+        reading=deg["reading"])
+
+
+DEFAULT_BEARING_AREA = 0.375     # [m^2] per rail seat: schema, track.sleeper.bearing_area
+
+
+def bearing_areas(data: dict) -> tuple[float, float]:
+    """(standard, strengthened) sleepers' bearing area per rail seat [m^2] of a case: the
+    strengthened one, unless given, the standard one times the ratio of their support
+    stiffnesses (a larger base on the same ballast).
+
+    Parameters
+    ----------
+    data
+        a validated case.
+
+    Returns
+    -------
+    tuple of float
+    """
+    track = data["track"]
+    standard = track["sleeper"].get("bearing_area") or DEFAULT_BEARING_AREA
+    ss = track["strengthened_sleeper"]
+    strengthened = ss.get("bearing_area") or (
+        standard * ss["support_stiffness"] / track["support"]["stiffness"])
+    return float(standard), float(strengthened)
 

@@ -11,10 +11,11 @@ from __future__ import annotations
 import math
 
 from ..terminal import WIDTH, wrap_items, wrap_message
+from ..vti import pads
 from ..vti.vehicle import build_vehicle
 from .build import vehicle_spec
 from .checks import simulation_size
-from .degradation import SINGLE_CONDITION, axles
+from .degradation import SINGLE_CONDITION, axles, bearing_areas
 from .zones import force_zone_end, zone_end_x
 
 
@@ -43,6 +44,68 @@ def variable_items(case) -> list[str]:
     return out
 
 
+def _mn(k: float) -> str:
+    return f"{k / 1e6:.4g}"
+
+
+def pad_facts(case) -> list[str]:
+    """The pads as entered and as simulated (under the wheel): the pads of the sleepers not
+    designed, then the designed ones, one sentence each. ``lccopt check`` prints them
+    (:func:`pad_lines`) and the report repeats them.
+
+    Parameters
+    ----------
+    case
+        a loaded case.
+
+    Returns
+    -------
+    list of str
+        e.g. ``["pads: 560 MN/m as bought x 2 = 1120 MN/m under the wheel, 120 kN s/m",
+        "designed pads x_r1-x_r3: 20-480 MN/m as bought x 2.5 = 50-1200 MN/m under the
+        wheel, damping 120 kN s/m per 1120 MN/m"]``.
+    """
+    section = case.track["railpad"]
+    pad = pads.resolve(section)
+    if pad.name:
+        bought = f"{pad.name} (named; static not published), "
+    elif pad.static_stiffness is None:
+        bought = "static not given, "
+    elif section.get("stiffness") is None:
+        bought = f"{_mn(pad.static_stiffness)} MN/m as bought x {pad.ratio:.3g} = "
+    else:
+        bought = f"{_mn(pad.static_stiffness)} MN/m as bought (x {pad.ratio:.3g}), "
+    facts = [f"pads: {bought}{_mn(pad.stiffness)} MN/m under the wheel, "
+             f"{pad.damping / 1e3:.4g} kN s/m"]
+    designed = [v for v in case.variables if v.group == "railpad_stiffness"]
+    if designed:
+        ratio = case.data["design"]["railpad_stiffness"].get("dynamic_to_static")
+        names = designed[0].name + (f"-{designed[-1].name}" if len(designed) > 1 else "")
+        lo, hi = designed[0].lower, designed[0].upper
+        sim = (f"{_mn(pads.under_wheel(lo, ratio))}-{_mn(pads.under_wheel(hi, ratio))} MN/m "
+               f"under the wheel")
+        bought = f"{_mn(lo)}-{_mn(hi)} MN/m as bought x {ratio:.3g} = " if ratio else ""
+        facts.append(f"designed pads {names}: {bought}{sim}, damping "
+                     f"{pad.damping / 1e3:.4g} kN s/m per {_mn(pad.stiffness)} MN/m")
+    return facts
+
+
+def pad_lines(case, width: int = WIDTH - 2) -> list[str]:
+    """:func:`pad_facts` in lines of at most ``width`` columns (broken at ': ', ' = ' and
+    ', ')."""
+    lines = []
+    for fact in pad_facts(case):
+        head, rest = fact.split(": ", 1)
+        items = rest.replace(" = ", ", = ").split(", ")
+        wrapped = [line.replace(", =", " =") for line in
+                   wrap_items(items, f"{head}: ", width=width)]
+        for i in range(len(wrapped) - 1):       # no comma before a line that goes on with =
+            if wrapped[i + 1].lstrip().startswith("="):
+                wrapped[i] = wrapped[i].rstrip(",")
+        lines += wrapped
+    return lines
+
+
 # A strengthened sleeper's support against the standard one's outside this range is flagged by
 # check: its larger base makes it stiffer (the bundled cases take 1.25 x), but rarely more than
 # twice as stiff, and never softer; a ratio outside is usually a support changed in one key and
@@ -50,7 +113,7 @@ def variable_items(case) -> list[str]:
 STRENGTHENED_SUPPORT_RATIO = (1.0, 2.0)
 
 
-def _mn(v: float, per: str = "") -> str:
+def _mnm(v: float, per: str = "") -> str:
     return f"{v / 1e6:.4g} MN/m{per}"
 
 
@@ -63,30 +126,28 @@ def track_lines(case) -> list[str]:
     (and their ratio to the standard ones), the ERS; per rail, pads and supports per rail
     seat, as the simulation takes them."""
     t = case.data["track"]
-    lay, pad, sup, ss, ers = (t["layout"], t["railpad"], t["support"],
-                              t["strengthened_sleeper"], t["ers"])
+    lay, sup, ss, ers = t["layout"], t["support"], t["strengthened_sleeper"], t["ers"]
     slab = ers["slab"]
     lines = ["  track, one rail (pads and supports per rail seat):",
-             f"    support: {_mn(sup['stiffness'])}, {_kns(sup['damping'])} under each sleeper",
-             f"    pads: {_mn(pad['stiffness'])}, {_kns(pad['damping'])} where the design does "
-             f"not set them"]
+             f"    support: {_mnm(sup['stiffness'])}, {_kns(sup['damping'])} under each sleeper"]
+    lines += [f"    {line}" for line in pad_lines(case, WIDTH - 4)]
     lines += wrap_items([f"{t['sleeper']['mass']:.4g} kg", f"{lay['sleeper_spacing']:g} m apart",
                          f"{lay['entry_length']:g} m of ballast before the ERS",
                          f"{lay['exit_length']:g} m after it"], "    sleepers: ")
     ratio = (ss["mass"] / t["sleeper"]["mass"], ss["support_stiffness"] / sup["stiffness"],
              ss["support_damping"] / sup["damping"] if sup["damping"] else math.nan)
     lines += wrap_items([f"{ss['mass']:.4g} kg ({ratio[0]:.3g} x)",
-                         f"support {_mn(ss['support_stiffness'])} ({ratio[1]:.3g} x)",
+                         f"support {_mnm(ss['support_stiffness'])} ({ratio[1]:.3g} x)",
                          f"{_kns(ss['support_damping'])} ({ratio[2]:.3g} x the standard)"],
                         "    strengthened sleepers: ", width=WIDTH)
     lengths = " + ".join(f"{x:g}" for x in ers["slab_lengths"])
     lines += wrap_items([f"{lengths} m of slab{'s' if len(ers['slab_lengths']) > 1 else ''}",
                          f"{slab['width_bottom']:g}/{slab['width_top']:g} m wide",
                          f"{slab['height']:g} m high", f"{slab['youngs_modulus'] / 1e9:g} GPa",
-                         f"on {_mn(ers['foundation']['stiffness'], '/m')} "
+                         f"on {_mnm(ers['foundation']['stiffness'], '/m')} "
                          f"({ers['share_per_rail']:g} of it per rail)",
-                         f"compound {_mn(ers['compound']['stiffness'], '/m')}",
-                         f"Type II strip {_mn(ers['type_ii_compound']['stiffness'], '/m')}"],
+                         f"compound {_mnm(ers['compound']['stiffness'], '/m')}",
+                         f"Type II strip {_mnm(ers['type_ii_compound']['stiffness'], '/m')}"],
                         "    ERS: ")
     return lines + track_warnings(case)
 
@@ -98,7 +159,7 @@ def track_warnings(case) -> list[str]:
     sup, ss = t["support"], t["strengthened_sleeper"]
     lo, hi = STRENGTHENED_SUPPORT_RATIO
     out = []
-    for what, own, standard, shown in (("stiffness", "support_stiffness", "stiffness", _mn),
+    for what, own, standard, shown in (("stiffness", "support_stiffness", "stiffness", _mnm),
                                        ("damping", "support_damping", "damping", _kns)):
         if not standard_value_ok(ss[own], sup[standard], lo, hi):
             out.append(wrap_message(
@@ -200,6 +261,7 @@ def degradation_lines(case) -> list[str]:
     limit = deg["limit"]
     simulated = sum(p > 0 for _, p, _ in rows)
     lines = wrap_items(law_items(deg["law"]), f"  settlement: {deg['law']['name']} law: ")
+    lines += _pressure_lines(case)
     lines += wrap_items(items, "    traffic: ")
     lines.append(f"    {per_year:.3g} axle passes, about {tonnes / 1e6:.3g} million gross tonnes "
                  f"a year")
@@ -211,6 +273,28 @@ def degradation_lines(case) -> list[str]:
     lines.append(f"    per design: at most {deg['max_simulations']} simulations x {simulated} "
                  f"condition(s), tolerance {deg['tolerance'] / 1e3:g} kN")
     return lines
+
+
+def _pressure_lines(case) -> list[str]:
+    """How the law is fed: the bearing areas and reference pressure; the subgrade layer."""
+    deg = case.degradation
+    standard, strengthened = bearing_areas(case.data)
+    f0 = deg["law"]["reference_force"]
+    lines = wrap_items([f"bearing area {standard:g} m^2 a rail seat",
+                        f"strengthened {strengthened:.3g} m^2",
+                        f"reference pressure {f0 / standard / 1e3:.3g} kPa",
+                        f"{deg['reading']} reading"], "    fed the sleeper-ballast pressure: ")
+    sub = deg["subgrade"]
+    if sub["soil"] == "none":
+        return lines + ["    subgrade: none (the ballast law alone: a softer support settles "
+                        "less)"]
+    k = case.data["track"]["support"]["stiffness"]
+    here = sub["strength"] * k / sub["reference_stiffness"]
+    return lines + wrap_items(
+        [f"soil {sub['soil']}", f"strength {here / 1e3:.3g} kPa on this {k / 1e6:g} MN/m support",
+         f"{sub['strength'] / 1e3:g} kPa on {sub['reference_stiffness'] / 1e6:g} MN/m",
+         f"{sub['depth']:g}-{sub['depth'] + sub['thickness']:g} m below the sleepers"],
+        "    subgrade (Li & Selig): ")
 
 
 def case_lines(case, file) -> list[str]:

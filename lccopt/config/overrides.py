@@ -46,13 +46,24 @@ def parse(item: str) -> tuple[tuple, Any]:
     path = parse_path(key.strip())
     if path[0] == "extends":
         raise CaseError(f"{WHERE}: extends: name the base case in a file, not with --set")
+    if _ANCHOR.search(text):  # the reader's own words would point at a case file
+        quoted = f"--set '{key.strip()}=" + '"' + text[:20] + "\"'"
+        raise CaseError(f"{WHERE}: {dotted(path)}: cannot read the value {text[:40]!r}: anchors "
+                        f"and aliases (&name, *name) are not allowed; quote the value to mean "
+                        f"the text ({quoted})")
     try:
         data, _ = read_yaml(f"value: {text}" if text.strip() else "value: null", WHERE)
     except CaseError as exc:
-        problem = str(exc).split(": ", 3)[-1]
+        # what the reader says after its own location ("--set:1: <yaml>: ")
+        problem = _LOCATION.sub("", str(exc), count=1)
         raise CaseError(f"{WHERE}: {dotted(path)}: cannot read the value {text[:40]!r}: "
                         f"{problem}") from None
     return path, data["value"]
+
+
+_LOCATION = re.compile(re.escape(WHERE) + r":\d+: \S+: ")
+# a YAML anchor or alias where a value starts: at its beginning, or after [ { , or ': '
+_ANCHOR = re.compile(r"(?:^|[\[{,]|:\s)\s*[&*][^\s,\]}]")
 
 
 def _mark(value: Any, path: tuple, lines: dict) -> None:
@@ -72,6 +83,8 @@ def apply(raw: dict, lines: dict, items) -> dict:
     for item in items:
         path, value = parse(item)
         raw = _set(raw, path, value, item)
+        for k in range(1, len(path)):  # sections the item made (nosuch.key=3 makes nosuch)
+            lines.setdefault(path[:k], WHERE)
         _mark(value, path, lines)
     return raw
 

@@ -111,8 +111,9 @@ def read_yaml(text: str, file: str) -> tuple[dict, dict]:
         line = text.count("\n", 0, text.index("\x00")) + 1
         raise CaseError(f"{file}:{line}: <file>: binary data (NUL byte); a case file is YAML text")
     lines: dict = {}
-    loader = _Loader(text)
+    loader = None
     try:
+        loader = _Loader(text)   # its reader refuses control characters already
         node = loader.get_single_node()
         if node is None:
             raise CaseError(f"{file}:1: <top>: the file is empty")
@@ -128,7 +129,8 @@ def read_yaml(text: str, file: str) -> tuple[dict, dict]:
     except RecursionError:
         raise CaseError(f"{file}:1: <yaml>: nested too deeply") from None
     finally:
-        loader.dispose()
+        if loader is not None:
+            loader.dispose()
     if not isinstance(data, dict):
         raise CaseError(f"{file}:1: <top>: a case file is a mapping of sections")
     return data, lines

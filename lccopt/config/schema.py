@@ -13,8 +13,9 @@ wrong unit, and the message proposes the unit that fits.
 
 from __future__ import annotations
 
-from ..degradation.specs import LAW_NAMES, LIMIT_MEASURES
+from ..degradation.specs import LAW_NAMES, LIMIT_MEASURES, READINGS, SOILS
 from ..vti.irregularity import SPECTRA
+from ..vti.pads import NAMED_PADS
 from ..vti.response import PAPER_OBJECTIVES, REPORTED_ONLY, SETTLEMENT_OBJECTIVES
 from ..vti.specs import VEHICLE_TYPES, ZONE_POINTS
 from .spec import Items, Named, Num, NumList, Rows, Section, Str, StrList, TextOrSection  # noqa: F401
@@ -34,6 +35,8 @@ _SPEED = dict(unit="m/s", shown="km/h", gt=0, le=MAX_SPEED, why=_SPEED_WHY)
 _MASS_WHY = "a mass per wheel is some 100 kg to 15 t"
 _PAD_WHY = "railpads are 20-2000 MN/m"
 _SEAT_WHY = "ballast support per rail seat is some 10-200 MN/m"
+_RATIO_WHY = ("a pad is no softer under the wheel than bought; a ratio above 10 is more likely "
+              "a stiffness written in this field")
 
 
 def _kv(doc_k: str, doc_c: str, unit_k: str, unit_c: str, **bounds) -> Section:
@@ -58,6 +61,21 @@ def _design_group(doc: str, integer: bool, counted: bool, unit: str = "-",
                               "ratios are equal steps; positive bounds)", ("linear", "log"),
                               required=False)
     return Section(fields, doc)
+
+
+def _pad_group() -> Section:
+    """The designed pads: their stiffness under the wheel, or as bought with their ratio."""
+    group = _design_group("stiffness of the pads next to the interface, x_r1 farthest .. x_rN "
+                          "nearest: under the wheel, or as bought (static) with "
+                          "dynamic_to_static", integer=False, counted=True, unit="N/m",
+                          ge=1e7, le=1e10, shown="MN/m", why=_PAD_WHY)
+    fields = dict(group.fields)
+    fields["dynamic_to_static"] = Num(
+        "when given, x_r (bounds, reference) are the pads' static (catalogue) stiffness and "
+        "the simulation uses x_r times this, the dynamic-to-static ratio of the pad type "
+        "searched (its EN 13146-9 test report); absent, x_r is the stiffness under the wheel",
+        ge=1.0, le=10.0, why=_RATIO_WHY, required=False, keep_absent=True)
+    return Section(fields, group.doc)
 
 
 _VEHICLE_TYPE = ("three-dof: the paper's carbody-bogie-wheelset model (one wheel); bogie: one "
@@ -120,10 +138,37 @@ _TRACK = Section({
         "exit_first_span": Num("slab edge to first sleeper on the exit side", "m", gt=0,
                                le=2.0, why="a sleeper span is some 0.3-0.7 m"),
     }),
-    "railpad": _kv("railpad stiffness per rail seat", "railpad damping per rail seat",
-                   "N/m", "N s/m", ge=1e7, le=1e10, shown="MN/m", why=_PAD_WHY),
+    "railpad": Section({
+        "type": Str("a named pad whose published values lccopt holds (lccopt/vti/pads.py): "
+                    "its stiffness under the wheel and damping; then no other key",
+                    tuple(NAMED_PADS), required=False, keep_absent=True),
+        "stiffness": Num("the pad's stiffness under the wheel (dynamic, per rail seat): what "
+                         "the simulation uses", "N/m", ge=1e7, le=1e10, shown="MN/m",
+                         why=_PAD_WHY, required=False, keep_absent=True),
+        "static_stiffness": Num("the pad as bought: its static (catalogue, EN 13146-9) "
+                                "stiffness; with dynamic_to_static instead of stiffness, or "
+                                "beside it (then shown, not used)", "N/m", ge=1e7, le=1e10,
+                                shown="MN/m", why=_PAD_WHY, required=False, keep_absent=True),
+        "dynamic_to_static": Num("the pad's dynamic (EN 13146-9 low-frequency, preloaded) over "
+                                 "its static stiffness, from its test report: stiffness = "
+                                 "static_stiffness x this", ge=1.0, le=10.0, why=_RATIO_WHY,
+                                 required=False, keep_absent=True),
+        "damping": Num("railpad damping per rail seat (the designed pads' scales with their "
+                       "stiffness under the wheel)", "N s/m", ge=0, required=False,
+                       keep_absent=True),
+    }, "the pads of the sleepers not designed, per rail seat: a named pad (type), or its "
+       "stiffness under the wheel, or its static stiffness and dynamic_to_static; and its "
+       "damping (docs/model.md, 'Pads as bought')"),
     "sleeper": Section({"mass": Num("sleeper mass per rail (half the sleeper)", "kg", ge=10,
-                                    why="a sleeper is some 100-400 kg")}),
+                                    why="a sleeper is some 100-400 kg"),
+                        "bearing_area": Num(
+                            "settlement (degradation:) only: the sleeper's base area that "
+                            "carries one rail seat's force (the law is fed force / area). "
+                            "Default 0.375 m^2: half the base of a 2.5 m x 0.30 m monoblock, "
+                            "as AREMA's average ballast pressure spreads each rail seat's "
+                            "force over half the base (docs/settlement.md)", "m^2", gt=0,
+                            le=2.0, why="half a sleeper's base is some 0.2-0.6 m^2",
+                            required=False, keep_absent=True)}),
     "support": _kv("ballast/subgrade stiffness per rail seat",
                    "ballast/subgrade damping per rail seat", "N/m", "N s/m", ge=1e6,
                    shown="MN/m", why=_SEAT_WHY),
@@ -134,6 +179,12 @@ _TRACK = Section({
                                  ge=1e6, shown="MN/m", why=_SEAT_WHY),
         "support_damping": Num("ballast/subgrade damping under it per rail seat", "N s/m",
                                ge=0),
+        "bearing_area": Num("settlement (degradation:) only: its base area per rail seat. "
+                            "Default: the standard sleeper's bearing_area x support_stiffness "
+                            "/ the standard support stiffness (a larger base on the same "
+                            "ballast: area and stiffness in proportion)", "m^2", gt=0, le=2.0,
+                            why="half a sleeper's base is some 0.2-0.6 m^2", required=False,
+                            keep_absent=True),
     }),
     "ers": Section({
         "slab_lengths": NumList("lengths of the slabs, in running order (not joined); the "
@@ -168,10 +219,7 @@ _TRACK = Section({
 })
 
 _DESIGN = Section({
-    "railpad_stiffness": _design_group("stiffness of the pads next to the interface, x_r1 "
-                                       "farthest .. x_rN nearest", integer=False, counted=True,
-                                       unit="N/m", ge=1e7, le=1e10, shown="MN/m",
-                                       why=_PAD_WHY),
+    "railpad_stiffness": _pad_group(),
     "strengthened_sleepers": _design_group("number of strengthened sleepers next to the "
                                            "interface", integer=True, counted=False),
     "sleeper_spans": _design_group("spans next to the interface in 0.1 m elements, x_s1 "
@@ -357,6 +405,30 @@ _DEGRADATION = Section({
     "rail_seats": Num("the law's force = rail_seats x the modelled support force (one rail "
                       "seat); 1 as ROSE applies the Varandas defaults", gt=0, le=10.0,
                       default=1.0, required=False),
+    "reading": Str("how a passage loads the ballast: axle, each axle's own peak force is one "
+                   "load cycle; passage, every axle counts with the passage's largest peak "
+                   "(ROSE's reading)", READINGS, default="axle", required=False),
+    "subgrade": Section({
+        "soil": Str("the subgrade's soil class after Li & Selig (1996): ML silt, MH elastic "
+                    "silt, CL lean clay, CH fat clay; none: the ballast law alone",
+                    SOILS + ("none",), default="CL", required=False),
+        "strength": Num("the soil's static (compressive) strength under a support of "
+                        "reference_stiffness. Default 150 kPa: a stiff clay (100-200 kPa, "
+                        "Terzaghi & Peck's consistency classes)", "Pa", gt=0, le=1e8,
+                        shown="kPa", default=150.0e3, required=False),
+        "reference_stiffness": Num("the support stiffness per rail seat (track.support) the "
+                                   "strength is given for: a case's softer support is a weaker "
+                                   "soil, its strength scaled in proportion. Default 45 MN/m "
+                                   "(configs/reference.yaml)", "N/m", ge=1e6, shown="MN/m",
+                                   why=_SEAT_WHY, default=45.0e6, required=False),
+        "depth": Num("from the sleeper's base to the top of the subgrade (ballast and "
+                     "sub-ballast). Default 0.5 m", "m", gt=0, le=10.0, default=0.5,
+                     required=False),
+        "thickness": Num("the subgrade layer whose strain settles the track. Default 2 m",
+                         "m", gt=0, le=50.0, default=2.0, required=False),
+    }, "the subgrade below the ballast (and below the ERS slab): its own law, Li & Selig "
+       "(1996) as ROSE applies it, fed the stress of each sleeper's force (docs/settlement.md)",
+       required=False),
     "settling_sleepers": Num("entry sleepers nearest the interface that settle by their own "
                              "loads (at most evaluation.sleepers: the runs pass the whole "
                              "vehicle over those)", integer=True, ge=1, le=500, default=20,

@@ -32,9 +32,9 @@ from ..vti.specs import TrackDesign
 from ..vti.track import build_track
 from ..vti.vehicle import build_vehicle
 from .iteration import SettlementResult, predict_settlement
-from .laws import LAWS
+from .laws import LAWS, SleeperLaw, SubgradeLaw
 from .loading import Condition, entry_zone, vti_condition
-from .specs import DegradationSpec, LawSpec, Limit, Traffic
+from .specs import DegradationSpec, LawSpec, Limit, SubgradeSpec, Traffic
 
 
 def evaluate(spec: DegradationSpec, design: TrackDesign) -> Evaluation:
@@ -93,11 +93,56 @@ def predict(spec: DegradationSpec, design: TrackDesign) -> SettlementResult:
         conditions.append(_condition(t, track, spec))
     track = tracks[0]
     zone = entry_zone(track, spec.settling_sleepers, spec.follower_flat, spec.follower_taper)
+    support = spec.settling_traffic[0].scenario.track.support.stiffness
     return predict_settlement(track, zone, conditions, horizon_years=spec.horizon_years,
-                              law=law(spec.law), tolerance=spec.tolerance,
+                              law=sleeper_law(spec, track, support), tolerance=spec.tolerance,
                               steps_per_decade=spec.steps_per_decade,
                               max_simulations=spec.max_simulations,
-                              rail_seats=spec.rail_seats)
+                              rail_seats=spec.rail_seats, reading=spec.reading)
+
+
+def bearing_areas(spec: DegradationSpec, track) -> np.ndarray:
+    """The bearing area [m^2] per rail seat of each settling sleeper of a built track
+    (strengthened or standard), nearest the interface first."""
+    strengthened = np.asarray(track.entry_strengthened, bool)[:spec.settling_sleepers]
+    return np.where(strengthened, spec.strengthened_bearing_area, spec.bearing_area)
+
+
+def subgrade_strength(sub: SubgradeSpec, support_stiffness: float) -> float:
+    """The subgrade's static strength [Pa] under a support of ``support_stiffness`` [N/m per
+    rail seat]: ``sub.strength`` scaled by the support's stiffness over the one it was given
+    for (a softer subgrade of the same soil is a weaker one; docs/settlement.md)."""
+    return sub.strength * support_stiffness / sub.reference_stiffness
+
+
+def sleeper_law(spec: DegradationSpec, track, support_stiffness: float) -> SleeperLaw:
+    """The settlement law of each settling sleeper of ``track``: the ballast law fed the
+    pressure of its bearing area, the subgrade layer (if any) and the per-sleeper factors
+    and initial gaps of ``spec``.
+
+    Parameters
+    ----------
+    spec
+        the prediction's inputs.
+    track
+        the built track of the design (its strengthened sleepers).
+    support_stiffness
+        the standard sleepers' support stiffness per rail seat [N/m] of the case.
+
+    Returns
+    -------
+    lccopt.degradation.laws.SleeperLaw
+    """
+    n = spec.settling_sleepers
+    area = bearing_areas(spec, track)
+    sub = spec.subgrade
+    subgrade = None if sub is None else SubgradeLaw.of_soil(
+        sub.soil, subgrade_strength(sub, support_stiffness), area, sub.depth, sub.thickness)
+    return SleeperLaw(law(spec.law), spec.bearing_area / area,
+                      np.ones(n) if spec.sleeper_gamma is None
+                      else np.asarray(spec.sleeper_gamma, float),
+                      subgrade,
+                      None if spec.initial_gap is None else np.asarray(spec.initial_gap, float))
 
 
 def law(spec: LawSpec):

@@ -34,7 +34,7 @@ from typing import Sequence
 
 import numpy as np
 
-from .laws import VarandasLaw
+from .laws import SleeperLaw, VarandasLaw
 from .loading import Condition, SettlementZone
 from .statics import ZoneStatics
 
@@ -119,13 +119,16 @@ class SettlementResult:
 def predict_settlement(track, zone: SettlementZone, conditions: Sequence[Condition], *,
                        horizon_years: float, law=None, tolerance: float = 2.0e3,
                        steps_per_decade: float = 8.0, max_simulations: int = 30,
-                       rail_seats: float = 1.0,
+                       rail_seats: float = 1.0, reading: str = "axle",
                        level_span: tuple[float, float] | None = None) -> SettlementResult:
     """Settlement of ``zone`` of ``track`` under ``conditions`` up to ``horizon_years``.
 
-    law: a settlement law of :mod:`lccopt.degradation.laws` (default :class:`VarandasLaw`),
-    fed with ``rail_seats`` times the modelled support force (1: the force under one rail
-    seat, as the law's defaults are applied in ROSE; docs/settlement.md). tolerance [N]: the
+    law: a :class:`~lccopt.degradation.laws.SleeperLaw`, or a ballast law of
+    :mod:`lccopt.degradation.laws` alone (default :class:`VarandasLaw`, fed the force of
+    standard sleepers), fed with ``rail_seats`` times the modelled support force (1: the force
+    under one rail seat, as the law's defaults are applied in ROSE; docs/settlement.md).
+    reading: ``axle`` (each axle's own peak is a load cycle) or ``passage`` (every axle of a
+    passage counts with the passage's largest peak). tolerance [N]: the
     error allowed in the loads the law is fed (between simulations, and by a load's change
     within one block). steps_per_decade: blocks per decade of load cycles at most.
     max_simulations: the most simulations per condition, the first and the last included; the
@@ -134,6 +137,10 @@ def predict_settlement(track, zone: SettlementZone, conditions: Sequence[Conditi
     level_span: (x_from, x_to) [m] of the rail profile; default the settling zone plus 3 m
     either side."""
     law = law or VarandasLaw()
+    if not isinstance(law, SleeperLaw):
+        law = SleeperLaw.plain(law, zone.n_settling)
+    if reading not in ("axle", "passage"):
+        raise ValueError(f"reading: axle or passage, not {reading!r}")
     if not (horizon_years > 0 and tolerance > 0 and steps_per_decade > 0 and rail_seats > 0
             and max_simulations >= 2):
         raise ValueError("horizon_years, tolerance, steps_per_decade, rail_seats must be > 0, "
@@ -146,7 +153,7 @@ def predict_settlement(track, zone: SettlementZone, conditions: Sequence[Conditi
     span = level_span or (float(xs.min()) - 3.0, float(xs.max()) + 3.0)
     lx = np.asarray(track.node_x, float)
     pick = (lx >= span[0]) & (lx <= span[1]) & (np.asarray(track.rail_w) >= 0)
-    run = _Run(track, zone, conditions, law, rail_seats, pick)
+    run = _Run(track, zone, conditions, law, rail_seats, pick, reading)
     return run.to_horizon(horizon_years, tolerance, 10.0 ** (1.0 / steps_per_decade),
                           max_simulations)
 
@@ -155,9 +162,11 @@ class _Loads:
     """Loads of every axle of every condition on the settling sleepers, as a function of their
     settlement: quasi-static part (the track's statics) + the last simulation's dynamic part."""
 
-    def __init__(self, statics: ZoneStatics, zone: SettlementZone, conditions, rail_seats):
+    def __init__(self, statics: ZoneStatics, zone: SettlementZone, conditions, rail_seats,
+                 reading: str = "axle"):
         n = zone.n_settling
         self.statics, self.zone, self.scale = statics, zone, rail_seats
+        self.reading = reading
         self.cases = [statics.wheel_cases(zone.supports.x[:n], c.axles.offsets, c.axles.loads,
                                           c.axles.direction) for c in conditions]
         self.rows = np.array([len(c.axles.offsets) for c in conditions])
@@ -215,6 +224,9 @@ class _Loads:
         qs = self.quasi_static(settlement)
         dyn, grad = self._dynamic(settlement)
         f = np.vstack([np.maximum(q + d, 0.0) for q, d in zip(qs, dyn)])
+        pick = self._passage_peaks(f) if self.reading == "passage" else None
+        if pick is not None:
+            f = np.take_along_axis(f, pick, axis=0)
         if not jacobian:
             return self.scale * f, None
         jac = np.concatenate([
@@ -223,8 +235,21 @@ class _Loads:
         if grad is not None:
             change = np.vstack([e - d for d, e in zip(self.dynamic, self.blend[2])])
             jac += change[..., None] * grad
+        if pick is not None:
+            jac = np.take_along_axis(jac, pick[..., None], axis=0)
         jac *= (f > 0.0)[..., None]
         return self.scale * f, self.scale * jac
+
+    def _passage_peaks(self, f):
+        """(rows, sleepers) row index whose load every row of its condition takes: the
+        passage's largest per sleeper (the ``passage`` reading)."""
+        pick = np.empty(f.shape, dtype=int)
+        start = 0
+        for k in self.rows:
+            top = start + np.argmax(f[start:start + k], axis=0)
+            pick[start:start + k] = top[None, :]
+            start += k
+        return pick
 
 
 def _implicit_block(law, state, settlement, loads: _Loads, cycles):
@@ -263,15 +288,15 @@ def _implicit_block(law, state, settlement, loads: _Loads, cycles):
 class _Run:
     """The track's state through the blocks and what is recorded of it."""
 
-    def __init__(self, track, zone, conditions, law, rail_seats, pick):
+    def __init__(self, track, zone, conditions, law, rail_seats, pick, reading="axle"):
         self.zone, self.conditions, self.law = zone, conditions, law
         self.rail_seats = rail_seats
         self.statics = ZoneStatics(track, zone.supports, np.asarray(track.rail_w)[pick])
-        self.loads = _Loads(self.statics, zone, conditions, rail_seats)
+        self.loads = _Loads(self.statics, zone, conditions, rail_seats, reading)
         self.level_x = np.asarray(track.node_x, float)[pick]
         self.per_year = np.repeat([c.passes_per_year for c in conditions], self.loads.rows)
         self.state = law.start(zone.n_settling)
-        self.settlement = np.zeros(zone.n_settling)
+        self.settlement = law.settlement(self.state)
         self.years, self.passes, self.sims = 0.0, 0.0, 0
         self.rec = {k: [] for k in ("years", "passes", "s", "void", "level", "force", "wheel",
                                     "simulated")}

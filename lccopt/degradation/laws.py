@@ -7,7 +7,8 @@ state of n new sleepers, ``settlement(state)`` their permanent settlement [m],
 its derivative by each row's peaks (what the implicit block update of the iteration needs).
 The force is the peak sleeper-ballast force of a load cycle (one axle passing); which force
 (one rail seat or the whole sleeper) is the caller's choice (``predict_settlement``'s
-``rail_seats``, docs/settlement.md).
+``rail_seats``, docs/settlement.md). ``reset(state, mask)`` forgets the masked sleepers'
+history: tamped ballast, loosened, settles as new ballast does (fast at first).
 
 * :class:`VarandasLaw` (default): Varandas, Hölscher & Silva (2014), "Settlement of ballasted
   track under traffic loading: application to transition zones", Proc IMechE Part F 228(3)
@@ -34,6 +35,18 @@ The force is the peak sleeper-ballast force of a load cycle (one axle passing); 
   must give them. Under a changing load it is applied as strain hardening (the cycles already
   carried count as the number at the new load that gives the present settlement), the rows of
   one block as their equivalent load F_eq^m = Σ n_r F_r^m / Σ n_r.
+* :class:`SubgradeLaw`: the subgrade under a sleeper (or under the ERS slab), Li & Selig
+  (1996), "Cumulative plastic deformation for fine-grained subgrade soils", J. Geotech. Eng.
+  122(12) 1006-1013, doi:10.1061/(ASCE)0733-9410(1996)122:12(1006), as ROSE applies it per
+  sleeper: plastic strain ε_p = a (σ_d/σ_s)^m N^b (in percent) of the layer, σ_d the
+  deviator stress the load causes, σ_s the soil's static strength; a, b, m by soil class.
+  Integrated over the layer, S = K_i (F/F_ref)^m N^b for a sleeper's peak force F, and
+  under a changing load by strain hardening, which for a power law in N is exact and
+  order-free: S^(1/b) = K^(1/b) Σ_r n_r (F_r/F_ref)^(m/b).
+* :class:`SleeperLaw`: what one settling sleeper's support does, composed: the ballast law
+  fed the sleeper-ballast *pressure* (its force times A_standard / A_sleeper, so that a
+  standard sleeper keeps the force-fed numbers), times a per-sleeper factor, plus the
+  subgrade law, plus an offset per sleeper (an initial gap, and the lift of each tamping).
 """
 
 from __future__ import annotations
@@ -118,6 +131,12 @@ class VarandasLaw:
         """The state after rows ``peaks`` (rows, sleepers) [N] of ``cycles`` (rows,)."""
         return history.extend(peaks, cycles)
 
+    def reset(self, history: LoadHistory, mask) -> LoadHistory:
+        """The history with the masked sleepers' cycles forgotten (new ballast)."""
+        peaks = history.peaks.copy()
+        peaks[:, np.asarray(mask, dtype=bool)] = 0.0
+        return LoadHistory(peaks, history.cycles.copy())
+
     def sensitivity(self, history: LoadHistory, peaks, cycles):
         """(settlement (sleepers,) after adding the rows, d settlement / d peaks (rows,
         sleepers)). Raising row r's peak from F to F + dF adds its cycles to the band
@@ -168,6 +187,11 @@ class LogarithmicLaw:
     def settlement(self, state: np.ndarray) -> np.ndarray:
         return np.asarray(state, dtype=float)
 
+    def reset(self, state, mask) -> np.ndarray:
+        out = np.array(state, dtype=float)
+        out[np.asarray(mask, dtype=bool)] = 0.0
+        return out
+
     def constant(self, force, cycles) -> np.ndarray:
         a = self.first_cycle * (np.asarray(force, float) / self.f0) ** self.exponent
         n = np.asarray(cycles, dtype=float)
@@ -208,6 +232,167 @@ class LogarithmicLaw:
             grown = a * np.where(n_new >= 1.0, 1.0 + self.log_rate * np.log(np.maximum(n_new, 1.0)),
                                  n_new)
         return np.where((a > 0) & (cycles > 0), np.maximum(grown, s), s)
+
+
+# Li & Selig (1996) by soil class (Unified Soil Classification): (a [%], b, m), the values of
+# their paper as ROSE (PlatypusBytes/ROSE, rose/model/accumulation_model.py, class LiSelig)
+# tabulates them. ML: silt; MH: elastic silt; CL: lean clay; CH: fat clay.
+LI_SELIG = {"ML": (0.64, 0.10, 1.7), "MH": (0.84, 0.13, 2.0), "CL": (1.1, 0.16, 2.0),
+            "CH": (1.2, 0.18, 2.4)}
+_F_REF = 1.0e5          # [N] forces of the subgrade law in these units (numerics only)
+_S_REF = 1.0e-3         # [m] its state in (S / S_REF)^(1/b)
+
+
+def li_selig_coefficient(soil: str, strength, bearing_area, depth: float,
+                         thickness: float) -> np.ndarray:
+    """K of :class:`SubgradeLaw` (S = K (F/F_ref)^m N^b) for a subgrade layer of ``soil``
+    (a key of ``LI_SELIG``) with static strength ``strength`` [Pa] from ``depth`` to
+    ``depth + thickness`` [m] below a bearing area ``bearing_area`` [m^2] (one per sleeper).
+
+    The deviator stress is taken as the vertical stress of the 2:1 spread of the sleeper's
+    force over a square of the same area, σ_d(z) = F / (√A + z)^2 (horizontal stress changes
+    neglected, neighbouring sleepers' loads not superposed, as ROSE takes each sleeper's own
+    force); the strain ε_p [%] integrated over the layer in closed form:
+    S = a/100 (F/σ_s)^m [(c+d)^(1-2m) - (c+d+t)^(1-2m)] / (2m-1) N^b, c = √A."""
+    a, _, m = LI_SELIG[soil]
+    c = np.sqrt(np.atleast_1d(np.asarray(bearing_area, dtype=float)))
+    strength = np.broadcast_to(np.asarray(strength, dtype=float), c.shape)
+    depth_integral = ((c + depth) ** (1 - 2 * m) - (c + depth + thickness) ** (1 - 2 * m)) \
+        / (2 * m - 1)
+    return (a / 100.0) * (_F_REF / strength) ** m * depth_integral
+
+
+@dataclass(frozen=True, eq=False)
+class SubgradeLaw:
+    """Li & Selig (1996) per sleeper (module docstring): S = K_i (F/F_ref)^m N^b, strain
+    hardening under a changing load. ``coefficient``: K_i [m] (:func:`li_selig_coefficient`).
+
+    State: X = (S / 1 mm)^(1/b) per sleeper (additive over rows)."""
+    coefficient: np.ndarray
+    exponent: float
+    cycle_exponent: float
+    name: str = field(default="li-selig", init=False)
+
+    @classmethod
+    def of_soil(cls, soil: str, strength, bearing_area, depth: float,
+                thickness: float) -> "SubgradeLaw":
+        """The law of a soil class under the given bearing areas (one per sleeper)."""
+        _, b, m = LI_SELIG[soil]
+        return cls(li_selig_coefficient(soil, strength, bearing_area, depth, thickness), m, b)
+
+    def _unit(self) -> np.ndarray:
+        """(K / S_REF)^(1/b): the state one cycle of F_ref adds."""
+        return (np.asarray(self.coefficient, float) / _S_REF) ** (1.0 / self.cycle_exponent)
+
+    def start(self, n: int) -> np.ndarray:
+        return np.zeros(n)
+
+    def settlement(self, state) -> np.ndarray:
+        return _S_REF * np.asarray(state, dtype=float) ** self.cycle_exponent
+
+    def add(self, state, peaks, cycles) -> np.ndarray:
+        peaks = np.maximum(np.atleast_2d(np.asarray(peaks, dtype=float)), 0.0) / _F_REF
+        q = self.exponent / self.cycle_exponent
+        return np.asarray(state, float) + self._unit() * (np.asarray(cycles, float) @ peaks ** q)
+
+    def constant(self, force, cycles) -> np.ndarray:
+        """Settlement [m] after ``cycles`` cycles of a constant ``force`` [N]."""
+        return (np.asarray(self.coefficient, float) * (np.asarray(force, float) / _F_REF)
+                ** self.exponent * np.asarray(cycles, float) ** self.cycle_exponent)
+
+    def sensitivity(self, state, peaks, cycles):
+        """(settlement after the rows, d settlement / d peaks (rows, sleepers)), analytic."""
+        peaks = np.maximum(np.atleast_2d(np.asarray(peaks, dtype=float)), 0.0) / _F_REF
+        cycles = np.asarray(cycles, dtype=float)
+        b, q = self.cycle_exponent, self.exponent / self.cycle_exponent
+        x = self.add(state, peaks * _F_REF, cycles)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            dx = self._unit() * cycles[:, None] * q * peaks ** (q - 1.0) / _F_REF
+            ds = np.where(x > 0, _S_REF * b * x ** (b - 1.0), 0.0)
+        return self.settlement(x), np.nan_to_num(ds * dx)
+
+
+@dataclass(frozen=True)
+class SleeperState:
+    """The state of a :class:`SleeperLaw`: its ballast law's, its subgrade law's (None
+    without one) and the offsets [m] (initial gaps, tamping lifts)."""
+    ballast: object
+    subgrade: np.ndarray | None
+    offset: np.ndarray
+
+
+@dataclass(frozen=True, eq=False)
+class SleeperLaw:
+    """The settlement of each settling sleeper's support (module docstring).
+
+    ballast: a ballast law (:class:`VarandasLaw`, :class:`LogarithmicLaw`); pressure_scale:
+    A_standard / A_i per sleeper (the ballast law is fed F A_standard / A_i, the force a
+    standard sleeper would carry at sleeper i's pressure); ballast_factor: per-sleeper factor
+    on the ballast law's settlement (γ of a sleeper over the law's); subgrade: a
+    :class:`SubgradeLaw` or None; initial_gap [m]: each sleeper's gap before any traffic (an
+    initial void). Arrays are one value per sleeper."""
+    ballast: object
+    pressure_scale: np.ndarray
+    ballast_factor: np.ndarray
+    subgrade: SubgradeLaw | None = None
+    initial_gap: np.ndarray | None = None
+
+    @classmethod
+    def plain(cls, ballast, n: int) -> "SleeperLaw":
+        """The ballast law alone, fed the force, on ``n`` standard sleepers."""
+        return cls(ballast, np.ones(n), np.ones(n))
+
+    @property
+    def name(self) -> str:
+        return self.ballast.name + (f"+{self.subgrade.name}" if self.subgrade else "")
+
+    def start(self, n: int) -> SleeperState:
+        for k in ("pressure_scale", "ballast_factor"):
+            if np.shape(getattr(self, k)) != (n,):
+                raise ValueError(f"{k}: one value per settling sleeper ({n})")
+        gap = np.zeros(n) if self.initial_gap is None else np.array(self.initial_gap, float)
+        if gap.shape != (n,):
+            raise ValueError(f"initial_gap: one value per settling sleeper ({n})")
+        return SleeperState(self.ballast.start(n),
+                            None if self.subgrade is None else self.subgrade.start(n), gap)
+
+    def _fed(self, peaks) -> np.ndarray:
+        return np.atleast_2d(np.asarray(peaks, dtype=float)) * self.pressure_scale
+
+    def parts(self, state: SleeperState) -> dict:
+        """Settlement [m] per sleeper by part: ballast (since its last tamping), subgrade,
+        offset."""
+        return {"ballast": self.ballast_factor * self.ballast.settlement(state.ballast),
+                "subgrade": (np.zeros_like(state.offset) if self.subgrade is None
+                             else self.subgrade.settlement(state.subgrade)),
+                "offset": state.offset}
+
+    def settlement(self, state: SleeperState) -> np.ndarray:
+        p = self.parts(state)
+        return p["ballast"] + p["subgrade"] + p["offset"]
+
+    def add(self, state: SleeperState, peaks, cycles) -> SleeperState:
+        return SleeperState(self.ballast.add(state.ballast, self._fed(peaks), cycles),
+                            None if self.subgrade is None
+                            else self.subgrade.add(state.subgrade, peaks, cycles),
+                            state.offset)
+
+    def sensitivity(self, state: SleeperState, peaks, cycles):
+        s, d = self.ballast.sensitivity(state.ballast, self._fed(peaks), cycles)
+        s = self.ballast_factor * s + state.offset
+        d = d * (self.ballast_factor * self.pressure_scale)
+        if self.subgrade is not None:
+            s2, d2 = self.subgrade.sensitivity(state.subgrade, peaks, cycles)
+            s, d = s + s2, d + d2
+        return s, d
+
+    def tamp(self, state: SleeperState, mask, level) -> SleeperState:
+        """The state after tamping the masked sleepers up to ``level`` [m] (their settlement
+        becomes ``level``): their ballast starts anew, their subgrade keeps its history."""
+        mask = np.asarray(mask, dtype=bool)
+        sub = self.parts(state)["subgrade"]
+        offset = np.where(mask, np.asarray(level, float) - sub, state.offset)
+        return SleeperState(self.ballast.reset(state.ballast, mask), state.subgrade, offset)
 
 
 LAWS = {"varandas": VarandasLaw, "logarithmic": LogarithmicLaw}

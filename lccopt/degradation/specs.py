@@ -10,6 +10,10 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 LAW_NAMES = ("varandas", "logarithmic")
+SOILS = ("ML", "MH", "CL", "CH")           # Li & Selig's classes (lccopt.degradation.laws)
+# how the law reads a passage's load cycles: each axle its own peak (axle), or every axle the
+# passage's peak (passage: ROSE's code takes the largest force of the whole train)
+READINGS = ("axle", "passage")
 # measures a limit may be set on (lengths: SettlementResult.measure)
 LIMIT_MEASURES = ("differential_settlement", "max_settlement", "max_void", "level_std")
 
@@ -42,6 +46,20 @@ class Limit:
 
 
 @dataclass(frozen=True)
+class SubgradeSpec:
+    """The subgrade layer under the ballast and under the ERS slab (Li & Selig 1996):
+    ``soil`` (one of SOILS), static ``strength`` [Pa] of the soil under a support of
+    ``reference_stiffness`` [N/m per rail seat] (the strength scales with the support
+    stiffness of the case's standard sleepers), the layer from ``depth`` below the sleeper
+    base (the ballast and sub-ballast) over ``thickness`` [m]."""
+    soil: str = "CL"
+    strength: float = 150.0e3
+    reference_stiffness: float = 45.0e6
+    depth: float = 0.5
+    thickness: float = 2.0
+
+
+@dataclass(frozen=True)
 class DegradationSpec:
     """A settlement prediction of a design (docs/settlement.md, the case's ``degradation:``).
 
@@ -50,7 +68,14 @@ class DegradationSpec:
     :func:`~lccopt.degradation.loading.entry_zone`; rail_seats, tolerance [N],
     steps_per_decade, max_simulations (per condition):
     :func:`~lccopt.degradation.iteration.predict_settlement`; condition_mode: worst or mean,
-    how the paper's objectives of several conditions combine."""
+    how the paper's objectives of several conditions combine.
+
+    The ballast law is fed the sleeper-ballast pressure: bearing_area and
+    strengthened_bearing_area [m^2] per rail seat (the law's reference_force acts on a
+    standard sleeper's area); subgrade: the layer below (None: the ballast law alone);
+    reading: one of READINGS. Per settling sleeper (nearest the interface first; None: the
+    same for all): sleeper_gamma, a factor on the ballast law's settlement, and initial_gap
+    [m], a void before any traffic."""
     traffic: tuple
     horizon_years: float
     law: LawSpec = field(default_factory=LawSpec)
@@ -63,6 +88,12 @@ class DegradationSpec:
     max_simulations: int = 30
     limit: Limit = field(default_factory=Limit)
     condition_mode: str = "worst"
+    bearing_area: float = 0.375
+    strengthened_bearing_area: float = 0.375
+    subgrade: SubgradeSpec | None = None
+    reading: str = "axle"
+    sleeper_gamma: tuple | None = None
+    initial_gap: tuple | None = None
 
     @property
     def settling_traffic(self) -> tuple:

@@ -33,7 +33,8 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from .worker import SINGLE_THREAD_ENV, STOP_SIGNALS, Outcome, Task, _death_reason
+from ..errors import STOP_SIGNALS
+from .worker import SINGLE_THREAD_ENV, Outcome, Task, _death_reason
 
 
 class ExecutorError(Exception):

@@ -22,6 +22,7 @@ import os
 from pathlib import Path
 
 from ..safeio import open_owned, read_owned
+from .events import EventCheck
 
 
 class JournalError(Exception):
@@ -38,6 +39,7 @@ def read_journal(path: str | Path) -> tuple[list[dict], int, bool]:
     events: list[dict] = []
     pos = 0
     torn = False
+    check = EventCheck()
     while pos < len(data):
         end = data.find(b"\n", pos)
         if end < 0:  # no newline: a torn last line
@@ -52,6 +54,11 @@ def read_journal(path: str | Path) -> tuple[list[dict], int, bool]:
             if data.find(b"\n", end + 1) < 0 and not data[end + 1:].strip():
                 torn = True  # the last line is garbage (e.g. zeros after a crash): drop it
                 break
+            raise JournalError(f"{path}: line {len(events) + 1} is damaged ({exc}); "
+                               f"the journal was changed by something other than lccopt") from None
+        try:  # whole JSON that lccopt could not use: damage, wherever it is (a crash tears)
+            check(ev)
+        except ValueError as exc:
             raise JournalError(f"{path}: line {len(events) + 1} is damaged ({exc}); "
                                f"the journal was changed by something other than lccopt") from None
         events.append(ev)

@@ -38,7 +38,14 @@ from pathlib import Path
 import typer
 
 from ..config import Case, design_items
-from ..errors import CaseError, EnvironmentFault, describe_os_error, environment_errno
+from ..errors import (
+    STOP_SIGNALS,
+    CaseError,
+    EnvironmentFault,
+    describe_os_error,
+    environment_errno,
+    printable_lines,
+)
 from ..problem import Problem
 from ..terminal import PipeGuard, wrap_items
 from .journal import Journal, line_mark
@@ -115,9 +122,10 @@ class Engine:
     def _install_signals(self) -> None:
         if threading.current_thread() is not threading.main_thread():
             return
-        # SIGTERM/SIGHUP (Slurm, systemd, timeout, a closed terminal) stop at once like a second
-        # Ctrl-C; the workers ignore them, so an evaluation is never reported as killed by them
-        for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+        # SIGTERM/SIGHUP (Slurm, systemd, timeout, a closed terminal) and the other stopping
+        # signals stop at once like a second Ctrl-C; the workers ignore them, so an evaluation
+        # is never reported as killed by them
+        for sig in STOP_SIGNALS:
             self._old_handlers[sig] = signal.signal(sig, self._on_signal)
 
     def _restore_signals(self) -> None:
@@ -374,7 +382,9 @@ class Engine:
                 file = eval_name(o.id)
         common = dict(id=o.id, objectives=objectives or {}, wall_time=o.wall_time, worker=o.worker,
                       file=file,
-                      at=round(time.time(), 3))  # when it was committed: `lccopt status` rates
+                      # when it was committed: the date, and this process's monotonic clock,
+                      # from which `lccopt status` rates the run (a wall clock can step)
+                      at=round(time.time(), 3), mono=round(time.monotonic(), 3))
         if error is None:
             if o.id == 0 and self.table.reference is None:
                 self.problem = pb = pb.with_reference(objectives)  # worst: the case's or default
@@ -461,5 +471,5 @@ class Engine:
                        f" ({(v - r) / r:+.1%} vs reference design {objective_value(k, r)})")
                 lines.append(f"  {objective_text(k, v)}{rel}")
         lines.append(f"results: {self.rd.results_path}")
-        sys.stdout.write("\n".join(lines) + "\n")
+        sys.stdout.write(printable_lines("\n".join(lines)) + "\n")
         sys.stdout.flush()

@@ -6,6 +6,7 @@ import math
 import sys
 import time
 
+from ..errors import printable, printable_lines
 from ..terminal import wrap_items, wrap_message
 from ..vti.response import objective_display
 
@@ -56,7 +57,7 @@ def best_items(table, short: bool = False) -> list[str]:
         rel = ""
         if r and v is not None and math.isfinite(v):
             rel = f" {(v - r) / r:+.0%}" if short else f" ({(v - r) / r:+.0%})"
-        parts.append(objective_text(k, v) + rel)
+        parts.append(printable(objective_text(k, v)) + rel)
     return parts
 
 
@@ -92,7 +93,9 @@ class Progress:
         self.per_design = 1     # simulations per design (traffic conditions): the bar counts them
         self._best_shown = None  # the best design last written to a log
         self.enabled = enabled
-        self.tty = enabled and hasattr(self.stream, "isatty") and self.stream.isatty()
+        # no stream at all (pythonw, a closed stderr in a program using the library): silence
+        self.mute = self.stream is None
+        self.tty = enabled and not self.mute and _isatty(self.stream)
         self.t0 = time.monotonic()
         self.done0: int | None = None   # evaluations already done when this session started
         self._live = None
@@ -103,9 +106,12 @@ class Progress:
         self.per_design = max(1, int(per_design))
         self.t0 = time.monotonic()
         self.done0 = table.n_done
-        if self.tty:
-            self._start(table.n_done)
-            self._draw(table, 0)
+        if self.tty and not self.mute:
+            try:
+                self._start(table.n_done)
+                self._draw(table, 0)
+            except (OSError, ValueError):
+                self._silence()
 
     def _start(self, done: int) -> None:
         from rich.console import Console
@@ -129,7 +135,9 @@ class Progress:
                 for line in self.below:
                     yield Text(line, no_wrap=True, overflow="ellipsis")
 
-        console = Console(file=self.stream, highlight=False)
+        # the terminal itself: the live line is made of control sequences (what it shows is
+        # made printable here)
+        console = Console(file=getattr(self.stream, "raw", self.stream), highlight=False)
         fixed = Column(no_wrap=True)
         self._live = _Lines(
             BarColumn(bar_width=BAR), MofNCompleteColumn(table_column=fixed),
@@ -155,32 +163,60 @@ class Progress:
     def parts(self, table, parts: int) -> None:
         """Simulations finished of the designs still in flight (traffic conditions)."""
         if self._live is not None:
-            self._draw(table, parts)
+            try:
+                self._draw(table, parts)
+            except (OSError, ValueError):
+                self._silence()
 
     def log(self, message: str) -> None:
         """A message on its own line (above the live progress line on a terminal, and wrapped
         to its width there; one line in a log)."""
-        text = f"lccopt: {message}"
-        if self._live is not None:
-            self._live.console.print(wrap_message(text, self._live.console.width), markup=False,
-                                     soft_wrap=True)
+        text = printable(f"lccopt: {message}")   # a run's stored strings (names, reasons)
+        if self.mute:
             return
-        if hasattr(self.stream, "isatty") and self.stream.isatty():
+        if self._live is not None:
+            try:
+                self._live.console.print(wrap_message(text, self._live.console.width),
+                                         markup=False, soft_wrap=True)
+            except (OSError, ValueError):
+                self._silence()
+            return
+        if _isatty(self.stream):
             text = wrap_message(text)
-        self.stream.write(text + "\n")
-        self.stream.flush()
+        self._write(text + "\n")
+
+    def _write(self, text: str) -> None:
+        """Progress is best effort: a stream that cannot be written (closed, full, an I/O
+        error) silences it for the rest of the session, and the run goes on."""
+        try:
+            self.stream.write(text)
+            self.stream.flush()
+        except (OSError, ValueError):
+            self._silence()
+
+    def _silence(self) -> None:
+        self.mute = True
+        if self._live is not None:
+            live, self._live = self._live, None
+            try:
+                live.stop()
+            except (OSError, ValueError):
+                pass
 
     def update(self, table, last: dict | None = None) -> None:
-        if not self.enabled:
+        if not self.enabled or self.mute:
             return
         done, failed = table.n_done, table.n_failed
         if self.done0 is None:
             self.done0 = done
         tail = f"  failed {failed}" if failed else ""
         if self.tty:
-            if self._live is None:
-                self._start(done)
-            self._draw(table, 0)
+            try:
+                if self._live is None:
+                    self._start(done)
+                self._draw(table, 0)
+            except (OSError, ValueError):
+                self._silence()
             return
         # a log: one line per result, and the best design on a line of its own when it changes
         # (each fits 80 columns)
@@ -191,17 +227,26 @@ class Progress:
         what = ""
         if last is not None:
             what = (f" #{last['id']} {last['phase']} ok" if last["status"] == "ok"
-                    else f" #{last['id']} {last['phase']} FAILED: {last['reason']}")
-        self.stream.write(f"lccopt: [{done:>{width}}/{self.budget}]{what}, "
-                          f"{hms(elapsed)}{left}{tail}\n")
+                    else f" #{last['id']} {last['phase']} FAILED: {printable(last['reason'])}")
+        text = f"lccopt: [{done:>{width}}/{self.budget}]{what}, {hms(elapsed)}{left}{tail}\n"
         best = table.best()
         if best is not None and best["id"] != self._best_shown:
             self._best_shown = best["id"]
-            self.stream.write(f"lccopt:   {best_text(table)}\n")
-        self.stream.flush()
+            text += f"lccopt:   {best_text(table)}\n"
+        self._write(printable_lines(text))
 
     def close(self) -> None:
         if self._live is not None:
-            self._live.refresh()
-            self._live.stop()
+            try:
+                self._live.refresh()
+                self._live.stop()
+            except (OSError, ValueError):
+                pass
             self._live = None
+
+
+def _isatty(stream) -> bool:
+    try:
+        return bool(stream.isatty())
+    except (AttributeError, OSError, ValueError):
+        return False

@@ -11,7 +11,7 @@ from pathlib import Path
 
 from .. import machine
 from ..config import SAFE_NAME, Case, load_case
-from ..errors import UsageError
+from ..errors import CaseError, UsageError, signals_deferred
 from ..problem import Problem
 from .dask_pool import DaskExecutor
 from .executors import ExecutorError, LocalPool, default_workers
@@ -72,15 +72,18 @@ def optimise(case, workers: int | None = None, scheduler=None, runs: Path = Path
     executor = _start_executor(case_obj, spec, workers, scheduler, problem,
                                Progress(0, stream, progress).log)
     try:
-        if run_path.exists():
-            old = RunDir(run_path)
-            if (run_path / "lock").exists():
-                old.lock()  # refuse to delete a run another process is driving
-            shutil.rmtree(run_path)
-            old.unlock()
-        rd = RunDir.create(run_path, case_obj, problem,
-                           spec if isinstance(spec, str) else repr(spec))
-        rd.lock()
+        # a stopping signal waits for the old run's removal and the new one's creation: never
+        # half a run directory (which --force would then refuse to replace)
+        with signals_deferred():
+            if run_path.exists():
+                old = RunDir(run_path)
+                if (run_path / "lock").exists():
+                    old.lock()  # refuse to delete a run another process is driving
+                shutil.rmtree(run_path)
+                old.unlock()
+            rd = RunDir.create(run_path, case_obj, problem,
+                               spec if isinstance(spec, str) else repr(spec))
+            rd.lock()
     except BaseException as exc:
         executor.close()
         if isinstance(exc, RunError):
@@ -144,9 +147,15 @@ def _check_replaceable(run_path: Path, runs: Path) -> None:
 def _start_executor(case, spec, workers, scheduler, problem, log=None):
     try:
         executor = make_executor(case, spec, workers, scheduler, problem.timeout)
-        executor.start(log)
     except ExecutorError as exc:
         raise _usage_error(str(exc)) from None
+    try:
+        executor.start(log)
+    except BaseException as exc:  # an interruption too: no worker or connection left behind
+        executor.close()
+        if isinstance(exc, ExecutorError):
+            raise _usage_error(str(exc)) from None
+        raise
     return executor
 
 
@@ -172,6 +181,7 @@ def resume(run, workers: int | None = None, scheduler=None, case=None,
                            f"line: this run cannot be carried on safely ({n} evaluation file(s) "
                            f"kept as they are); restore the journal, or start a new run under "
                            f"another name")
+        _check_budget(budget, sum(ev.get("event") == "asked" for ev in events))
         journal, events, torn = Journal.open(rd.journal_path)
         if torn:
             out.log("dropped a torn last line of the journal (the run was killed while writing "
@@ -189,15 +199,16 @@ def resume(run, workers: int | None = None, scheduler=None, case=None,
         if meta.get("case_sha256") != sha256_text(case_obj.resolved):
             extra = ({"worst": list(problem.worst), "rho": problem.rho}
                      if problem.multi and problem.worst else {})
-            ev = journal.append("case_changed", time=now_iso(),
-                                case_sha256=sha256_text(case_obj.resolved),
-                                budget=problem.budget, case_file=str(case_obj.path), **extra)
-            events.append(ev)
-            rd.write_case(case_obj.resolved)
-            meta.update(case_sha256=sha256_text(case_obj.resolved),
-                        case_file=str(Path(case_obj.path).resolve()),
-                        overrides=list(getattr(case_obj, "overrides", ())))
-            rd.write_meta(meta)
+            with signals_deferred():  # the journal's line and the run's copy of the case together
+                ev = journal.append("case_changed", time=now_iso(),
+                                    case_sha256=sha256_text(case_obj.resolved),
+                                    budget=problem.budget, case_file=str(case_obj.path), **extra)
+                events.append(ev)
+                rd.write_case(case_obj.resolved)
+                meta.update(case_sha256=sha256_text(case_obj.resolved),
+                            case_file=str(Path(case_obj.path).resolve()),
+                            overrides=list(getattr(case_obj, "overrides", ())))
+                rd.write_meta(meta)
         strategy, table = restore(problem, events, rd.load_state())
         # never the evaluator run.json names: a run directory from elsewhere must not choose
         # code to run; the testing hook ($LCCOPT_EVALUATOR) or the simulator
@@ -237,6 +248,22 @@ def resume(run, workers: int | None = None, scheduler=None, case=None,
     finally:
         rd.unlock()
     return rd.path
+
+
+def _check_budget(budget: int | None, asked: int) -> None:
+    """``--budget``, named as the user typed it: within a case's bounds for a budget, and not
+    below what the run has asked for already."""
+    if budget is None:
+        return
+    from ..config.schema import SCHEMA
+
+    spec = SCHEMA.fields["optimisation"].fields["budget"]
+    if budget < spec.ge or budget > spec.le:
+        raise _usage_error(f"--budget {budget}: a budget is {spec.ge:g} to {spec.le:g} "
+                           f"evaluations")
+    if budget < asked:
+        raise _usage_error(f"--budget {budget} is below the {asked} evaluations the run has "
+                           f"already asked for; give at least {asked}")
 
 
 def _lost_files(rd: RunDir, table: Table) -> list[int]:
@@ -279,7 +306,15 @@ def _resume_case(rd: RunDir, meta: dict, case, allow_changed: bool, out: Progres
     case_obj = case if isinstance(case, Case) else load_case(case, overrides)
     if budget is not None and sha256_text(case_obj.resolved) == meta.get("case_sha256"):
         # the same case with another budget: the one change --budget asks for
-        case_obj = load_case(case_obj.path, [*overrides, f"optimisation.budget={int(budget)}"])
+        item = f"optimisation.budget={int(budget)}"
+        try:
+            case_obj = load_case(case_obj.path, [*overrides, item])
+        except CaseError as exc:   # named as the user typed it, not as the --set it becomes
+            text = str(exc)
+            prefix = "--set: optimisation.budget: "
+            if text.startswith(prefix) and item not in overrides:
+                raise _usage_error(f"--budget {budget}: {text[len(prefix):]}") from None
+            raise
         allow_changed = True
     if sha256_text(case_obj.resolved) != meta.get("case_sha256"):
         old_case = load_case(rd.case_path)

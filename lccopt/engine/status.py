@@ -9,9 +9,9 @@ from __future__ import annotations
 
 import json
 import math
-import time
 from pathlib import Path
 
+from ..errors import printable
 from ..safeio import read_owned
 from ..terminal import wrap_items
 from .journal import read_journal
@@ -58,28 +58,52 @@ def status_lines(run: Path) -> list[str]:
 
 
 def _timing(events: list[dict], table: Table, budget: int, running: bool) -> list[str]:
-    walls = [r["wall_time"] for r in table.rows.values()
-             if r["status"] != "pending" and math.isfinite(r["wall_time"])]
+    walls = [r["wall_time"] for r in table.rows.values() if r["status"] != "pending"
+             and _number(r["wall_time"]) and r["wall_time"] >= 0]
     out = []
     if walls:
         out.append(f"  {sum(walls) / len(walls):.3g} s of simulation per evaluation")
-    stamps = [ev["at"] for ev in events if ev.get("event") in ("evaluated", "failed")
-              and isinstance(ev.get("at"), (int, float))]
     left = budget - table.n_done
-    if running and len(stamps) >= 2 and left > 0:
-        recent = stamps[-RATE_WINDOW:]
-        pace = (recent[-1] - recent[0]) / (len(recent) - 1)
-        since = max(0.0, time.time() - recent[-1])
-        out.append(f"  one result every {pace:.3g} s lately; about "
-                   f"{hms(max(0.0, left * pace - since))} left")
+    pace = _pace(events) if running and left > 0 else None
+    if pace is not None:
+        out.append(f"  one result every {pace:.3g} s lately; about {hms(left * pace)} left")
     return out
+
+
+def _pace(events: list[dict]) -> float | None:
+    """Seconds per result over the last RATE_WINDOW results of the session that is going
+    (the lines after the last ``session`` line, which ends a session), from the driving
+    process's monotonic clock (``mono``): a step of the wall clock (NTP, a suspended laptop,
+    a changed time zone or date) changes nothing. Lines of an lccopt that wrote only the wall
+    clock (``at``) are rated from it, after its last step back. None when it cannot be told."""
+    start = max((i for i, ev in enumerate(events) if ev.get("event") == "session"), default=-1)
+    results = [ev for ev in events[start + 1:] if ev.get("event") in ("evaluated", "failed")]
+    stamps = [ev.get("mono") for ev in results]
+    if not all(_number(t) for t in stamps):
+        stamps = [ev.get("at") for ev in results]
+        if not all(_number(t) for t in stamps):
+            return None
+    stamps = stamps[-RATE_WINDOW:]
+    for i in range(len(stamps) - 1, 0, -1):
+        if stamps[i] < stamps[i - 1]:   # the clock stepped back: only what came after
+            stamps = stamps[i:]
+            break
+    if len(stamps) < 2 or stamps[-1] <= stamps[0]:
+        return None
+    return (stamps[-1] - stamps[0]) / (len(stamps) - 1)
+
+
+def _number(v) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
 
 
 def _variables(rd: RunDir) -> list[tuple[str, str, float]] | None:
     """(name, unit, factor) of each design variable, as run.json records them."""
     try:
         meta = json.loads(read_owned(rd.meta_path, 1_000_000).decode("utf-8"))
-        return [(str(n), str(u), float(f)) for n, u, f in meta["variables"]]
+        # printable: run.json is a file anyone could have edited (a name with a newline or a
+        # terminal escape sequence must not make lines or colours of its own)
+        return [(printable(str(n)), printable(str(u)), float(f)) for n, u, f in meta["variables"]]
     except (OSError, ValueError, KeyError, TypeError):
         return None
 

@@ -12,6 +12,7 @@ or hang). The function takes ``(case, x)`` and returns a
 
 from __future__ import annotations
 
+import contextlib
 import importlib
 import os
 import signal
@@ -23,11 +24,11 @@ from dataclasses import dataclass, field
 from typing import Any, Callable
 
 from .. import machine  # no numpy at import: the thread settings below still come first
+from ..errors import STOP_SIGNALS  # the parent handles these; a worker ignores them
 
 DEFAULT_EVALUATOR = "lccopt.problem:evaluate"
 # the simulator under the name older runs recorded in run.json
 RENAMED_EVALUATORS = {"lccopt.vti.simulate:evaluate": DEFAULT_EVALUATOR}
-STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)  # the parent handles these
 ENV_EVALUATOR = "LCCOPT_EVALUATOR"
 # Imported by a local worker before it forks its first evaluation: what every evaluation
 # needs (the evaluation file's writer, h5py; the simulator and its solvers). Imported in each
@@ -174,9 +175,10 @@ def local_worker_main(fd: int, parent_pid: int, slot: int) -> None:
     """Loop of a local worker process (started by ``LocalPool`` with ``python -c``).
 
     Receives ("init", case, evaluator spec, sys.path), then Tasks; sends back ("ready", pid)
-    and ("done", Outcome). Ignores SIGINT, SIGTERM and SIGHUP (sent to the whole process group
-    by Ctrl-C, Slurm, systemd or a closed terminal: the parent decides what they mean, and an
-    evaluation stopped with the run stays pending) and dies with its parent.
+    and ("done", Outcome). Ignores the stopping signals (``errors.STOP_SIGNALS``: Ctrl-C,
+    SIGTERM, SIGHUP, ..., sent to the whole process group by a terminal, Slurm or systemd: the
+    parent decides what they mean, and an evaluation stopped with the run stays pending) and
+    dies with its parent.
 
     Each task runs in a child forked from this process as it stands after start-up, so
     every evaluation starts from the same process state whatever ran before it: results
@@ -200,7 +202,9 @@ def local_worker_main(fd: int, parent_pid: int, slot: int) -> None:
     try:
         evaluator = load_evaluator(spec)
     except Exception as exc:  # noqa: BLE001
-        conn.send(("fatal", f"cannot load the evaluator {spec!r}: {type(exc).__name__}: {exc}"))
+        with contextlib.suppress(OSError):  # the parent may be gone already
+            conn.send(("fatal", f"cannot load the evaluator {spec!r}: {type(exc).__name__}: "
+                                f"{exc}"))
         return
     machine.describe()  # once here, not in every forked child (it loads scipy.linalg)
     for module in PRELOAD:  # likewise: an import in a forked child dies with it
@@ -209,7 +213,10 @@ def local_worker_main(fd: int, parent_pid: int, slot: int) -> None:
         except Exception:  # noqa: BLE001 - the evaluation that needs it reports the failure
             pass
     fork = hasattr(os, "fork")
-    conn.send(("ready", os.getpid()))
+    try:
+        conn.send(("ready", os.getpid()))
+    except OSError:  # the parent stopped (a signal) while this worker started: nothing to do
+        return
     while True:
         if fork:
             me = os.getpid()

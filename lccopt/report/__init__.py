@@ -38,6 +38,7 @@ import os
 from pathlib import Path
 
 from ..atomic import atomic_write_text
+from ..errors import printable
 from ..safeio import UnsafeFile, check_owned_dir
 from .along_track import fig_contact_force, fig_sleeper_energy
 from .data import FIGURES, FORMATS, _usage, load_run, pct, read_history
@@ -74,7 +75,7 @@ def write_report(run: Path, format: str = "both", out: Path | None = None,
     import typer
 
     for warning in data.warnings:
-        typer.echo(f"lccopt: warning: {warning}", err=True)
+        typer.echo(f"lccopt: warning: {printable(warning)}", err=True)
     own = data.path / "report"
     theirs = out is not None and Path(out).absolute() != own.absolute()
     out = Path(out) if theirs else own
@@ -165,10 +166,13 @@ def write_report(run: Path, format: str = "both", out: Path | None = None,
     summary["seconds"] = round(time.perf_counter() - t0, 2)
     atomic_write_text(out / "summary.json", json.dumps(summary, indent=2, allow_nan=True) + "\n")
 
-    typer.echo(f"report of '{data.name}' ({data.n}/{data.budget} evaluations, {data.state})")
+    # printable: the name and objectives come from the run's files, which anyone may edit
+    typer.echo(f"report of '{printable(data.name)}' ({data.n}/{data.budget} evaluations, "
+               f"{data.state})")
     if "best" in summary:  # a line of its own: one line would wrap on an 80-column terminal
         typer.echo(f"  best #{summary['best']['id']}: " + ", ".join(
-            f"{k} {pct(summary['best']['objectives'][k], data.ref_objectives.get(k, math.nan))}"
+            f"{printable(k)} "
+            f"{pct(summary['best']['objectives'][k], data.ref_objectives.get(k, math.nan))}"
             for k in data.objectives))
         from ..terminal import wrap_items
 

@@ -234,8 +234,8 @@ def load_run(path: Path) -> RunData:
     if has_results:
         try:
             res = _read_results(run / "results.h5")
-        except (OSError, KeyError, ValueError) as exc:
-            res_error = f"{run / 'results.h5'} is unreadable ({exc})"
+        except (OSError, KeyError, ValueError, TypeError, MemoryError) as exc:
+            res_error = f"{run / 'results.h5'} is unreadable ({type(exc).__name__}: {exc})"
     events: list[dict] = []
     journal_error = ""
     if has_journal:
@@ -326,6 +326,7 @@ def _read_results(path: Path) -> dict:
     with h5_open_owned(path) as f:
         a = f.attrs
         e = f["evaluations"]
+        _check_table(f, e)
         ids = e["id"][()].astype(int)
         n = len(ids)
         names = [_s(v) for v in e["x"].attrs.get("names", e.attrs.get("names", []))]
@@ -360,6 +361,32 @@ def _read_results(path: Path) -> dict:
                                  for k in OBJECTIVE_NAMES if k in f["conditions"][_s(c)]}
                          for c in a.get("conditions", []) if "conditions" in f},
         }
+
+
+MAX_ROWS = 1_000_000        # evaluations of a run: the budget is at most 100 000
+MAX_COLUMNS = 10_000        # values per row of a table column (design variables)
+
+
+def _check_table(f, e) -> None:
+    """results.h5's tables have one row per evaluation, as many in every column, before any
+    is read: a file that claims 10^11 rows (a few bytes of HDF5 can) is refused, not
+    allocated (ValueError)."""
+    import h5py
+
+    rows = e["id"].shape
+    if len(rows) != 1 or rows[0] > MAX_ROWS:
+        raise ValueError(f"/evaluations/id has shape {rows}, not one row per evaluation "
+                         f"(at most {MAX_ROWS})")
+    groups = [e] + [g for g in f.get("conditions", {}).values() if isinstance(g, h5py.Group)]
+    for g in groups:
+        for name, d in g.items():
+            if isinstance(d, h5py.Dataset) and (
+                    not d.shape or d.shape[0] != rows[0] or d.size > rows[0] * MAX_COLUMNS):
+                raise ValueError(f"{d.name} has shape {d.shape}, where the table has "
+                                 f"{rows[0]} rows")
+    for d in f.get("reference", {}).values():
+        if isinstance(d, h5py.Dataset) and d.size > MAX_COLUMNS:
+            raise ValueError(f"{d.name} has {d.size} values")
 
 
 def _from_journal(run: Path, events: list[dict], res: dict | None) -> dict:

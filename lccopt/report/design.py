@@ -258,13 +258,14 @@ def fig_track_layout(run: RunData, best: tuple, ref: tuple, bi: int, out: Path,
                 "ERS →  "
                 f"{'Type II strip ' + format(t2, '.1f') + ' m' if t2 > 0 else 'no Type II strip'}",
                 fontsize=8, va="center")
-    axes[-1, 0].set_xlabel("distance from the entry slab edge [m] (vehicle runs left to right; "
-                           "sleeper numbers below; above: designed pads in MN/m, spans in m)")
+    axes[-1, 0].set_xlabel("distance from the entry slab edge [m] (vehicle runs left to right)\n"
+                           "sleeper numbers below; above: designed pads under the wheel in MN/m, "
+                           "spans in m")
     sm = plt.cm.ScalarMappable(norm=norm, cmap=cmap)
     fig.tight_layout(rect=(0, 0.09, 0.88, 1))
     cax = fig.add_axes((0.895, 0.2, 0.015, 0.7))
     cb = fig.colorbar(sm, cax=cax)
-    cb.set_label("railpad stiffness [MN/m]")
+    cb.set_label("railpad stiffness under the wheel [MN/m]")
     if isinstance(norm, mcolors.LogNorm):
         from matplotlib.ticker import FixedLocator, FuncFormatter, NullLocator
 

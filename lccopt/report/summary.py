@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..config.describe import pad_facts
 from ..vti.response import objective_unit
 from .data import (
     OBJECTIVE_DOC,
@@ -203,6 +204,10 @@ def build_summary(run: RunData, figs: dict, notes: dict, facts: list[str] | None
         rows.append([f"`{v.name}`", v.label, v.unit or "–", rng, kind_text(v),
                      var_value(v, v.reference)])
     doc.table(["variable", "meaning", "unit", "bounds", "kind", "reference design"], rows, "llllll")
+    if run.case is not None:
+        doc.p("Pads, as entered and as simulated (under the wheel; docs/model.md, 'Pads as "
+              "bought'):")
+        doc.ul([fact[0].upper() + fact[1:] for fact in pad_facts(run.case)])
     if run.case is None and run.case_note:
         doc.p(f"Note: the run's case could not be loaded ({run.case_note}); bounds are not shown.")
 

@@ -150,8 +150,8 @@ def test_torn_journal_tail_is_dropped(tmp_path):
     path = tmp_path / "journal.jsonl"
     j, events, torn = Journal.open(path)
     assert events == [] and not torn
-    j.append("asked", id=0, x=[1.0])
-    j.append("evaluated", id=0, value=2.0)
+    j.append("asked", id=0, x=[1.0], phase="initial", restart=0)
+    j.append("evaluated", id=0, value=2.0, objectives={"F_max": 2.0})
     j.close()
     with open(path, "ab") as fh:
         fh.write(b'{"seq":2,"event":"ask')
@@ -159,9 +159,10 @@ def test_torn_journal_tail_is_dropped(tmp_path):
     assert torn and len(events) == 2
     j, events, torn = Journal.open(path)
     assert torn and path.stat().st_size == length
+    j.append("asked", id=1, x=[2.0], phase="initial", restart=0)
     j.append("failed", id=1, reason="x")
     j.close()
-    assert [e["seq"] for e in read_journal(path)[0]] == [0, 1, 2]
+    assert [e["seq"] for e in read_journal(path)[0]] == [0, 1, 2, 3]
     # A damaged line that is not the last one is an error, never silently dropped.
     lines = path.read_bytes().split(b"\n")
     lines[1] = b"garbage"

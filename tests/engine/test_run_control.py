@@ -42,6 +42,6 @@ def test_set_is_recorded_and_resume_budget_extends_a_finished_run(tmp_path):
     events = read_journal(run / "journal.jsonl")[0]
     assert [e["budget"] for e in events if e["event"] == "case_changed"] == [12]
     r = cli_run("resume", run, "--budget", "10", env=ENV)
-    assert r.returncode == 2 and "budget of 10 is below the 12 evaluations" in r.stderr, r.stderr
+    assert r.returncode == 2 and "--budget 10 is below the 12 evaluations" in r.stderr, r.stderr
     r = cli_run("status", run)
     assert r.stdout.startswith(f"{run}: finished, 12/12 evaluations"), r.stdout

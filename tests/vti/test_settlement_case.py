@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from lccopt.config import load_case
-from lccopt.degradation.evaluate import settlement_objectives
+from lccopt.degradation.evaluate import predict, settlement_objectives, sleeper_law
 from lccopt.degradation.iteration import predict_settlement
 from lccopt.degradation.laws import VarandasLaw
 from lccopt.degradation.loading import entry_zone, vti_condition
@@ -64,7 +64,9 @@ def test_a_case_evaluation_is_the_simulation_and_the_prediction_it_says(single):
     dt = case.simulation["time_step"]
     cond = vti_condition("vehicle", 5.0e5, tr, veh, dt=dt, speed=veh.speed, x_start=x0,
                          n_steps=int(np.ceil((x1 - x0) / (veh.speed * dt))))
-    r = predict_settlement(tr, entry_zone(tr, 10), [cond], horizon_years=1.0, law=VarandasLaw(),
+    spec = case.degradation_spec()
+    law = sleeper_law(spec, tr, case.data["track"]["support"]["stiffness"])
+    r = predict_settlement(tr, entry_zone(tr, 10), [cond], horizon_years=1.0, law=law,
                            tolerance=4e3)
     np.testing.assert_array_equal(ev.histories["settlement_sleepers"], r.settlement)
     np.testing.assert_array_equal(ev.histories["settlement_void"], r.void)
@@ -152,3 +154,44 @@ def test_e_max_alone_fits_the_sleepers_energies_only_of_one_simulation(tmp_path)
                      "vehicle: case}, {name: b, vehicle: case, speed: 100 km/h}]\n", name="e2")
     assert Problem.from_case(one).surrogate == "sleeper-energies"
     assert Problem.from_case(two).surrogate == "scalar"      # E_max is the worst of two
+
+
+def test_the_law_of_each_sleeper_is_fed_its_pressure_and_its_subgrade(tmp_path):
+    """The reference design's 8 strengthened sleepers (1.25x the base, by default as their
+    support stiffness) are fed 1/1.25 of their force; the standard ones their force; the
+    subgrade's strength follows the case's support stiffness."""
+    case = cheap_case(tmp_path, "  passages_per_year: 5.0e5\n" + ONE_YEAR)
+    spec = case.degradation_spec()
+    assert spec.strengthened_bearing_area == pytest.approx(1.25 * spec.bearing_area)
+    tr = build_track(case.scenario(), case.track_design(case.reference))
+    law = sleeper_law(spec, tr, 45e6)
+    np.testing.assert_allclose(law.pressure_scale, [1 / 1.25] * 8 + [1.0] * 2)
+    soft = sleeper_law(spec, tr, 22.5e6)
+    assert soft.subgrade.constant(40e3, 1e6)[-1] == pytest.approx(
+        2 ** soft.subgrade.exponent * law.subgrade.constant(40e3, 1e6)[-1])
+    assert isinstance(law.ballast, VarandasLaw)
+
+
+SOFT = """  track: {support: {stiffness: 22.5 MN/m},
+          strengthened_sleeper: {support_stiffness: 28.125 MN/m}}
+"""
+
+
+@pytest.mark.parametrize("soil", ["none", "CL"])
+def test_a_soft_subgrade_settles_as_the_docs_say(tmp_path, soil):
+    """docs/settlement.md, "The subgrade": halving the support stiffness (a soft subgrade, the
+    strengthened sleepers' too) spreads each wheel over more sleepers, so the ballast law
+    alone (soil: none) predicts *less* settlement; with the subgrade layer, whose strength
+    falls with its stiffness, the soft subgrade settles *more* (largest settlement and the
+    spread along the approach)."""
+    deg = f"  passages_per_year: 5.0e5\n{ONE_YEAR}  subgrade: {{soil: {soil}}}\n"
+    out = {}
+    for name, extra in (("stiff", ""), ("soft", SOFT)):
+        case = cheap_case(tmp_path, deg, extra.replace("  track:", "track:"), name=name)
+        r = predict(case.degradation_spec(), case.track_design(case.reference))
+        out[name] = r.objectives("differential_settlement", 3e-3)
+    for k in ("max_settlement", "differential_settlement"):
+        if soil == "none":
+            assert out["soft"][k] < out["stiff"][k]
+        else:
+            assert out["soft"][k] > 1.1 * out["stiff"][k]

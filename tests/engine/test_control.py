@@ -1,0 +1,325 @@
+"""Run control under attack, with real processes: stopping signals at any moment of any
+command, closed and full standard streams. Each gets the documented exit code and one line,
+and a run that was stopped resumes to the table of an uninterrupted one."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import time
+from pathlib import Path
+
+import pytest
+
+from lccopt.engine.runner import optimise
+from tests.conftest import lccopt_command, subprocess_env
+
+from .conftest import FAKE, assert_same_evaluations, read_table, write_case
+
+ENV = {"LCCOPT_EVALUATOR": FAKE}
+
+
+def _lccopt(*args, env=None, shell_redirect: str = "", cwd=None, **kw) -> subprocess.Popen:
+    """``lccopt ARGS`` as the installed console script, in a session of its own (a signal
+    goes to its whole process group, as a terminal, Slurm or systemd send it), optionally
+    through ``sh -c 'exec lccopt ... REDIRECT'`` (closed or full streams)."""
+    cmd = lccopt_command() + [str(a) for a in args]
+    if shell_redirect:
+        cmd = ["sh", "-c", f'exec "$@" {shell_redirect}', "sh", *cmd]
+    return subprocess.Popen(cmd, env=subprocess_env(**(env or {})), cwd=cwd,
+                            stdout=kw.pop("stdout", subprocess.PIPE),
+                            stderr=kw.pop("stderr", subprocess.PIPE), text=True,
+                            start_new_session=True, **kw)
+
+
+def _stopped(args, sig, after: float, env=None) -> subprocess.CompletedProcess:
+    """Start ``lccopt ARGS``, send SIG to its process group AFTER seconds, wait."""
+    p = _lccopt(*args, env=env)
+    time.sleep(after)
+    try:
+        os.killpg(p.pid, sig)
+    except ProcessLookupError:
+        pass
+    out, err = p.communicate(timeout=120)
+    return subprocess.CompletedProcess(p.args, p.returncode, out, err)
+
+
+def _one_line(r, code: int, text: str) -> None:
+    assert r.returncode == code, (r.returncode, r.stderr)
+    assert "Traceback" not in r.stderr, r.stderr
+    lines = r.stderr.strip().splitlines()
+    assert lines and lines[-1] == text, r.stderr
+
+
+@pytest.fixture
+def finished(tmp_path):
+    case = write_case(tmp_path, "ctl", budget=10, initial=4, seed=3)
+    run = optimise(case, workers=1, runs=tmp_path / "runs", evaluator=FAKE, progress=False)
+    return case, run, read_table(run)
+
+
+# ------------------------------------------------------------------------ signals
+
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGHUP])
+def test_every_command_stopped_by_a_signal_exits_130_with_one_line(tmp_path, finished, sig):
+    """SIGTERM and SIGHUP to simulate, report, check and status while they load or work: exit
+    130 and one line naming the signal (the commands that finish first exit 0)."""
+    case, run, _ = finished
+    name = signal.Signals(sig).name
+    for args, may_finish in ((["simulate", case, "--out", tmp_path / "sim"], False),
+                             (["report", run, "--out", tmp_path / "rep"], False),
+                             (["check", case], True), (["status", run], True)):
+        for after in (0.3, 0.8):
+            r = _stopped(args, sig, after)
+            if may_finish and r.returncode == 0:
+                continue
+            _one_line(r, 130, f"lccopt: interrupted by {name}")
+
+
+def test_optimise_and_resume_stopped_while_they_start_resume_to_the_same_table(tmp_path):
+    """SIGTERM in the first second of optimise (workers starting, the run directory being
+    made) and SIGHUP in the first second of resume: exit 130, no traceback, and the run
+    carried on to its end equals an uninterrupted one."""
+    case = write_case(tmp_path, "early", budget=10, initial=4, seed=5)
+    reference = read_table(optimise(case, workers=2, runs=tmp_path / "whole", evaluator=FAKE,
+                                    progress=False))
+    runs = tmp_path / "runs"
+    run = runs / "early"
+    for i, after in enumerate((0.4, 0.9, 1.6)):
+        if not run.exists():
+            r = _stopped(["optimise", case, "--workers", "2", "--runs", runs], signal.SIGTERM,
+                         after, env={**ENV, "LCCOPT_FAKE_DELAY": "0.3"})
+        else:
+            r = _stopped(["resume", run, "--workers", "2"], signal.SIGHUP, after,
+                         env={**ENV, "LCCOPT_FAKE_DELAY": "0.3"})
+        assert r.returncode in (0, 130) and "Traceback" not in r.stderr, r.stderr
+    if not run.exists():
+        r = subprocess.run(lccopt_command() + ["optimise", str(case), "--workers", "2",
+                                               "--runs", str(runs)],
+                           env=subprocess_env(**ENV), capture_output=True, text=True, timeout=300)
+    else:
+        r = subprocess.run(lccopt_command() + ["resume", str(run), "--workers", "2"],
+                           env=subprocess_env(**ENV), capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    assert not [p.name for p in runs.iterdir() if p.name != "early"], "nothing half made"
+    assert_same_evaluations(reference, read_table(run))
+
+
+# ------------------------------------------------------------------------ streams
+
+def _done(p: subprocess.Popen) -> subprocess.CompletedProcess:
+    out, err = p.communicate(timeout=300)
+    return subprocess.CompletedProcess(p.args, p.returncode, out, err)
+
+
+@pytest.mark.skipif(not Path("/dev/full").exists(), reason="needs /dev/full")
+def test_a_run_does_not_depend_on_its_streams(tmp_path, finished):
+    """optimise with stderr closed (2>&-) or full (2>/dev/full) runs to the end as it would
+    have; stdout that cannot take the summary (closed, full) still leaves the run finished,
+    then exit 2 naming standard output."""
+    case, _, reference = finished
+    for i, redirect in enumerate(("2>&-", "2>/dev/full", ">/dev/full")):
+        runs = tmp_path / f"runs{i}"
+        r = _done(_lccopt("optimise", case, "--workers", "1", "--runs", runs, env=ENV,
+                          shell_redirect=redirect))
+        if redirect.startswith("2"):
+            assert r.returncode == 0 and "done: 10 evaluations" in r.stdout, (redirect, r)
+            assert "Traceback" not in r.stderr, r.stderr
+        else:
+            _one_line(r, 2, "lccopt: error: cannot write to standard output: No space left on "
+                            "device")
+        assert_same_evaluations(reference, read_table(runs / "ctl"))
+
+
+@pytest.mark.skipif(not Path("/dev/full").exists(), reason="needs /dev/full")
+def test_status_and_report_on_closed_or_full_stdout_exit_2_with_one_line(tmp_path, finished):
+    _, run, _ = finished
+    r = _done(_lccopt("status", run, shell_redirect=">&-"))
+    _one_line(r, 2, "lccopt: error: cannot write to standard output: it was closed")
+    r = _done(_lccopt("status", run, shell_redirect=">/dev/full"))
+    _one_line(r, 2, "lccopt: error: cannot write to standard output: No space left on device")
+    r = _done(_lccopt("report", run, "--out", tmp_path / "rep", shell_redirect=">/dev/full"))
+    _one_line(r, 2, "lccopt: error: cannot write to standard output: No space left on device")
+    assert (tmp_path / "rep" / "report.md").is_file()   # the work is done all the same
+    r = _done(_lccopt("status", run, shell_redirect="2>&- <&-"))
+    assert r.returncode == 0 and r.stdout.startswith(f"{run}: finished"), r
+
+
+# ------------------------------------------------------------------------ status's clock
+
+def _rewrite_journal(run: Path, change) -> None:
+    import json
+
+    from lccopt.engine.journal import read_journal
+
+    events = change(read_journal(run / "journal.jsonl")[0])
+    for seq, ev in enumerate(events):
+        ev["seq"] = seq
+    (run / "journal.jsonl").write_text("".join(json.dumps(ev) + "\n" for ev in events))
+    (run / "state.json").unlink(missing_ok=True)
+
+
+def _holding_the_lock(run: Path):
+    """The run's lock held as its driving process holds it: status says 'running'."""
+    import fcntl
+
+    fh = open(run / "lock", "rb")
+    fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+    return fh
+
+
+def test_status_rates_a_running_run_by_the_monotonic_clock_whatever_the_wall_clock_did(
+        tmp_path, finished):
+    """A wall-clock step (NTP, a changed date) between results: the pace and the time left
+    come from the driving process's monotonic clock (one result per second here, 10 left),
+    never negative or absurd; a journal of an lccopt that wrote only the wall clock is rated
+    from the results after its last step back."""
+    _, run, _ = finished
+
+    def running_with_a_step(events, mono=True):
+        events = [ev for ev in events if ev["event"] not in ("finished", "session")]
+        events[0]["budget"] = 20
+        results = [ev for ev in events if ev["event"] in ("evaluated", "failed")]
+        for k, ev in enumerate(results):
+            ev["at"] = 1.8e9 + k - (17300.0 if k >= 5 else 0.0)   # the wall clock stepped back
+            if mono:
+                ev["mono"] = 5000.0 + k
+            else:
+                ev.pop("mono", None)
+        return events
+
+    _rewrite_journal(run, running_with_a_step)
+    lock = _holding_the_lock(run)
+    try:
+        r = subprocess.run(lccopt_command() + ["status", str(run)], capture_output=True,
+                           text=True, timeout=60, env=subprocess_env())
+        assert r.returncode == 0, r.stderr
+        assert "running, 10/20 evaluations" in r.stdout, r.stdout
+        assert "one result every 1 s lately; about 0:00:10 left" in r.stdout, r.stdout
+        _rewrite_journal(run, lambda events: running_with_a_step(events, mono=False))
+        r = subprocess.run(lccopt_command() + ["status", str(run)], capture_output=True,
+                           text=True, timeout=60, env=subprocess_env())
+        assert "one result every 1 s lately; about 0:00:10 left" in r.stdout, r.stdout
+    finally:
+        lock.close()
+
+
+# ------------------------------------------------------------------------ damaged files
+
+def _error_line(r) -> str:
+    assert r.returncode == 2, (r.returncode, r.stderr)
+    assert "Traceback" not in r.stderr, r.stderr
+    lines = r.stderr.strip().splitlines()
+    assert lines and lines[-1].startswith("lccopt: error: "), r.stderr
+    return lines[-1]
+
+
+def test_a_damaged_journal_or_results_file_is_one_line_naming_it(tmp_path, finished):
+    """Lines that are whole JSON but hold what lccopt cannot use (a text for a number, a
+    result of a design never asked): status and resume exit 2 naming the journal and the
+    line; a results.h5 that claims 10^11 rows is refused by report, naming it, never
+    allocated; a state.json crafted to match the journal's line is a cache: resume replays."""
+    import json
+    import shutil
+
+    import h5py
+
+    _, run, _ = finished
+
+    def text_for_a_number(events):
+        next(ev for ev in events if ev["event"] == "asked" and ev["id"] == 3)["x"][0] = "abc"
+        return events
+
+    def a_result_never_asked(events):
+        next(ev for ev in events if ev["event"] == "evaluated" and ev["id"] == 3)["id"] = 99
+        return events
+
+    for what, damage in (("text", text_for_a_number), ("id", a_result_never_asked)):
+        copy = tmp_path / what / "ctl"
+        shutil.copytree(run, copy)
+        _rewrite_journal(copy, damage)
+        for args in (["status", copy], ["resume", copy, "--budget", "12", "--workers", "1"]):
+            r = subprocess.run(lccopt_command() + [str(a) for a in args], capture_output=True,
+                               text=True, timeout=120, env=subprocess_env(**ENV))
+            line = _error_line(r)
+            assert f"{copy / 'journal.jsonl'}: line " in line and "is damaged" in line, line
+    big = tmp_path / "big" / "ctl"
+    shutil.copytree(run, big)
+    (big / "journal.jsonl").unlink()
+    with h5py.File(big / "results.h5", "a") as f:
+        del f["evaluations/id"]
+        f["evaluations"].create_dataset("id", shape=(10 ** 11,), dtype="i8", chunks=(1000,))
+    r = subprocess.run(lccopt_command() + ["report", str(big), "--out", str(tmp_path / "rep")],
+                       capture_output=True, text=True, timeout=120, env=subprocess_env())
+    line = _error_line(r)
+    assert f"{big / 'results.h5'}" in line and "100000000000" in line, line
+    # a snapshot that names the journal's last line but holds nonsense: dropped, replayed
+    state = json.loads((run / "state.json").read_text())
+    state["strategy"] = {"history": "nonsense", "rng": [1, 2]}
+    (run / "state.json").write_text(json.dumps(state))
+    r = subprocess.run(lccopt_command() + ["resume", str(run), "--budget", "12", "--workers",
+                                           "1"], capture_output=True, text=True, timeout=120,
+                       env=subprocess_env(**ENV))
+    assert r.returncode == 0, r.stderr
+    assert len(read_table(run)["id"]) == 12
+
+
+# ------------------------------------------------------------------------ stored strings
+
+def test_a_runs_stored_strings_are_printed_escaped(tmp_path, finished):
+    """Terminal escape sequences, carriage returns and newlines in run.json's case file and
+    variable names (a run directory from elsewhere) are shown as escapes by status and
+    resume: no colour, no retitled terminal, no forged line."""
+    import json
+
+    _, run, _ = finished
+    meta = json.loads((run / "run.json").read_text())
+    meta["case_file"] = "/nowhere/\x1b]0;pwned\x07\x1b[2J\nlccopt: done.yaml"
+    meta["variables"][0][0] = "x_r1\x1b[31m\r\nforged"
+    meta["variables"][0][1] = "MN/m\x1b[5m"
+    (run / "run.json").write_text(json.dumps(meta))
+    status = subprocess.run(lccopt_command() + ["status", str(run)], capture_output=True,
+                            text=True, timeout=60, env=subprocess_env())
+    resume = subprocess.run(lccopt_command() + ["resume", str(run), "--budget", "11",
+                                                "--workers", "1"],
+                            capture_output=True, text=True, timeout=120, env=subprocess_env(**ENV))
+    assert status.returncode == 0 and resume.returncode == 0, (status.stderr, resume.stderr)
+    for text in (status.stdout, resume.stdout, resume.stderr):
+        assert not any(c in text for c in "\x1b\x07\r"), text
+        assert "\nforged" not in text and "\nlccopt: done.yaml" not in text, text
+    assert "x_r1\\x1b[31m\\r\\nforged=" in status.stdout, status.stdout
+    assert "/nowhere/\\x1b]0;pwned\\x07\\x1b[2J\\nlccopt: done.yaml is gone" in resume.stderr
+
+
+# ------------------------------------------------------------------------ messages
+
+def test_each_message_names_what_the_user_typed(tmp_path, finished):
+    """--set values the YAML reader refuses, keys --set made, a --set budget below the file's
+    initial design, resume --budget out of bounds or below the run's evaluations, a control
+    character in a case file: exit 2, one line, blaming --set, --budget or the file's line."""
+    case, run, _ = finished
+
+    def line(*args) -> str:
+        return _error_line(subprocess.run(lccopt_command() + [str(a) for a in args],
+                                          capture_output=True, text=True, timeout=120,
+                                          env=subprocess_env(**ENV)))
+
+    got = line("check", case, "--set", "description=&a x")
+    assert got.startswith("lccopt: error: --set: description: cannot read the value '&a x': "
+                          "anchors and aliases") and "other.yaml" not in got, got
+    assert """--set 'description="&a x"'""" in got, got
+    assert line("check", case, "--set", "nosuch.key=3").startswith(
+        "lccopt: error: --set: nosuch: unknown key"), "blamed on the case file's line 1"
+    got = line("check", case, "--set", "optimisation.budget=3")
+    assert got.startswith("lccopt: error: --set: optimisation.budget: 3 is below the 4 initial "
+                          f"points ({case}:"), got
+    assert line("resume", run, "--budget", "-5") == (
+        "lccopt: error: --budget -5: a budget is 2 to 100000 evaluations")
+    assert line("resume", run, "--budget", "3") == (
+        "lccopt: error: --budget 3 is below the 10 evaluations the run has already asked for; "
+        "give at least 10")
+    bad = tmp_path / "escape.yaml"
+    bad.write_text(f"extends: {case}\ndescription: a\x1bb\n")
+    got = line("check", bad)
+    assert got.startswith(f"lccopt: error: {bad}:2: ") and "\x1b" not in got, got
