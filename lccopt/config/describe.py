@@ -16,7 +16,7 @@ from ..vti.vehicle import build_vehicle
 from .build import vehicle_spec
 from .checks import simulation_size
 from .degradation import SINGLE_CONDITION, axles, bearing_areas
-from .zones import force_zone_end, zone_end_x
+from .zones import force_zone_end, interfaces, zone_end_x
 
 
 def vehicle_facts(vehicle: dict) -> tuple[str, float, float]:
@@ -183,8 +183,12 @@ def zone_line(case) -> str:
     side = "after" if point.offset >= 0 else "before"
     where = point.at.replace("_", " ")
     at = (f"{abs(point.offset):g} m {side} the {where}" if point.offset else f"the {where}")
-    return (f"zone: {case.evaluation['sleepers']} sleepers; force to {at} "
-            f"(x = {zone_end_x(case.data):g} m)")
+    # along the track from the entry slab edge, as every figure measures
+    past = zone_end_x(case.data) - interfaces(case.data)[0]
+    return "\n".join(wrap_items(
+        [f"{case.evaluation['sleepers']} sleepers; force to {at}",
+         f"{abs(past):.4g} m {'past' if past >= 0 else 'before'} the entry slab edge"],
+        "zone: ", width=WIDTH - 2))
 
 
 def optimisation_line(case) -> str:
@@ -306,7 +310,7 @@ def case_lines(case, file) -> list[str]:
     else:
         lines.append(f"  vehicle: {vehicle_line(case.vehicle)}")
     lines += track_lines(case)
-    lines.append(f"  {zone_line(case)}")
+    lines += [f"  {line}" for line in zone_line(case).split("\n")]
     steps, dofs = max(simulation_size(one.data) for one in (case.traffic or [case]))
     lines.append(f"  {'the longest simulation' if case.traffic else 'one simulation'}: at "
                  f"most {steps:,} steps of about {dofs:,} track dofs")
