@@ -516,7 +516,8 @@ def pct(new: float, old: float) -> str:
         return "–"
     if new == old:
         return "0 %"
-    return f"{(new - old) / abs(old) * 100:+.1f} %"
+    text = f"{(new - old) / abs(old) * 100:+.1f}"
+    return "0.0 %" if text in ("+0.0", "-0.0") else f"{text} %"    # rounded to nothing: unsigned
 
 
 def var_value(v: VarInfo, value: float) -> str:

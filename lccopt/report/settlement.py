@@ -227,10 +227,27 @@ def _time_marks(ax, h: dict, labels: bool) -> None:
         # curves and the limit line
         from matplotlib.ticker import NullLocator
 
+        at, texts = _apart(ax, at, texts, fontsize=7)
         top = ax.secondary_xaxis("top")
         top.set_xticks(at, texts, fontsize=7, color="0.35")
         top.xaxis.set_minor_locator(NullLocator())
         top.tick_params(length=3, color="0.6")
+
+
+def _apart(ax, at: list, texts: list, fontsize: float) -> tuple[list, list]:
+    """The time labels that fit side by side on AX's log axis, the longer times first (on a
+    long horizon "1 week" and "1 month" would touch): each label's width estimated from its
+    characters, against the axes' width in the figure."""
+    lo, hi = (np.log10(v) for v in ax.get_xlim())
+    inches = ax.get_position().width * ax.figure.get_figwidth()
+    per_inch = (hi - lo) / max(inches, 1e-9)                 # decades per inch
+    half = [0.5 * (0.6 * fontsize * len(t) / 72.0 + 0.08) * per_inch for t in texts]
+    kept: list[int] = []
+    for i in reversed(range(len(at))):
+        if not kept or np.log10(at[kept[-1]]) - half[kept[-1]] >= np.log10(at[i]) + half[i]:
+            kept.append(i)
+    kept.reverse()
+    return [at[i] for i in kept], [texts[i] for i in kept]
 
 
 def _measure(h: dict, name: str) -> np.ndarray:

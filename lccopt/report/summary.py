@@ -151,12 +151,20 @@ def history_facts(best: tuple, ref: tuple, condition: str | None = None) -> list
         m = (x >= i["interface_entry"] - 1.0) & (x <= i["interface_entry"] + 3.0)
         if not m.any():
             return out
-        peaks.append((float(f[m].max()), float(x[m][np.argmax(f[m])] - i["interface_entry"])))
-    (pb, xb), (pr, xr) = peaks
-    out.append("Around the interface (1 m before to 3 m after it) the contact force peaks at "
-               f"{fnum(pb / 1e3, 4)} kN {abs(xb):.2f} m {'after' if xb >= 0 else 'before'} the "
-               f"slab edge, against {fnum(pr / 1e3, 4)} kN {abs(xr):.2f} m "
-               f"{'after' if xr >= 0 else 'before'} it for the reference design.")
+        k = int(np.argmax(f[m]))
+        # a maximum on the window's first or last sample is no peak: the force is still rising
+        peaks.append((float(f[m][k]), float(x[m][k] - i["interface_entry"]),
+                      k in (0, int(m.sum()) - 1)))
+    (pb, xb, eb), (pr, xr, er) = peaks
+
+    def where(xp: float, edge: bool) -> str:
+        side = "after" if xp >= 0 else "before"
+        return (f"at the window's {'end' if xp >= 0 else 'start'}, {abs(xp):.2f} m {side} the slab "
+                f"edge (still rising there)" if edge else f"{abs(xp):.2f} m {side} the slab edge")
+
+    out.append("Around the interface (1 m before to 3 m after it) the contact force is highest, "
+               f"{fnum(pb / 1e3, 4)} kN, {where(xb, eb)}, against {fnum(pr / 1e3, 4)} kN "
+               f"{where(xr, er)} for the reference design.")
     return out
 
 

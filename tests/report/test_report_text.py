@@ -116,3 +116,21 @@ def test_the_most_loaded_sleeper_is_named_once_when_it_does_not_change():
     ref2 = ({"sleeper_energy": np.array([0.4, 1.9, 0.4])}, {})
     text = history_facts(same_other, ref2)[0]
     assert "sleeper 2 stays the most loaded of the zone (0.9000 J instead of 1.900 J)" in text
+
+
+def test_a_force_highest_at_the_windows_end_is_not_called_a_peak():
+    import numpy as np
+
+    from lccopt.report.data import pct
+    from lccopt.report.summary import history_facts
+
+    x = np.linspace(90.0, 110.0, 2001)
+    info = {"interface_entry": 100.0}
+    rising = 1e5 + 1e3 * (x - 100.0)                          # still rising 3 m past the edge
+    bump = 1e5 + 2e3 * np.exp(-((x - 100.7) / 0.3) ** 2)      # a peak 0.7 m past it
+    text = history_facts(({"wheel_position": x, "contact_force": rising}, info),
+                         ({"wheel_position": x, "contact_force": bump}, info))[-1]
+    assert "103.0 kN, at the window's end, 3.00 m after the slab edge (still rising there)" \
+        in text, text
+    assert "against 102.0 kN 0.70 m after the slab edge for the reference design" in text, text
+    assert pct(0.99999, 1.0) == "0.0 %" and pct(1.0, 1.0) == "0 %" and pct(1.1, 1.0) == "+10.0 %"
