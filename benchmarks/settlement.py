@@ -7,6 +7,8 @@
     python benchmarks/settlement.py horizon      # 10 vs 50 million axle passes
     python benchmarks/settlement.py conditions   # one vs two traffic conditions
     python benchmarks/settlement.py designs      # the paper's designs, softer pads
+    python benchmarks/settlement.py tamping      # configs/settlement.yaml's reference design
+                                                 # tamped: budget 30, 80, and 200 at 1 kN
 
 Traffic: one bogie side of the VIRM (two wheels on the modelled rail) at 140 km/h, 5 x 10^5
 passages a year = 10^6 axle passes a year per track, about 170 trains of 16 axles a day: a
@@ -174,7 +176,27 @@ def designs():
             show(f"{law.name} {name}", wall, r)
 
 
+def tamping():
+    """configs/settlement.yaml (tamping at 2 mm of D1 deviation) on the reference design, at
+    the default budget and at larger ones: the tampings' count and times."""
+    from lccopt.degradation.evaluate import predict
+
+    for sets in ([], ["degradation.max_simulations=80"],
+                 ["degradation.max_simulations=200", "degradation.tolerance=1000"]):
+        case = load_case("configs/settlement.yaml", overrides=sets)
+        spec = case.degradation_spec()
+        t0 = time.perf_counter()
+        r = predict(spec, case.track_design(case.reference))
+        wall = time.perf_counter() - t0
+        print(f"  {' '.join(sets) or 'default'}: {wall:.1f} s, {r.n_simulations} simulations, "
+              f"budget bound {r.info['budget_bound']}")
+        print("     tamped after " + ", ".join(f"{y:.3g}" for y in r.years[r.tamped])
+              + " years")
+        print("     voids at the horizon [mm]: "
+              + " ".join(f"{v:.2f}" for v in r.void[-1][:5] * 1e3))
+
+
 if __name__ == "__main__":
     what = sys.argv[1] if len(sys.argv) > 1 else "speed"
     {"speed": speed, "cost": cost, "convergence": convergence, "horizon": horizon,
-     "conditions": conditions, "designs": designs}[what]()
+     "conditions": conditions, "designs": designs, "tamping": tamping}[what]()

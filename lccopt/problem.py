@@ -248,12 +248,19 @@ class Problem:
 
         f = [float(reference_objectives[k]) for k in self.objectives]
         point = [float(v) for v in improvement_target(f, self.improvement)]
-        for name, w, r in zip(self.objectives, self.worst_values(reference_objectives), point):
-            if not w > r:
-                raise CaseError(f"{name}: optimisation.asf.worst = {w:g} must exceed the reference "
-                                f"point {r:g} (reference design {name} = "
-                                f"{r / (1 - self.improvement):g} improved by "
-                                f"{self.improvement:.0%})")
+        for name, w, r, f0 in zip(self.objectives, self.worst_values(reference_objectives), point,
+                                  f):
+            if w > r:
+                continue
+            if self.worst is None:  # the default: the user set no worst value
+                raise CaseError(f"{name}: the reference design's {name} is {f0:g}, so the ASF's "
+                                f"default worst value (1.5 x that) does not exceed its reference "
+                                f"point ({r:g}, {self.improvement:.0%} better): set "
+                                f"optimisation.asf.worst (then resume with "
+                                f"--allow-changed-case), or minimise another objective")
+            raise CaseError(f"{name}: optimisation.asf.worst = {w:g} must exceed the reference "
+                            f"point {r:g} (reference design {name} = {f0:g} improved by "
+                            f"{self.improvement:.0%})")
         return point
 
     def objective_vector(self, objectives: dict) -> np.ndarray:

@@ -165,6 +165,11 @@ def _simulate_settlement(case, case_path: Path, x, out: Path, plots: bool, evalu
         typer.echo(f"  (the limit, {info['settlement_limit_measure']} "
                    f"{info['settlement_limit_value'] * 1e3:g} mm, is not reached within the "
                    f"horizon)")
+    if info.get("settlement_tamping"):
+        years = ev.histories["settlement_years"][ev.histories["settlement_tamped"].astype(bool)]
+        typer.echo(f"  tamped {len(years)} time(s)"
+                   + (": after " + ", ".join(f"{y:.3g}" for y in years) + " years"
+                      if len(years) else ""))
     if info.get("settlement_budget_bound"):
         typer.echo("note: the prediction used its whole budget of simulations "
                    "(degradation.max_simulations): the loads between them were spread wider "

@@ -46,7 +46,7 @@ def test_configs_settlement_is_the_paper_crossing_under_ten_years_of_virm_bogies
     assert spec.law.name == "varandas"
     assert dict(spec.law.parameters) == {"alpha": 0.6, "beta": 0.82, "gamma": 0.01, "f0": 50e3,
                                          "n0": 1e6}
-    assert (spec.limit.measure, spec.limit.value) == ("differential_settlement", 3e-3)
+    assert (spec.limit.measure, spec.limit.value) == ("level_d1_max", 2e-3)
     assert case.conditions == () and case.traffic == ()      # one task per design
     # the resolved case (what a run keeps) says what the prediction ran with: the law's
     # defaults and the horizon, none of the other law's keys
@@ -80,6 +80,10 @@ def test_a_horizon_in_axle_passes_becomes_years_of_the_traffic(tmp_path):
     case = load_case(case_file(tmp_path, "degradation:\n  passages_per_year: 5.0e5\n"
                                          "  horizon_axle_passes: 3.0e7\n"))
     assert case.degradation_spec().horizon_years == pytest.approx(30.0)   # 2 axles a bogie
+    # the resolved copy (what a run keeps, and report loads again) gives it once, in years
+    again = tmp_path / "resolved.yaml"
+    again.write_text(case.resolved, encoding="utf-8")
+    assert load_case(again).degradation_spec().horizon_years == pytest.approx(30.0)
 
 
 def test_the_logarithmic_law_takes_its_own_parameters(tmp_path):
@@ -156,6 +160,29 @@ conditions:
      "needs a degradation: section"),
     ("degradation: {passages_per_year: 5.0e5}\noptimisation: {objectives: [years_to_limit], "
      "budget: 10}\n", "optimisation.objectives", "minimise maintenance_rate"),
+    # tamping settings out of range
+    ("degradation: {passages_per_year: 5.0e5, tamping: {unreachable_sleepers: 20}}\n",
+     "degradation.tamping.unreachable_sleepers", "no sleeper would be tamped (at most 19)"),
+    ("degradation: {passages_per_year: 5.0e5, tamping: {unreachable_sleepers: -1}}\n",
+     "degradation.tamping.unreachable_sleepers", "must be >= 0"),
+    ("degradation: {passages_per_year: 5.0e5, tamping: {min_interval: 0}}\n",
+     "degradation.tamping.min_interval", "must be > 0"),
+    ("degradation: {passages_per_year: 5.0e5, horizon_years: 2, tamping: {min_interval: 3}}\n",
+     "degradation.tamping.min_interval", "not less than the horizon"),
+    ("degradation: {passages_per_year: 5.0e5, tamping: {reach: 2}}\n",
+     "degradation.tamping.reach", "unknown key"),
+    ("degradation: {passages_per_year: 5.0e5}\noptimisation: {objectives: [interventions], "
+     "budget: 10}\n", "optimisation.objectives", "it needs degradation.tamping"),
+    # a bearing area of 0
+    ("track: {sleeper: {bearing_area: 0}}\ndegradation: {passages_per_year: 5.0e5}\n",
+     "track.sleeper.bearing_area", "must be > 0"),
+    ("track: {strengthened_sleeper: {bearing_area: 0 m^2}}\n"
+     "degradation: {passages_per_year: 5.0e5}\n",
+     "track.strengthened_sleeper.bearing_area", "must be > 0"),
+    ("degradation: {passages_per_year: 5.0e5, subgrade: {soil: peat}}\n",
+     "degradation.subgrade.soil", "must be one of"),
+    ("degradation: {passages_per_year: 5.0e5, subgrade: {strength: -1 kPa}}\n",
+     "degradation.subgrade.strength", "must be > 0"),
 ])
 def test_what_a_settlement_prediction_cannot_do_is_refused(tmp_path, body, key, words):
     refused(tmp_path, body, key, words)
@@ -228,5 +255,5 @@ def test_check_prints_the_prediction_in_80_columns(run_cli):
     assert "settlement: varandas law: alpha 0.6, beta 0.82, gamma 10 mm," in text
     assert "1e+06 axle passes, about 17.8 million gross tonnes a year" in text
     assert "horizon 10 years = 1e+07 axle passes; 20 settling sleepers" in text
-    assert "limit: differential_settlement 3 mm" in text
+    assert "limit: level_d1_max 2 mm" in text
     assert "at most 30 simulations x 1 condition(s), tolerance 2 kN" in text

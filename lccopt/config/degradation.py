@@ -12,7 +12,14 @@ reach the rail's pinned end, and a prediction beyond what one design may cost.
 
 from __future__ import annotations
 
-from ..degradation.specs import DegradationSpec, LawSpec, Limit, SubgradeSpec, Traffic
+from ..degradation.specs import (
+    DegradationSpec,
+    LawSpec,
+    Limit,
+    SubgradeSpec,
+    TampingSpec,
+    Traffic,
+)
 from ..vti.response import REPORTED_ONLY, SETTLEMENT_OBJECTIVES
 from ..vti.specs import ELEMENT_UNIT
 from . import build
@@ -95,6 +102,7 @@ def check_degradation(data: dict, conditions: tuple, err) -> None:
     _check_horizon(deg, rates, err)
     _check_law(deg["law"], err)
     _check_zone(data, deg, err)
+    _check_tamping(deg, objectives, err)
     _check_cost(data, deg, conditions, rates, err)
 
 
@@ -157,6 +165,8 @@ def _check_horizon(deg: dict, rates: dict, err) -> None:
                   f"{years:g} years of {per_year:g} axle passes a year is less than one load "
                   f"cycle: the ballast would not settle")
     deg["horizon_years"] = float(years)
+    # the resolved case gives the horizon once, in years (it is loaded again by report)
+    deg.pop("horizon_axle_passes", None)
 
 
 def _check_law(law: dict, err) -> None:
@@ -198,6 +208,24 @@ def _check_zone(data: dict, deg: dict, err) -> None:
                   f"the followers (follower_flat + follower_taper = {reach:g} m beyond the "
                   f"farthest settling sleeper at {far:g} m) reach the rail's pinned end at "
                   f"x = 0: shorten them or lengthen track.layout.entry_length")
+
+
+def _check_tamping(deg: dict, objectives, err) -> None:
+    tamping = deg.get("tamping")
+    if tamping is None:
+        if "interventions" in objectives:
+            raise err(("optimisation", "objectives"),
+                      "interventions counts tampings: it needs degradation.tamping")
+        return
+    n = deg["settling_sleepers"]
+    if tamping["unreachable_sleepers"] >= n:
+        raise err(("degradation", "tamping", "unreachable_sleepers"),
+                  f"{tamping['unreachable_sleepers']} of the {n} settling sleepers out of the "
+                  f"machine's reach: no sleeper would be tamped (at most {n - 1})")
+    if tamping["min_interval"] >= deg["horizon_years"]:
+        raise err(("degradation", "tamping", "min_interval"),
+                  f"{tamping['min_interval']:g} years between tampings is not less than the "
+                  f"horizon ({deg['horizon_years']:g} years): no tamping could be done")
 
 
 def _check_cost(data: dict, deg: dict, conditions: tuple, rates: dict, err) -> None:
@@ -255,7 +283,9 @@ def degradation_spec(data: dict, conditions: tuple) -> DegradationSpec:
         max_simulations=deg["max_simulations"],
         limit=Limit(deg["limit"]["measure"], deg["limit"]["value"]), condition_mode=mode,
         bearing_area=standard, strengthened_bearing_area=strengthened, subgrade=subgrade,
-        reading=deg["reading"])
+        reading=deg["reading"],
+        tamping=None if deg.get("tamping") is None else TampingSpec(
+            int(deg["tamping"]["unreachable_sleepers"]), float(deg["tamping"]["min_interval"])))
 
 
 DEFAULT_BEARING_AREA = 0.375     # [m^2] per rail seat: schema, track.sleeper.bearing_area

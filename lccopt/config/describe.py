@@ -274,6 +274,10 @@ def degradation_lines(case) -> list[str]:
                  f"{deg['settling_sleepers']} settling sleepers")
     lines.append(f"    limit: {limit['measure']} {limit['value'] * 1e3:g} mm (years_to_limit, "
                  f"maintenance_rate)")
+    tamping = deg.get("tamping")
+    if tamping is not None:
+        lines.append(f"    tamped at the limit, not the {tamping['unreachable_sleepers']} "
+                     f"sleeper(s) by the slab; at most every {tamping['min_interval']:g} yr")
     lines.append(f"    per design: at most {deg['max_simulations']} simulations x {simulated} "
                  f"condition(s), tolerance {deg['tolerance'] / 1e3:g} kN")
     return lines

@@ -295,7 +295,9 @@ _OPTIMISATION = Section({
                           "the paper's; the others need degradation: (docs/settlement.md): "
                           "differential_settlement, max_settlement, max_void, level_std [m], "
                           "force_growth [-], maintenance_rate [1/year] (1 / years_to_limit, "
-                          "which is reported, not minimised)", OBJECTIVES, required=False),
+                          "which is reported, not minimised), level_d1_max, level_d1_std, "
+                          "rail_step [m], rail_angle [-], interventions [-] (tamping:)",
+                          OBJECTIVES, required=False),
     "budget": Num("evaluations in all, failures included (required by lccopt optimise)",
                   integer=True, ge=2, le=100_000, required=False),
     "initial_points": Num("initial design size, reference design included. Default: 20 (the "
@@ -455,8 +457,23 @@ _DEGRADATION = Section({
                        default="differential_settlement", required=False),
         "value": Num("the limit", "m", gt=0, le=1.0, shown="mm", default=3.0e-3,
                      required=False),
-    }, "the limit that years_to_limit and maintenance_rate count to. Default: differential "
-       "settlement 3 mm (an assumption, not a standard's value)", required=False),
+    }, "the limit that years_to_limit and maintenance_rate count to, and that tamping (if any) "
+       "is done at. Default: differential settlement 3 mm (an assumption, not a standard's "
+       "value)", required=False),
+    "tamping": Section({
+        "unreachable_sleepers": Num("sleepers next to the slab a tamping machine cannot reach "
+                                    "(not lifted). Default 2: the group of hanging sleepers "
+                                    "tamping did not cure next to the level crossing Le Pen et "
+                                    "al. (2014) monitored (an assumption: set your machine's "
+                                    "reach)", integer=True, ge=0, le=500, default=2,
+                                    required=False),
+        "min_interval": Num("the least time between two tampings (and from the new track to the "
+                            "first): the limit reached sooner is tamped then. Default 0.1 year",
+                            "year", gt=0, le=50.0, default=0.1, required=False),
+    }, "tamp when the limit is reached: the reachable settling sleepers are lifted to the "
+       "slab's level and their ballast settles anew (fast at first); objectives interventions, "
+       "years_to_limit (to the first) (docs/settlement.md)", required=False,
+       none_if_absent=True, keep_absent=True),
 }, "predict the settlement of each design under its traffic and judge it by the settlement "
    "objectives (docs/settlement.md)", required=False, none_if_absent=True, keep_absent=True)
 

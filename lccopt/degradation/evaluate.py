@@ -27,12 +27,12 @@ import time
 import numpy as np
 
 from ..vti.evaluate import evaluate as simulate_passage
-from ..vti.response import PAPER_OBJECTIVES, Evaluation
+from ..vti.response import PAPER_OBJECTIVES, REPORTED_ONLY, SETTLEMENT_OBJECTIVES, Evaluation
 from ..vti.specs import TrackDesign
 from ..vti.track import build_track
 from ..vti.vehicle import build_vehicle
-from .iteration import SettlementResult, predict_settlement
-from .laws import LAWS, SleeperLaw, SubgradeLaw
+from .iteration import SettlementResult, Tamping, predict_settlement
+from .laws import LAWS, SlabSettlement, SleeperLaw, SubgradeLaw
 from .loading import Condition, entry_zone, vti_condition
 from .specs import DegradationSpec, LawSpec, Limit, SubgradeSpec, Traffic
 
@@ -98,7 +98,54 @@ def predict(spec: DegradationSpec, design: TrackDesign) -> SettlementResult:
                               law=sleeper_law(spec, track, support), tolerance=spec.tolerance,
                               steps_per_decade=spec.steps_per_decade,
                               max_simulations=spec.max_simulations,
-                              rail_seats=spec.rail_seats, reading=spec.reading)
+                              rail_seats=spec.rail_seats, reading=spec.reading,
+                              slab=slab_settlement(spec, conditions), tamping=tamping(spec))
+
+
+def tamping(spec: DegradationSpec) -> Tamping | None:
+    """The tamping of the prediction: when the case's limit is reached, every settling
+    sleeper but the ``unreachable_sleepers`` nearest the slab; None without ``tamping``."""
+    t = spec.tamping
+    if t is None:
+        return None
+    reachable = np.arange(spec.settling_sleepers) >= t.unreachable_sleepers
+    return Tamping(spec.limit.measure, spec.limit.value, reachable, t.min_interval)
+
+
+def slab_settlement(spec: DegradationSpec, conditions) -> SlabSettlement | None:
+    """The ERS slab's own settlement: the subgrade layer's law under the slab, the same soil
+    as under the sleepers (None without a subgrade).
+
+    One rail's share of the slab (``share_per_rail`` of its width) carries each axle's wheel
+    (the condition's heaviest static wheel load) and spreads it as a beam on an elastic
+    foundation: the peak foundation pressure of a point load P is P β / (2 b), β = (k /
+    (4 EI))^(1/4) (Hetényi), so the loaded area is A = 2 b / β; the layer below is then
+    loaded as a sleeper's is (:func:`lccopt.degradation.laws.li_selig_coefficient`).
+
+    Parameters
+    ----------
+    spec
+        the prediction's inputs.
+    conditions
+        the prediction's conditions (their axles' static loads), in ``spec.settling_traffic``'s
+        order.
+
+    Returns
+    -------
+    lccopt.degradation.laws.SlabSettlement or None
+    """
+    sub = spec.subgrade
+    if sub is None:
+        return None
+    track = spec.settling_traffic[0].scenario.track
+    ers = track.ers
+    b1, b2, h = ers.slab.width_bottom, ers.slab.width_top, ers.slab.height
+    second_moment = h ** 3 * (b1 * b1 + 4 * b1 * b2 + b2 * b2) / (36.0 * (b1 + b2))
+    beta = (ers.foundation.stiffness / (4.0 * ers.slab.youngs_modulus * second_moment)) ** 0.25
+    area = 2.0 * b1 * ers.share_per_rail / beta
+    law = SubgradeLaw.of_soil(sub.soil, subgrade_strength(sub, track.support.stiffness),
+                              [area], sub.depth, sub.thickness)
+    return SlabSettlement(law, np.array([float(np.max(c.axles.loads)) for c in conditions]))
 
 
 def bearing_areas(spec: DegradationSpec, track) -> np.ndarray:
@@ -231,7 +278,8 @@ def settlement_objectives(result: SettlementResult, limit: Limit) -> dict:
     years = o.pop("passes_to_limit") / per_year
     o["maintenance_rate"] = 1.0 / years
     o["years_to_limit"] = years
-    return {k: float(v) for k, v in o.items()}
+    order = [k for k in (*SETTLEMENT_OBJECTIVES, *REPORTED_ONLY) if k in o]
+    return {k: float(o[k]) for k in order + [k for k in o if k not in order]}
 
 
 def settlement_histories(result: SettlementResult) -> dict:
@@ -258,7 +306,10 @@ def settlement_histories(result: SettlementResult) -> dict:
         "settlement_peak_force": result.peak_force,
         "settlement_wheel_force_max": result.wheel_force_max,
         "settlement_simulated": result.simulated.astype(np.int8),
+        "settlement_tamped": (np.zeros(len(result.years), np.int8) if result.tamped is None
+                              else result.tamped.astype(np.int8)),
         "settlement_load_errors": np.asarray(result.info["load_errors"], dtype=float),
+        **{f"settlement_{k}": np.asarray(v, dtype=float) for k, v in result.rail.items()},
     }
 
 
@@ -275,4 +326,10 @@ def _settlement_info(result: SettlementResult, spec: DegradationSpec) -> dict:
         "settlement_limit_measure": limit.measure,
         "settlement_limit_value": float(limit.value),
         "settlement_limit_reached": reached,
+        "settlement_tamping": spec.tamping is not None,
+        "settlement_unreachable_sleepers": (-1 if spec.tamping is None
+                                            else int(spec.tamping.unreachable_sleepers)),
+        "settlement_interventions": int(0 if result.tamped is None else result.tamped.sum()),
+        "settlement_tamping_ineffective": (-1.0 if result.info.get("tamping_ineffective") is None
+                                           else float(result.info["tamping_ineffective"])),
     }

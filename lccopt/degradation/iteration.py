@@ -34,8 +34,9 @@ from typing import Sequence
 
 import numpy as np
 
-from .laws import SleeperLaw, VarandasLaw
+from .laws import SlabSettlement, SleeperLaw, VarandasLaw
 from .loading import Condition, SettlementZone
+from .rail import MEASURES, RailGrid
 from .statics import ZoneStatics
 
 # First allowance of profile change before the first re-simulation, from an assumed load error
@@ -52,7 +53,12 @@ class SettlementResult:
     years, axle_passes (blocks+1,): time and cumulative load cycles (axles of all conditions);
     settlement, void (blocks+1, sleepers) [m]: lowering of the ballast surface and the void
     under the sleeper at rest; level (blocks+1, points) [m]: rail profile at rest (own weight),
-    downward positive, at ``level_x`` [m]; peak_force (blocks+1, conditions, sleepers) [N]:
+    downward positive, at ``level_x`` [m] (the settling zone - 3 m to the ERS's far edge, the
+    slab's own settlement included); rail: the measures of
+    :mod:`lccopt.degradation.rail` per block (name -> (blocks+1,)), and ``slab`` (blocks+1,)
+    [m] the ERS slab's settlement; tamped (blocks+1,) bool: the record of a tamping (the
+    track just after it, at the same time as the record before); peak_force (blocks+1,
+    conditions, sleepers) [N]:
     largest per-axle ballast force of each condition in the block (simulated where
     ``simulated``, else the quasi-static load plus the last simulation's dynamic part);
     wheel_force_max (blocks+1, conditions) [N]: largest wheel-rail force of the passage, NaN
@@ -74,11 +80,16 @@ class SettlementResult:
     conditions: tuple
     n_simulations: int
     info: dict = field(default_factory=dict)
+    rail: dict = field(default_factory=dict)
+    tamped: np.ndarray | None = None
 
     def measure(self, name: str) -> np.ndarray:
         """One engineer's measure over the blocks: ``differential_settlement`` (max - min over
-        the zone), ``max_settlement``, ``max_void`` [m], ``level_std`` (standard deviation of
-        the rail profile at rest over the level span) [m]."""
+        the ballast sleepers of the zone), ``max_settlement``, ``max_void`` [m], and those of
+        the rail (:data:`lccopt.degradation.rail.MEASURES`): ``rail_step`` [m],
+        ``rail_angle`` [-], ``level_d1_std``, ``level_d1_max``, ``level_std`` [m]."""
+        if name in self.rail:
+            return np.asarray(self.rail[name])
         if name == "differential_settlement":
             return np.ptp(self.settlement, axis=1)
         if name == "max_settlement":
@@ -107,20 +118,40 @@ class SettlementResult:
         sims = np.flatnonzero(self.simulated)
         growth = self.wheel_force_max[sims[-1]] / self.wheel_force_max[sims[0]]
         return {
+            **{k: float(v[-1]) for k, v in self.rail.items() if k != "slab"},
             "differential_settlement": float(self.measure("differential_settlement")[-1]),
             "max_settlement": float(self.measure("max_settlement")[-1]),
             "max_void": float(self.measure("max_void")[-1]),
             "level_std": float(self.measure("level_std")[-1]),
             "force_growth": float(np.max(growth)),
-            "passes_to_limit": self.passes_to(limit_measure, limit),
+            "interventions": float(0 if self.tamped is None else np.sum(self.tamped)),
+            "passes_to_limit": (float(self.axle_passes[np.argmax(self.tamped)])
+                                if self.tamped is not None and self.tamped.any()
+                                else self.passes_to(limit_measure, limit)),
         }
+
+
+@dataclass(frozen=True)
+class Tamping:
+    """Tamping over the life: when ``measure`` (a :meth:`SettlementResult.measure`) reaches
+    ``value`` and at least ``min_interval`` years have passed since the last tamping, the
+    ``reachable`` settling sleepers (bool per sleeper, nearest the interface first) are lifted
+    to the slab's level and their ballast starts anew (:meth:`SleeperLaw.tamp`); the others
+    stay as they are. The followers (the open track beyond) are tamped with the farthest
+    settling sleeper. A tamping that leaves the measure at the limit ends the tamping (the
+    machine cannot cure it; ``info['tamping_ineffective']``)."""
+    measure: str
+    value: float
+    reachable: np.ndarray
+    min_interval: float = 0.1
 
 
 def predict_settlement(track, zone: SettlementZone, conditions: Sequence[Condition], *,
                        horizon_years: float, law=None, tolerance: float = 2.0e3,
                        steps_per_decade: float = 8.0, max_simulations: int = 30,
                        rail_seats: float = 1.0, reading: str = "axle",
-                       level_span: tuple[float, float] | None = None) -> SettlementResult:
+                       slab: SlabSettlement | None = None,
+                       tamping: Tamping | None = None) -> SettlementResult:
     """Settlement of ``zone`` of ``track`` under ``conditions`` up to ``horizon_years``.
 
     law: a :class:`~lccopt.degradation.laws.SleeperLaw`, or a ballast law of
@@ -134,8 +165,12 @@ def predict_settlement(track, zone: SettlementZone, conditions: Sequence[Conditi
     max_simulations: the most simulations per condition, the first and the last included; the
     profile allowance grows so that those left spread over the profile change still to come
     (``info['budget_bound']`` says it did), and past them the loads come from the last one.
-    level_span: (x_from, x_to) [m] of the rail profile; default the settling zone plus 3 m
-    either side."""
+    slab: the ERS slab's own settlement (None: it does not settle). The gaps the track model
+    sees are the settlement less the slab's (the slab the model's fixed reference); the
+    level, the settlement and the measures are absolute.
+    tamping: :class:`Tamping` over the life, or None (never tamped). After a tamping the
+    blocks start short again (the tamped ballast settles fast at first) and every condition
+    is simulated on the tamped track."""
     law = law or VarandasLaw()
     if not isinstance(law, SleeperLaw):
         law = SleeperLaw.plain(law, zone.n_settling)
@@ -149,11 +184,10 @@ def predict_settlement(track, zone: SettlementZone, conditions: Sequence[Conditi
     rates = [c.passes_per_year for c in conditions]
     if not conditions or min(rates) < 0 or sum(rates) <= 0:
         raise ValueError("conditions: at least one, passes_per_year >= 0, some > 0")
-    xs = zone.supports.x[:zone.n_settling]
-    span = level_span or (float(xs.min()) - 3.0, float(xs.max()) + 3.0)
-    lx = np.asarray(track.node_x, float)
-    pick = (lx >= span[0]) & (lx <= span[1]) & (np.asarray(track.rail_w) >= 0)
-    run = _Run(track, zone, conditions, law, rail_seats, pick, reading)
+    grid = RailGrid.of(track, zone.supports.x[:zone.n_settling])
+    if tamping is not None and np.shape(tamping.reachable) != (zone.n_settling,):
+        raise ValueError("tamping.reachable: one value per settling sleeper")
+    run = _Run(track, zone, conditions, law, rail_seats, grid, reading, slab, tamping)
     return run.to_horizon(horizon_years, tolerance, 10.0 ** (1.0 / steps_per_decade),
                           max_simulations)
 
@@ -172,14 +206,19 @@ class _Loads:
         self.rows = np.array([len(c.axles.offsets) for c in conditions])
         self.dynamic = [np.zeros(cs.shape) for cs in self.cases]
         self.blend = None                 # (s0, s1, dynamic parts at s1) while correcting
+        self.shift = 0.0                  # the slab's settlement: the model's reference
         self._contact = [None] * len(self.cases)
         # d gap / d settlement: the settling sleepers, then the followers of the farthest one
         self.dgap = np.zeros((len(zone.supports.dof), n))
         self.dgap[np.arange(n), np.arange(n)] = 1.0
         self.dgap[n:, n - 1] = zone.follower_weight
 
+    def gaps(self, settlement):
+        """The gaps of the track model: every support's settlement less the slab's (>= 0)."""
+        return self.zone.gaps(np.maximum(np.asarray(settlement) - self.shift, 0.0))
+
     def quasi_static(self, settlement):
-        gap = self.zone.gaps(settlement)
+        gap = self.gaps(settlement)
         out = []
         for j, cs in enumerate(self.cases):
             f, self._contact[j] = self.statics.peak_forces(gap, cs, self._contact[j])
@@ -229,8 +268,9 @@ class _Loads:
             f = np.take_along_axis(f, pick, axis=0)
         if not jacobian:
             return self.scale * f, None
+        dgap = self.dgap * (np.asarray(settlement) > self.shift)
         jac = np.concatenate([
-            self.statics.peak_jacobian(cs, self._contact[j]) @ self.dgap
+            self.statics.peak_jacobian(cs, self._contact[j]) @ dgap
             for j, cs in enumerate(self.cases)])
         if grad is not None:
             change = np.vstack([e - d for d, e in zip(self.dynamic, self.blend[2])])
@@ -288,24 +328,33 @@ def _implicit_block(law, state, settlement, loads: _Loads, cycles):
 class _Run:
     """The track's state through the blocks and what is recorded of it."""
 
-    def __init__(self, track, zone, conditions, law, rail_seats, pick, reading="axle"):
+    def __init__(self, track, zone, conditions, law, rail_seats, grid: RailGrid,
+                 reading="axle", slab: SlabSettlement | None = None,
+                 tamping: Tamping | None = None):
         self.zone, self.conditions, self.law = zone, conditions, law
+        self.tamping = tamping
+        self.seg_start = 0.0               # years of the last tamping (0: the new track)
+        self.ineffective = None            # years of a tamping that did not cure the limit
         self.rail_seats = rail_seats
-        self.statics = ZoneStatics(track, zone.supports, np.asarray(track.rail_w)[pick])
+        self.grid, self.slab = grid, slab
+        self.statics = ZoneStatics(track, zone.supports, level_x=grid.x)
         self.loads = _Loads(self.statics, zone, conditions, rail_seats, reading)
-        self.level_x = np.asarray(track.node_x, float)[pick]
+        self.level_x = grid.x[grid.shown]
+        # axle passes a year of each condition (the slab's load cycles)
+        self.axle_rates = np.array([c.passes_per_year * len(c.axles.offsets)
+                                    for c in conditions])
         self.per_year = np.repeat([c.passes_per_year for c in conditions], self.loads.rows)
         self.state = law.start(zone.n_settling)
         self.settlement = law.settlement(self.state)
         self.years, self.passes, self.sims = 0.0, 0.0, 0
         self.rec = {k: [] for k in ("years", "passes", "s", "void", "level", "force", "wheel",
-                                    "simulated")}
+                                    "simulated", "rail", "slab", "tamped")}
         self.errors, self.blocks_tried, self._contact = [], 0, None
 
     def simulate(self):
         """Simulate every condition on the current track: (dynamic parts, the largest error
         [N] of the present ones), and the record of the simulated loads for the last block."""
-        sup = self.zone.supports.with_gaps(self.zone.gaps(self.settlement))
+        sup = self.zone.supports.with_gaps(self.loads.gaps(self.settlement))
         loadings = [c.simulate(sup) for c in self.conditions]
         self.sims += len(self.conditions)
         parts, error = self.loads.measured(self.settlement, loadings)
@@ -314,24 +363,72 @@ class _Run:
                 [ld.wheel_force_max for ld in loadings])
         return parts, error, mark
 
+    def slab_at(self, years: float) -> float:
+        """The slab's settlement [m] after ``years`` of the traffic."""
+        return 0.0 if self.slab is None else self.slab.at(self.axle_rates * years)
+
     def mark(self, mark) -> None:
         self.rec["force"][-1], self.rec["wheel"][-1] = mark
         self.rec["simulated"][-1] = True
 
-    def record(self, rows) -> None:
-        void, level, self._contact = self.statics.rest(self.zone.gaps(self.settlement),
+    def state_at(self, settlement, years):
+        """(void (sleepers,), level at the grid, measures) of the track at rest with the
+        settling sleepers' ``settlement`` after ``years``."""
+        self.loads.shift = self.slab_at(years)
+        void, level, self._contact = self.statics.rest(self.loads.gaps(settlement),
                                                        self._contact)
+        level = level + self.loads.shift
         n = self.zone.n_settling
-        per = np.split(rows / self.rail_seats, np.cumsum(self.loads.rows)[:-1])
+        m = self.grid.measures(level)
+        m.update(differential_settlement=float(np.ptp(settlement)),
+                 max_settlement=float(np.max(settlement)), max_void=float(np.max(void[:n])))
+        return void[:n], level, m
+
+    def record(self, rows) -> None:
+        """Record the present state; ``rows`` the loads of the block that led to it (None:
+        those of the record before, for a tamping's row)."""
+        void, level, m = self.state_at(self.settlement, self.years)
         r = self.rec
+        if rows is None:
+            force = [f.copy() for f in r["force"][-1]]
+        else:
+            per = np.split(rows / self.rail_seats, np.cumsum(self.loads.rows)[:-1])
+            force = [p.max(axis=0) for p in per]
         r["years"].append(self.years)
         r["passes"].append(self.passes)
         r["s"].append(self.settlement.copy())
-        r["void"].append(void[:n])
-        r["level"].append(level)
-        r["force"].append([p.max(axis=0) for p in per])
+        r["void"].append(void)
+        r["level"].append(level[self.grid.shown])
+        r["rail"].append({k: m[k] for k in MEASURES})
+        r["slab"].append(self.loads.shift)
+        r["force"].append(force)
         r["wheel"].append([np.nan] * len(self.conditions))
         r["simulated"].append(False)
+        r["tamped"].append(False)
+        self._now = m
+
+    # --- tamping
+    def _allowed(self, years) -> bool:
+        """Whether a tamping may be done at ``years``."""
+        t = self.tamping
+        return (t is not None and self.ineffective is None
+                and years >= self.seg_start + t.min_interval - 1e-12)
+
+    def _due(self) -> bool:
+        t = self.tamping
+        return self._allowed(self.years) and self._now[t.measure] >= t.value * (1.0 - 1e-9)
+
+    def _tamp(self) -> None:
+        """Tamp the reachable sleepers up to the slab's level; record the tamped track."""
+        n = self.zone.n_settling
+        self.state = self.law.tamp(self.state, self.tamping.reachable,
+                                   np.full(n, self.slab_at(self.years)))
+        self.settlement = self.law.settlement(self.state)
+        self.seg_start = self.years
+        self.record(None)
+        self.rec["tamped"][-1] = True
+        if self._now[self.tamping.measure] >= self.tamping.value:
+            self.ineffective = self.years
 
     def to_horizon(self, horizon, tolerance, ratio, max_simulations) -> SettlementResult:
         self.record(np.zeros((int(self.loads.rows.sum()), self.zone.n_settling)))
@@ -341,14 +438,15 @@ class _Run:
         allowance = tolerance / _ERROR_PER_METRE
         one_pass = 1.0 / float(sum(c.passes_per_year for c in self.conditions))
         dt, bounded = one_pass, False
+        seg_settlement = self.settlement.copy()
         while self.years < horizon * (1.0 - 1e-12):
             if self.sims // len(self.conditions) + 2 > max_simulations:
-                self._epoch(horizon, dt, one_pass, ratio, tolerance, None)
+                self._epoch(horizon, dt, one_pass, ratio, tolerance, None, inline=True)
                 bounded = True
                 break
             start = self._snapshot()
             dt_next = self._epoch(horizon, dt, one_pass, ratio, tolerance,
-                                  (start[1], allowance))
+                                  (start[1], allowance), stop=True)
             change = float(np.max(np.abs(self.settlement - start[1])))
             parts, error, mark = self.simulate()
             self.errors.append(error)
@@ -363,12 +461,25 @@ class _Run:
             self.mark(mark)
             dt = dt_next
             allowance = change * float(np.clip(tolerance / max(error, 1e-3), 0.5, 3.0))
+            if self._due():
+                # the tamped track is a new one: short blocks, a new simulation, the first
+                # allowance again
+                self._tamp()
+                parts, _, mark = self.simulate()
+                self.loads.dynamic = parts
+                self.mark(mark)
+                dt, allowance = one_pass, tolerance / _ERROR_PER_METRE
+                seg_settlement = self.settlement.copy()
+                continue
             # the budget: the simulations left (one kept for the end) spread over the profile
-            # change still to come, extrapolated in log time from this epoch's rate
+            # change still to come, extrapolated in log time (since the last tamping) from
+            # this epoch's rate
             left = max_simulations - self.sims // len(self.conditions) - 1
-            rate = max(change / np.log((target + one_pass) / (start[2] + one_pass)),
-                       float(np.max(self.settlement)) / np.log((target + one_pass) / one_pass))
-            coming = rate * np.log((horizon + one_pass) / (target + one_pass))
+            seg = self.seg_start
+            rate = max(change / np.log((target - seg + one_pass) / (start[2] - seg + one_pass)),
+                       float(np.max(np.abs(self.settlement - seg_settlement)))
+                       / np.log((target - seg + one_pass) / one_pass))
+            coming = rate * np.log((horizon - seg + one_pass) / (target - seg + one_pass))
             need = coming / max(left, 1e-9)
             if need > allowance:
                 allowance, bounded = need, True
@@ -377,41 +488,57 @@ class _Run:
         self.mark(mark)
         return self._result(bounded, tolerance)
 
-    def _epoch(self, until, dt, one_pass, ratio, tolerance, profile) -> float:
+    def _epoch(self, until, dt, one_pass, ratio, tolerance, profile, stop=False,
+               inline=False) -> float:
         """Blocks up to ``until`` years, or (profile = (settlement at the last simulation,
-        allowance)) until the profile has changed by 3/4 of the allowance; returns the next
-        block length."""
+        allowance)) until the profile has changed by 3/4 of the allowance, or (``stop``) until
+        a tamping is due; ``inline``: tamp when due and go on (no simulation). Returns the
+        next block length."""
+        watch = self.tamping is not None and (stop or inline)
         while self.years < until * (1.0 - 1e-12):
             dt = min(dt, until - self.years)
-            s, rows, dt = self._block(dt, one_pass, tolerance, profile)
+            if watch and self.ineffective is None:
+                # no block across the first moment a tamping may be done
+                ok = self.seg_start + self.tamping.min_interval
+                if self.years < ok - 1e-12:
+                    dt = min(dt, ok - self.years)
+            s, rows, dt = self._block(dt, one_pass, tolerance, profile, watch)
             cycles = self.per_year * dt
             self.state = self.law.add(self.state, rows, cycles)
             self.settlement = s
             self.years += dt
             self.passes += float(cycles.sum())
             self.record(rows)
-            dt = max(one_pass, min(self.years * (ratio - 1.0), 2.0 * dt))
+            dt = max(one_pass, min((self.years - self.seg_start) * (ratio - 1.0), 2.0 * dt))
+            if watch and self._due():
+                if stop:
+                    break
+                self._tamp()
+                dt = one_pass
             if profile is not None and np.max(np.abs(s - profile[0])) >= 0.75 * profile[1]:
                 break
         return dt
 
     def _snapshot(self):
         return (self.state, self.settlement.copy(), self.years, self.passes,
-                len(self.rec["years"]))
+                len(self.rec["years"]), self._now)
 
     def _restore(self, snap) -> None:
-        self.state, s, self.years, self.passes, length = snap
+        self.state, s, self.years, self.passes, length, self._now = snap
         self.settlement = s.copy()
         for v in self.rec.values():
             del v[length:]
 
-    def _block(self, dt, one_pass, tolerance, profile):
+    def _block(self, dt, one_pass, tolerance, profile, watch=False):
         """Solve one block of ``dt`` years, shortened while a load changes by more than
-        ``tolerance`` in it or the profile passes its allowance; (s, rows, dt)."""
+        ``tolerance`` in it, the profile passes its allowance or (``watch``) the tamping's
+        measure passes its limit by more than 2 %; (s, rows, dt)."""
+        self.loads.shift = self.slab_at(self.years)
         before, _ = self.loads(self.settlement, jacobian=False)
         while True:
             self.blocks_tried += 1
             cycles = self.per_year * dt
+            self.loads.shift = self.slab_at(self.years + dt)
             solved = _implicit_block(self.law, self.state, self.settlement, self.loads, cycles)
             if solved is None:
                 if dt <= one_pass * (1.0 + 1e-9):
@@ -424,6 +551,14 @@ class _Run:
             if profile is not None:
                 at_sim, allowance = profile
                 shrink = max(shrink, float(np.max(np.abs(s - at_sim))) / allowance)
+            if shrink <= 1.0 and watch and self._allowed(self.years + dt) \
+                    and dt > one_pass * (1.0 + 1e-9):
+                t = self.tamping
+                m0 = self._now[t.measure]
+                m1 = self.state_at(s, self.years + dt)[2][t.measure]
+                if m0 < t.value and m1 > 1.02 * t.value:
+                    dt = max(one_pass, dt * max(0.1, 0.95 * (t.value - m0) / (m1 - m0)))
+                    continue
             if shrink <= 1.0 or dt <= one_pass * (1.0 + 1e-9):
                 return s, rows, dt
             dt = max(one_pass, dt * max(0.1, 0.8 / shrink))
@@ -434,11 +569,14 @@ class _Run:
             years=np.array(r["years"]), axle_passes=np.array(r["passes"]),
             settlement=np.array(r["s"]), void=np.array(r["void"]), level=np.array(r["level"]),
             level_x=self.level_x, peak_force=np.array(r["force"]),
+            rail={**{k: np.array([m[k] for m in r["rail"]]) for k in r["rail"][0]},
+                  "slab": np.array(r["slab"])},
             wheel_force_max=np.array(r["wheel"], dtype=float),
-            simulated=np.array(r["simulated"]),
+            simulated=np.array(r["simulated"]), tamped=np.array(r["tamped"], dtype=bool),
             sleeper_x=self.zone.supports.x[:self.zone.n_settling].copy(),
             conditions=tuple(c.name for c in self.conditions), n_simulations=self.sims,
             info={"blocks": len(r["years"]) - 1, "blocks_tried": self.blocks_tried,
                   "budget_bound": bounded, "tolerance": tolerance,
+                  "tamping_ineffective": self.ineffective,
                   "load_errors": list(self.errors),
                   "law": getattr(self.law, "name", type(self.law).__name__)})

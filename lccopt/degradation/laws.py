@@ -312,6 +312,22 @@ class SubgradeLaw:
         return self.settlement(x), np.nan_to_num(ds * dx)
 
 
+@dataclass(frozen=True, eq=False)
+class SlabSettlement:
+    """The ERS slab's own settlement: its subgrade's law (a :class:`SubgradeLaw` of one
+    element, under the slab's loaded area) loaded once per axle passing by ``loads`` [N]
+    (one per traffic condition: the axle's load on the slab, both rails)."""
+    law: SubgradeLaw
+    loads: np.ndarray
+
+    def at(self, cycles) -> float:
+        """Settlement [m] after ``cycles`` axle passes of each condition."""
+        n = len(self.loads)
+        x = self.law.add(self.law.start(1), np.asarray(self.loads, float).reshape(n, 1),
+                         np.asarray(cycles, float).reshape(n))
+        return float(self.law.settlement(x)[0])
+
+
 @dataclass(frozen=True)
 class SleeperState:
     """The state of a :class:`SleeperLaw`: its ballast law's, its subgrade law's (None

@@ -15,7 +15,8 @@ SOILS = ("ML", "MH", "CL", "CH")           # Li & Selig's classes (lccopt.degrad
 # passage's peak (passage: ROSE's code takes the largest force of the whole train)
 READINGS = ("axle", "passage")
 # measures a limit may be set on (lengths: SettlementResult.measure)
-LIMIT_MEASURES = ("differential_settlement", "max_settlement", "max_void", "level_std")
+LIMIT_MEASURES = ("level_d1_max", "level_d1_std", "rail_step", "rail_angle",
+                  "differential_settlement", "max_settlement", "max_void", "level_std")
 
 
 @dataclass(frozen=True)
@@ -60,6 +61,15 @@ class SubgradeSpec:
 
 
 @dataclass(frozen=True)
+class TampingSpec:
+    """Tamping over the life when the limit is reached: the ``unreachable_sleepers`` next to
+    the slab are not lifted (a tamping machine cannot reach them), the others are; at most
+    one tamping each ``min_interval`` [year]."""
+    unreachable_sleepers: int = 2
+    min_interval: float = 0.1
+
+
+@dataclass(frozen=True)
 class DegradationSpec:
     """A settlement prediction of a design (docs/settlement.md, the case's ``degradation:``).
 
@@ -73,7 +83,8 @@ class DegradationSpec:
     The ballast law is fed the sleeper-ballast pressure: bearing_area and
     strengthened_bearing_area [m^2] per rail seat (the law's reference_force acts on a
     standard sleeper's area); subgrade: the layer below (None: the ballast law alone);
-    reading: one of READINGS. Per settling sleeper (nearest the interface first; None: the
+    reading: one of READINGS; tamping: tamping when ``limit`` is reached (None: never).
+    Per settling sleeper (nearest the interface first; None: the
     same for all): sleeper_gamma, a factor on the ballast law's settlement, and initial_gap
     [m], a void before any traffic."""
     traffic: tuple
@@ -94,6 +105,7 @@ class DegradationSpec:
     reading: str = "axle"
     sleeper_gamma: tuple | None = None
     initial_gap: tuple | None = None
+    tamping: TampingSpec | None = None
 
     @property
     def settling_traffic(self) -> tuple:

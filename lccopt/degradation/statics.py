@@ -47,9 +47,11 @@ class WheelCases:
 class ZoneStatics:
     """Static states of ``track`` over the unilateral ``supports`` (module docstring).
 
-    level_dofs: track dofs whose displacement at rest is reported (the rail profile)."""
+    level_dofs: track dofs whose displacement at rest is reported; or level_x: positions [m]
+    of the rail whose deflection at rest is reported (the rail profile, by the elements'
+    Hermite shape functions)."""
 
-    def __init__(self, track, supports: SleeperSupports, level_dofs=()):
+    def __init__(self, track, supports: SleeperSupports, level_dofs=(), level_x=None):
         ab, self._kd = to_upper_banded(track.K.tocsr())
         chol, info = lapack.dpbtrf(ab, lower=0, overwrite_ab=1)
         if info != 0:
@@ -62,7 +64,11 @@ class ZoneStatics:
         cols[supports.dof, np.arange(self.m)] = 1.0
         x = self._solve(cols)
         self.G = x[supports.dof].copy()
-        self._level = x[np.asarray(level_dofs, dtype=int)].copy()
+        if level_x is None:
+            self._level = x[np.asarray(level_dofs, dtype=int)].copy()
+        else:
+            _, idx, vals = contact_vectors(track, np.asarray(level_x, dtype=float))
+            self._level = np.einsum("pk,pkm->pm", vals, x[idx])
 
     def _solve(self, rhs: np.ndarray) -> np.ndarray:
         sol, info = lapack.dpbtrs(self._chol, rhs, lower=0)
@@ -146,7 +152,8 @@ class ZoneStatics:
 
     def rest(self, gap: np.ndarray, contact=None):
         """The track at rest (own weight) over ``gap``: (void (m,) [m] under each support,
-        level (len(level_dofs),) [m] displacement of the level dofs, contact (m,))."""
+        level (len(level_dofs) or len(level_x),) [m] displacement of the level dofs or the
+        rail at level_x, contact (m,))."""
         sup = self.supports
         u, c = self.equilibrium(gap, np.zeros((1, self.m)),
                                 None if contact is None else contact[None])

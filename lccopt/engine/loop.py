@@ -387,8 +387,13 @@ class Engine:
                       at=round(time.time(), 3), mono=round(time.monotonic(), 3))
         if error is None:
             if o.id == 0 and self.table.reference is None:
+                # CaseError if a worst value does not exceed its reference point (asked of the
+                # case's problem: its message tells the case's worst values from the default)
+                try:
+                    point = pb.reference_point(objectives)
+                except CaseError as exc:
+                    raise CaseError(f"{self.case.path}: {exc}") from None
                 self.problem = pb = pb.with_reference(objectives)  # worst: the case's or default
-                point = pb.reference_point(objectives)  # CaseError if worst <= reference point
                 self.table.apply(j.append("reference", sync=False, id=0, x=row["x"],
                                           objectives=objectives, point=point,
                                           worst=list(pb.worst) if pb.worst else None, rho=pb.rho,

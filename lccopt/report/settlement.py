@@ -23,11 +23,21 @@ from .data import BEST_COLOR, DPI, OKABE_ITO, fnum
 
 # What each settlement objective measures, for the report's summary (docs/settlement.md).
 MEANING = {
+    "level_d1_max": "the largest deviation of the rail's longitudinal level in EN 13848's D1 "
+                    "band (wavelengths 3-25 m) over the approach and the ERS at the horizon: "
+                    "what a track recording car reports as an isolated defect",
+    "level_d1_std": "the standard deviation of the rail's D1 level over the approach and the "
+                    "ERS at the horizon (EN 13848-6 takes it over 200 m sections: there it "
+                    "would be smaller by the root of the window's share of 200 m)",
+    "rail_step": "how far the rail sits below its level at the slab's edge within 3 m of the "
+                 "approach at the horizon (the slab's own settlement included)",
+    "rail_angle": "the largest slope of the rail within 3 m either side of the interface at "
+                  "the horizon, in mm/m: the ramp a wheel runs down off the slab",
     "differential_settlement": "the largest minus the smallest settlement of the settling "
                                "sleepers' ballast at the horizon: how uneven the approach has "
-                               "become (the slab, which does not settle, is not in it)",
-    "max_settlement": "the largest settlement at the horizon: the step down from the slab, "
-                      "which does not settle",
+                               "become (the slab is not in it; reported, not what the rail "
+                               "does)",
+    "max_settlement": "the largest settlement of a settling sleeper at the horizon",
     "max_void": "the largest gap between a sleeper and its ballast at rest at the horizon: a "
                 "hanging sleeper, held up by the rail",
     "level_std": "the standard deviation of the rail's level at rest (its own weight) over the "
@@ -37,8 +47,10 @@ MEANING = {
                     "track's: how much the settled geometry amplifies the dynamic load",
     "maintenance_rate": "1 / years_to_limit: how often the limit is reached, in 1/year "
                         "(the minimised form of a life: smaller is better)",
-    "years_to_limit": "years until the limit's measure first reaches its value (the horizon "
-                      "if it never does)",
+    "interventions": "the tampings over the horizon (each when the limit was reached; the "
+                     "sleepers next to the slab out of the machine's reach are not lifted)",
+    "years_to_limit": "years until the limit's measure first reaches its value: the first "
+                      "tamping, if the track is tamped (the horizon if it never does)",
 }
 TIMES = (1 / 12, 1.0, 3.0, 10.0, 30.0, 100.0)    # [year] candidate times of the profiles
 STYLES = ("-", "--", ":", "-.")                 # designs side by side, in this order
@@ -198,6 +210,10 @@ def _measures_panel(ax, designs: list[Design], limit) -> None:
         if name != "max_void":    # else the solid line is it already
             ax.plot(p[keep], v[keep], color=d.color, lw=1.2, ls="--",
                     label=f"{d.label}: max_void")
+        tamped = np.asarray(h.get("settlement_tamped", np.zeros(len(p))), bool)
+        for j, at in enumerate(p[tamped]):
+            ax.axvline(at, color=d.color, lw=1.0, ls=d.style if d.style != "-" else "-.",
+                       alpha=0.8, label=f"{d.label}: tamped" if j == 0 else None)
     if limit:
         ax.axhline(limit[1] * 1e3, color=OKABE_ITO["vermillion"], lw=1.0, ls=":",
                    label=f"limit: {name} {limit[1] * 1e3:g} mm")
@@ -252,6 +268,8 @@ def _apart(ax, at: list, texts: list, fontsize: float) -> tuple[list, list]:
 
 def _measure(h: dict, name: str) -> np.ndarray:
     """A SettlementResult measure from the stored histories."""
+    if f"settlement_{name}" in h:
+        return np.asarray(h[f"settlement_{name}"], float)
     s = np.asarray(h["settlement_sleepers"], float)
     if name == "differential_settlement":
         return np.ptp(s, axis=1)
@@ -307,8 +325,10 @@ def fig_settlement_profile(designs: list[Design], out: Path, title: str,
         ax.axvspan(0.0, right + 0.5, color="0.88", zorder=0)
         ax.axvline(0.0, color="0.3", lw=0.9)
         ax.set_xlim(right=right + 0.5)
-    a1.text(0.1, 0.02, "slab (ERS):\nno settlement", transform=a1.get_xaxis_transform(),
-            fontsize=8, color="0.3")
+    slab = designs[0].histories.get("settlement_slab")
+    said = ("slab (ERS): the rail's level\nwith the slab's own settlement" if slab is not None
+            else "slab (ERS):\nno settlement")
+    a1.text(0.1, 0.02, said, transform=a1.get_xaxis_transform(), fontsize=8, color="0.3")
     a1.set(ylabel="lowering (settlement) [mm]",
            title="ballast under each sleeper (markers) and the rail's level at rest (thin)")
     a2.set(xlabel="position from the slab edge [m] (the vehicle comes from the left)",
@@ -364,6 +384,20 @@ def facts(d: Design) -> str:
         out += (f"; {measure} reaches {value * 1e3:g} mm after "
                 f"{_limit_years(h, measure, value)}" if reached else
                 f"; {measure} stays below {value * 1e3:g} mm over the horizon")
+    tamped = np.asarray(h.get("settlement_tamped", np.zeros(len(s))), bool)
+    if info.get("settlement_tamping"):
+        t = np.asarray(h["settlement_years"], float)[tamped]
+        if t.size:
+            shown = ", ".join(_years_text(float(v)) for v in t[:6]) + (", ..." if t.size > 6
+                                                                        else "")
+            out += (f"; tamped {t.size} time{'s' if t.size > 1 else ''} over the horizon "
+                    f"(after {shown})")
+        else:
+            out += "; never tamped over the horizon"
+        if float(info.get("settlement_tamping_ineffective", -1.0)) >= 0:
+            when = _years_text(float(info["settlement_tamping_ineffective"]))
+            out += (f"; a tamping after {when} left the limit reached (the sleepers out of "
+                    f"reach): tamping ended there")
     sims = info.get("settlement_simulations")
     return out + (f" ({sims} simulations)." if sims else ".")
 

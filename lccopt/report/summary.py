@@ -601,17 +601,25 @@ def _settlement_section(doc: Doc, run: RunData, designs: list, limit, figs: dict
         what += (f" of the traffic ({traffic}), by the {deg['law']['name']} law "
                  f"({', '.join(law_items(deg['law']))}), {deg['settling_sleepers']} settling "
                  f"sleepers next to the slab")
+    tamping = ""
+    if info.get("settlement_tamping"):
+        tamping = (f" The track is tamped whenever the limit is reached (the "
+                   f"{info.get('settlement_unreachable_sleepers', '?')} sleepers next to the "
+                   f"slab out of the machine's reach are not lifted; the tamped ballast "
+                   f"settles anew).")
     doc.p(f"Every design's settlement was predicted {what} (docs/settlement.md): blocks of load "
-          f"cycles, each sleeper's ballast settling by the law from the peak force of every axle, "
-          f"the track re-simulated as it settles. The objectives at the horizon:")
+          f"cycles, each sleeper's ballast settling by the law from the pressure under it at "
+          f"every axle, its subgrade by its own law, the track re-simulated as it settles."
+          f"{tamping} The millimetres are the law's values, not a forecast: the law is not "
+          f"calibrated to a measured crossing. The objectives at the horizon:")
     doc.ul(meaning_items(limit))
     for d in designs:
         doc.p(facts(d))
     captions = {
         "settlement-history": "Top: settlement of every settling sleeper against axle passes "
                               "(colour: distance from the slab; ticks: the simulated passages). "
-                              "Bottom: the limit's measure and the largest void against axle "
-                              "passes and years.",
+                              "Bottom: the limit's measure (the rail's level) and the largest "
+                              "void against axle passes and years, with the tampings.",
         "settlement-profile": "Top: the ballast's lowering under each sleeper (markers) and the "
                               "rail's level at rest (thin) along the approach at chosen times; "
                               "bottom: the voids under the sleepers. Solid: the best design, "

@@ -13,12 +13,15 @@ PAPER_OBJECTIVES = ("F_rms", "F_max", "E_rms", "E_max")
 # minimised but years_to_limit, which is reported only: its minimisable form is
 # maintenance_rate = 1 / years_to_limit (positive, smaller is better, so the ASF's reference
 # point 0.8 x f(x_ref) and worst values 1.5 x f(x_ref) keep their meaning).
-SETTLEMENT_OBJECTIVES = ("differential_settlement", "max_settlement", "max_void", "level_std",
-                         "force_growth", "maintenance_rate")
+SETTLEMENT_OBJECTIVES = ("level_d1_max", "level_d1_std", "rail_step", "rail_angle",
+                         "differential_settlement", "max_settlement", "max_void", "level_std",
+                         "force_growth", "maintenance_rate", "interventions")
 REPORTED_ONLY = ("years_to_limit",)
 OBJECTIVE_UNITS = {"F_rms": "N", "F_max": "N", "E_rms": "J", "E_max": "J",
                    "differential_settlement": "m", "max_settlement": "m", "max_void": "m",
                    "level_std": "m", "force_growth": "-", "maintenance_rate": "1/year",
+                   "level_d1_max": "m", "level_d1_std": "m", "rail_step": "m",
+                   "rail_angle": "m/m", "interventions": "-",
                    "years_to_limit": "year"}
 OBJECTIVE_DOC = {  # short enough for one line of `lccopt simulate` on 80 columns
     "F_rms": "rms of the wheel-rail contact forces in the force zone",
@@ -26,6 +29,11 @@ OBJECTIVE_DOC = {  # short enough for one line of `lccopt simulate` on 80 column
     "E_rms": "rms of the energy dissipated per zone sleeper",
     "E_max": "max - min of the energy dissipated per zone sleeper",
     # settlement (lccopt simulate prints these after 43 columns: at most 37 characters)
+    "level_d1_max": "largest D1 (3-25 m) level deviation",
+    "level_d1_std": "std of the D1 level, approach + ERS",
+    "rail_step": "rail below the slab edge within 3 m",
+    "rail_angle": "rail slope at the interface, mm/m",
+    "interventions": "tampings over the horizon",
     "differential_settlement": "max - min over the settling sleepers",
     "max_settlement": "the largest: the step from the slab",
     "max_void": "largest void under a sleeper",
@@ -36,6 +44,7 @@ OBJECTIVE_DOC = {  # short enough for one line of `lccopt simulate` on 80 column
 }
 # Display: (factor from SI, unit) people read each SI unit in.
 _DISPLAY = {"N": (1e-3, "kN"), "J": (1.0, "J"), "m": (1e3, "mm"), "-": (1.0, ""),
+            "m/m": (1e3, "mm/m"),
             "1/year": (1.0, "/year"), "year": (1.0, "years")}
 
 
@@ -133,14 +142,22 @@ HISTORY_DOC = {
     "settlement_sleeper_x": "positions of the settling sleepers [m], nearest the interface first",
     "settlement_sleepers": "settlement of each settling sleeper's ballast [m] (blocks x sleepers)",
     "settlement_void": "void under each settling sleeper at rest [m] (blocks x sleepers)",
-    "settlement_level": "rail level at rest, downward positive [m] (blocks x points)",
+    "settlement_level": "rail level at rest, downward positive [m] (blocks x points), the "
+                        "ERS slab's settlement included",
     "settlement_level_x": "positions of the rail level's points [m]",
     "settlement_peak_force": "largest ballast force of an axle in the block [N] (blocks x "
                              "conditions x sleepers), simulated where settlement_simulated",
     "settlement_wheel_force_max": "largest wheel-rail force of a simulated passage [N] (blocks x "
                                   "conditions), NaN where not simulated",
     "settlement_simulated": "1 where every condition was simulated at the block's end",
+    "settlement_tamped": "1 for the record of a tamping (the track just after it)",
     "settlement_load_errors": "largest error of the predicted loads at each re-simulation [N]",
+    "settlement_slab": "settlement of the ERS slab [m] per block",
+    "settlement_rail_step": "rail_step [m] per block (lccopt/degradation/rail.py)",
+    "settlement_rail_angle": "rail_angle [-] per block",
+    "settlement_level_d1_std": "level_d1_std [m] per block",
+    "settlement_level_d1_max": "level_d1_max [m] per block",
+    "settlement_level_std": "level_std [m] per block",
 }
 # wheel_position, contact_force, wheel_displacement, rail_displacement and in_force_zone are
 # those of the leading wheel (the only one of the three-dof vehicle).

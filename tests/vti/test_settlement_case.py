@@ -11,7 +11,12 @@ import numpy as np
 import pytest
 
 from lccopt.config import load_case
-from lccopt.degradation.evaluate import predict, settlement_objectives, sleeper_law
+from lccopt.degradation.evaluate import (
+    predict,
+    settlement_objectives,
+    slab_settlement,
+    sleeper_law,
+)
 from lccopt.degradation.iteration import predict_settlement
 from lccopt.degradation.laws import VarandasLaw
 from lccopt.degradation.loading import entry_zone, vti_condition
@@ -67,12 +72,12 @@ def test_a_case_evaluation_is_the_simulation_and_the_prediction_it_says(single):
     spec = case.degradation_spec()
     law = sleeper_law(spec, tr, case.data["track"]["support"]["stiffness"])
     r = predict_settlement(tr, entry_zone(tr, 10), [cond], horizon_years=1.0, law=law,
-                           tolerance=4e3)
+                           tolerance=4e3, slab=slab_settlement(spec, [cond]))
     np.testing.assert_array_equal(ev.histories["settlement_sleepers"], r.settlement)
     np.testing.assert_array_equal(ev.histories["settlement_void"], r.void)
     np.testing.assert_array_equal(ev.histories["settlement_axle_passes"], r.axle_passes)
     o = r.objectives("differential_settlement", 3e-3)
-    for k in SETTLEMENT_OBJECTIVES[:5]:
+    for k in SETTLEMENT_OBJECTIVES[:9]:
         assert ev.objectives[k] == o[k]
     assert ev.objectives["years_to_limit"] == pytest.approx(o["passes_to_limit"] / 1.0e6)
     assert ev.info["settlement_simulations"] == r.n_simulations
@@ -195,3 +200,35 @@ def test_a_soft_subgrade_settles_as_the_docs_say(tmp_path, soil):
             assert out["soft"][k] < out["stiff"][k]
         else:
             assert out["soft"][k] > 1.1 * out["stiff"][k]
+
+
+def test_tamping_lifts_the_reachable_sleepers_and_leaves_the_others(tmp_path):
+    """Each time the limit is reached, the sleepers the machine reaches are lifted to the
+    slab's level (gap 0 in the track model) and the 2 next to the slab are not; the tamped
+    track is below the limit again; interventions counts the tampings and years_to_limit is
+    the first."""
+    deg = ("  passages_per_year: 5.0e5\n  horizon_years: 0.45\n  settling_sleepers: 10\n"
+           "  tolerance: 4 kN\n  max_simulations: 60\n"
+           "  limit: {measure: level_d1_max, value: 1.2 mm}\n"
+           "  tamping: {unreachable_sleepers: 2, min_interval: 0.05}\n")
+    case = cheap_case(tmp_path, deg)
+    ev = evaluate(case, case.reference)
+    h = ev.histories
+    tamped = h["settlement_tamped"].astype(bool)
+    rows = np.flatnonzero(tamped)
+    assert len(rows) >= 2 and ev.objectives["interventions"] == len(rows)
+    s, slab = h["settlement_sleepers"], h["settlement_slab"]
+    d1 = h["settlement_level_d1_max"]
+    years = h["settlement_years"]
+    for i in rows:
+        np.testing.assert_allclose(s[i, 2:], slab[i], atol=1e-12)      # lifted to the slab
+        np.testing.assert_allclose(s[i, :2], s[i - 1, :2], atol=1e-15)    # out of reach
+        assert s[i - 1, 2:].max() > slab[i] + 0.5e-3                     # they had settled
+        assert years[i] == years[i - 1]
+        assert d1[i - 1] >= 0.5e-3 > d1[i]
+        assert h["settlement_simulated"][i]                              # the new track, simulated
+    assert np.diff(years[rows]).min() >= 0.05 - 1e-9
+    assert not ev.info["settlement_budget_bound"]
+    assert ev.objectives["years_to_limit"] == pytest.approx(years[rows[0]])
+    # the sleepers out of reach hang: the tamped neighbours hold the rail up
+    assert h["settlement_void"][-1, :2].max() > 0.5e-3

@@ -60,6 +60,11 @@ def test_rest_state_is_the_full_one(voided):
     np.testing.assert_allclose(void, np.maximum(sup.gap - sup.rest - u[sup.dof], 0.0),
                                atol=1e-12)
     np.testing.assert_allclose(level, u[level_dofs], atol=1e-12)
+    # the level anywhere along the rail: the elements' Hermite interpolation of the same state
+    x = np.linspace(1.0, tr.node_x[-1] - 1.0, 301)
+    _, at, _ = ZoneStatics(tr, sup, level_x=x).rest(sup.gap)
+    _, idx, vals = contact_vectors(tr, x)
+    np.testing.assert_allclose(at, np.sum(vals * u[idx], axis=1), atol=1e-12)
 
 
 def test_load_shedding_jacobian_is_the_derivative(voided):
