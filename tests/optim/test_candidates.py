@@ -148,5 +148,11 @@ def test_a_candidate_generator_plugs_in_and_its_runs_resume_exactly():
     req = gen.requests[-1]
     assert req.rng is s.rng and req.attempt == 0 and req.weight in (0.3, 0.5, 0.8, 0.95)
     assert req.best is not None and 0.0 < req.probability <= 1.0 and req.movable.all()
+    # the phase's told points, best first (a generator may centre steps on any of them)
+    phase = [r for r in s.history if r["restart"] == s.restart and r["status"] == "ok"
+             and r["id"] < len(s.history) - 1]
+    values = [p(x) for x in req.ranked]
+    assert np.array_equal(req.ranked[0], req.best) and values == sorted(values)
+    assert len(req.ranked) >= min(len(phase), 2)
     plain = run_serial(Strategy(p.space, budget=60, seed=2), p)
     assert xs(plain) != xs(s)
