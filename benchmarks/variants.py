@@ -17,16 +17,13 @@ were measured this way (or as settings before) and not adopted are in RESULTS-op
   surrogate": it frees the paper's moo from its trap and costs its single-E_max).
 * ``alternate-restarts``: every odd restart goes on from the run's best point, every even
   one starts a fresh design (after BIPOP-CMA-ES; "Two restart rules": a trade).
-* ``centres``: the DYCORS steps drawn around the best points of up to three basins of the
-  phase, half of them around its best ("The worst seed": better on the 5-value families at
-  200, a tie at 400, not yet measured on the paper's cases).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from lccopt.optim.candidates import CandidateRequest, Dycors, perturb
+from lccopt.optim.candidates import CandidateRequest, Dycors
 from lccopt.optim.restarts import NextPhase, RestartPolicy
 from lccopt.optim.sampling import to_space
 from lccopt.optim.settings import Settings
@@ -67,49 +64,6 @@ class IntBoundJumps:
         return out
 
 
-class Centres:
-    """The DYCORS candidates drawn around several centres: the phase's best point (half of
-    them) and the best points of up to ``k - 1`` other basins (the rest, shared equally). A
-    basin's centre is the best told point of the phase's better half that lies at least
-    ``radius`` * sqrt(d) (unit box) from every centre already chosen. The merit then spends
-    the proposals where the surrogate predicts most (TuRBO-m's several trust regions, with
-    one step size)."""
-
-    def __init__(self, settings: Settings, k: int = 3, radius: float = 0.1, share: float = 0.5):
-        self.dycors, self.k, self.radius, self.share = Dycors(settings), k, radius, share
-        self.perturbation = settings.perturbation
-
-    def centres(self, req: CandidateRequest) -> list:
-        R = req.ranked[: max(1, len(req.ranked) // 2)]
-        if not len(R):
-            return []
-        U = req.space.to_unit(R)
-        chosen = [0]
-        r = self.radius * np.sqrt(req.space.dim)
-        for i in range(1, len(R)):
-            if len(chosen) >= self.k:
-                break
-            if np.min(np.linalg.norm(U[chosen] - U[i], axis=1)) >= r:
-                chosen.append(i)
-        return [R[i] for i in chosen]
-
-    def __call__(self, req: CandidateRequest) -> list:
-        out = self.dycors(req)
-        if not out or out[0][1] != "adaptive":
-            return out
-        cs = self.centres(req)
-        if len(cs) < 2:
-            return out
-        X = out[0][0]
-        n = len(X)
-        n_best = int(round(self.share * n))
-        rest = np.array_split(np.arange(n_best, n), len(cs) - 1)
-        for c, rows in zip(cs[1:], rest):
-            X[rows] = perturb(req.space, req.rng, c, len(rows), req.sigma, req.probability,
-                              req.movable, self.perturbation)
-        return out
-
-
 class AlternateRestarts(RestartPolicy):
     """The default policy, except that an odd restart goes on from the run's best point and an
     even one starts a fresh design (the probe-and-subspace step and trials as by default)."""
@@ -129,7 +83,6 @@ VARIANTS = {
     "uniform": lambda settings: {"candidates": UniformCandidates(settings)},
     "int-bound-jumps": lambda settings: {"candidates": IntBoundJumps(settings)},
     "alternate-restarts": lambda settings: {"restarts": AlternateRestarts()},
-    "centres": lambda settings: {"candidates": Centres(settings)},
 }
 
 

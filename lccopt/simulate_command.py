@@ -66,9 +66,11 @@ def run_simulate(case_path: Path, design: str | None, out: Path | None, plots: b
     typer.echo(zone_line(case))
     typer.echo(f"Hertz spring linearised at P = {info['hertz_load'] / 1e3:.1f} kN: "
                f"k_w = {info['contact_stiffness'] / 1e9:.3f} GN/m")
+    edge = info.get("interface_entry", 0.0)   # positions from the entry slab edge, as plotted
     typer.echo(f"{info['n_dofs']} track dofs, {info['n_steps']} steps of "
-               f"{info['time_step'] * 1e3:g} ms, wheel from {info['x_start']:.1f} m to "
-               f"{info['x_end']:.1f} m, {wall:.2f} s")
+               f"{info['time_step'] * 1e3:g} ms, {wall:.2f} s")
+    typer.echo(f"wheel from {info['x_start'] - edge:.1f} m to {info['x_end'] - edge:.1f} m "
+               f"from the entry slab edge")
     for k, v in ev.objectives.items():
         scale, unit = objective_display(k)
         typer.echo(f"  {k:<6} = {v * scale:10.5g} {unit:<2}  {OBJECTIVE_DOC.get(k, '')}")

@@ -8,6 +8,7 @@ import subprocess
 import sys
 
 import numpy as np
+import pytest
 
 from benchmarks import problems, variants
 from lccopt.optim.settings import Settings
@@ -49,31 +50,6 @@ def test_integer_bound_jumps_put_moved_integers_on_bounds():
     assert ends == [0.0] * 3  # the "off" switch behind the wall, within the first phases
 
 
-def test_centres_draw_steps_around_the_best_points_of_other_basins():
-    p = problems.paper_size("rastrigin")
-    gen = variants.Centres(Settings.default())
-    s = Strategy(p.space, budget=80, n_initial=20, seed=3, candidates=gen)
-    for pr in s.ask(20):
-        s.tell(pr.id, p(pr.x))
-    ctx = s._prepare()
-    assert np.array_equal(ctx.ranked[0], ctx.best)  # the request's ranked points, best first
-    seen = []
-    s.candidates = lambda req: seen.append((req, gen(req))) or seen[-1][1]
-    s._select(ctx)
-    req, parts = seen[0]
-    centres = gen.centres(req)
-    assert len(centres) == 3 and np.array_equal(centres[0], ctx.best)
-    U = p.space.to_unit(np.array(centres))
-    gaps = np.linalg.norm(U[:, None] - U[None, :], axis=2)[np.triu_indices(3, 1)]
-    assert gaps.min() >= 0.1 * np.sqrt(p.space.dim)
-    X = parts[0][0]
-    n = len(X) // 2  # the second half is drawn around the other two centres
-    near = np.argmin(np.linalg.norm(p.space.to_unit(X)[:, None] - U[None, :], axis=2), axis=1)
-    groups = [np.arange(n)] + np.array_split(np.arange(n, len(X)), 2)
-    for k, rows in enumerate(groups):
-        assert np.mean(near[rows] == k) > 0.6, k  # most steps stay nearest their centre
-
-
 def test_alternate_restarts_go_on_from_the_best_point_on_odd_restarts():
     class Short(ShortPhases, variants.AlternateRestarts):
         pass
@@ -88,6 +64,7 @@ def test_alternate_restarts_go_on_from_the_best_point_on_odd_restarts():
     assert all(designs[r] == (0 if r % 2 == 1 else 10) for r in designs), designs
 
 
+@pytest.mark.slow
 def test_a_variant_run_resumes_exactly_with_its_extension_passed_again():
     p = problems.paper_size("rastrigin")
     for variant in variants.VARIANTS:

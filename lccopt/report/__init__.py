@@ -183,6 +183,14 @@ def write_report(run: Path, format: str = "both", out: Path | None = None,
             f"{printable(k)} "
             f"{pct(summary['best']['objectives'][k], data.ref_objectives.get(k, math.nan))}"
             for k in data.objectives))
+        from ..terminal import wrap_items
+
+        on = [f"{k} ({side})" for k, side in summary["on_bound"].items()]
+        worse = [f"{k} {pct(summary['best']['objectives'][k], data.ref_objectives[k])}"
+                 for k in summary["worse"]]
+        for head, items in (("  on a bound: ", on), ("  worse than the reference: ", worse)):
+            if items:
+                typer.echo("\n".join(wrap_items(items, head)))
     typer.echo(f"  {len(figs)} figures and {', '.join(p.name for p in wrote)} in {out} "
                f"({summary['seconds']:.1f} s)")
     return out

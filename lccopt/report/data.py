@@ -31,6 +31,12 @@ PHASE_STYLE = {  # phase -> (label, marker, colour)
 REF_COLOR, BEST_COLOR, FAIL_COLOR, FRONT_COLOR = (OKABE_ITO["orange"], OKABE_ITO["blue"],
                                                   OKABE_ITO["vermillion"], OKABE_ITO["green"])
 ZONE_COLOR, TYPE_II_COLOR = OKABE_ITO["yellow"], OKABE_ITO["purple"]
+
+
+def colour_name(colour: str) -> str:
+    """The palette's name of a colour ('yellow' for ZONE_COLOR): captions say what the figure
+    draws, from the one place the figure takes it."""
+    return {v: k for k, v in OKABE_ITO.items()}[colour]
 DPI = 110
 
 FIGURES = ("search-history", "objective-space", "best-vs-reference", "conditions", "contact-force",
@@ -538,7 +544,8 @@ def pct(new: float, old: float) -> str:
         return "–"
     if new == old:
         return "0 %"
-    return f"{(new - old) / abs(old) * 100:+.1f} %"
+    text = f"{(new - old) / abs(old) * 100:+.1f}"
+    return "0.0 %" if text in ("+0.0", "-0.0") else f"{text} %"    # rounded to nothing: unsigned
 
 
 def var_value(v: VarInfo, value: float) -> str:

@@ -104,3 +104,17 @@ def faulty(case, x) -> Evaluation:
                     while True:
                         time.sleep(1)
     return evaluate(case, x)
+
+
+def settled(case, x) -> Evaluation:
+    """``evaluate`` with a settlement prediction's objectives too (smooth functions of the same
+    x): a stand-in for a case with ``degradation:``, whose long objective names
+    (differential_settlement, maintenance_rate) are what a terminal line must hold."""
+    ev = evaluate(case, x)
+    f, e = ev.objectives["F_max"], ev.objectives["E_max"]
+    ev.objectives.update({"differential_settlement": 1e-3 * (1.0 + f / 5000.0),
+                          "max_settlement": 2e-3 * (1.0 + e), "max_void": 5e-4 * (1.0 + e),
+                          "level_std": 2e-4 * (1.0 + e), "force_growth": 0.01 * e,
+                          "maintenance_rate": 0.1 * (1.0 + f / 5000.0),
+                          "years_to_limit": 10.0 / (1.0 + f / 5000.0)})
+    return ev
