@@ -416,6 +416,12 @@ def _fill_new_run(made: Folder, case, problem, evaluator: str) -> None:
         # the --set items the case was loaded with: resume loads it the same way
         "overrides": list(getattr(case, "overrides", ())),
     }
+    if getattr(case, "realisations", 0):
+        from ..config.uncertainty import record
+
+        # the realisations of the track every design meets: a resume checks that it draws the
+        # same ones
+        meta["realisations"] = record(case)
     made.write("case.yaml", resolved.encode("utf-8"))
     made.write("case.source.yaml", case.text.encode("utf-8"))
     made.write("run.json", (json.dumps(meta, indent=2) + "\n").encode("utf-8"))
@@ -428,6 +434,8 @@ def _fill_new_run(made: Folder, case, problem, evaluator: str) -> None:
             # these (replay.restore)
             "surrogate": problem.surrogate,
             "optimiser": problem.optimiser_settings().to_dict()}
+    if "realisations" in meta:
+        line["realisations"] = meta["realisations"]
     made.write(JOURNAL, (json.dumps(line, separators=(",", ":")) + "\n").encode())
 
 
@@ -536,8 +544,9 @@ def objective_columns(rows: list[dict], objectives) -> list[str]:
     """The objective columns of results.h5's /evaluations.
 
     The paper's four, then the case's objectives, then every other objective an evaluation
-    returned (e.g. a settlement prediction's), in the order first met; a condition's own
-    values (``F_max@name``) go to /conditions instead.
+    returned (e.g. a settlement prediction's, a robust statistic), in the order first met; a
+    condition's own values (``F_max@name``) go to /conditions and a realisation's
+    (``F_max#r``) to /realisations instead.
 
     Parameters
     ----------
@@ -552,7 +561,7 @@ def objective_columns(rows: list[dict], objectives) -> list[str]:
     """
     out = list(OBJECTIVE_NAMES)
     for k in [*objectives, *(k for r in rows for k in r["objectives"])]:
-        if "@" not in k and k not in out:
+        if k not in out and (k in objectives or ("@" not in k and "#" not in k)):
             out.append(k)
     return out
 
@@ -637,6 +646,8 @@ def write_results(dest, table: Table, *, case, problem, meta: dict) -> None:
                         [float(r["objectives"].get(f"{k}@{c}", math.nan)) for r in rows],
                         dtype=float))
                     col.attrs["unit"] = objective_unit(k)
+        if getattr(problem, "realisations", 0):  # every realisation's objectives: (n, R) each
+            _write_realisations(f, rows, problem, case, meta)
         e.create_dataset("value", data=np.array([r["value"] for r in rows], dtype=float))
         for k in ("status", "reason", "phase", "worker", "file"):
             e.create_dataset(k, data=[str(r[k]) for r in rows], dtype=sdt)
@@ -670,3 +681,27 @@ def write_results(dest, table: Table, *, case, problem, meta: dict) -> None:
                 g.attrs[k] = v
 
     write_h5(dest, fill)
+
+def _write_realisations(f, rows: list[dict], problem, case, meta: dict) -> None:
+    """/realisations: the run's realisations of the track (count, seed, fingerprint) and, for
+    each objective recorded per realisation, an (evaluations, realisations) table in the rows
+    of /evaluations."""
+    from ..uncertainty.statistics import is_realisation_key, objective_of
+    from ..vti.response import objective_unit
+
+    n = int(problem.realisations)
+    g = f.create_group("realisations")
+    g.attrs["count"] = n
+    g.attrs["seed"] = int(meta.get("realisations", {}).get("seed", -1))
+    g.attrs["fingerprint"] = str(meta.get("realisations", {}).get("fingerprint", ""))
+    names = []
+    for r in rows:
+        for k in r["objectives"]:
+            base = objective_of(k)
+            if is_realisation_key(k) and base not in names:
+                names.append(base)
+    for base in names:
+        ds = g.create_dataset(base, data=np.array(
+            [[float(r["objectives"].get(f"{base}#{j}", math.nan)) for j in range(n)]
+             for r in rows], dtype=float).reshape(len(rows), n))
+        ds.attrs["unit"] = objective_unit(base)
