@@ -246,7 +246,7 @@ def test_settlement_history_keeps_its_labels_clear_of_the_legend_and_the_limit(r
 
     def keep(fig, path):
         fig.canvas.draw()
-        figs[Path(path).stem] = fig
+        figs[path.stem] = fig     # a staged file of the report (lccopt.outdir.Place)
         return path
 
     monkeypatch.setattr(settlement, "_save", keep)

@@ -35,6 +35,8 @@ from .conftest import (
     write_case,
 )
 
+pytestmark = pytest.mark.slow
+
 ENV = {"LCCOPT_EVALUATOR": FAKE}
 SLOW = {**ENV, "LCCOPT_FAKE_DELAY": "0.15"}
 
