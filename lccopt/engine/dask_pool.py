@@ -18,6 +18,7 @@ import time
 import uuid
 from pathlib import Path
 
+from . import awake
 from .executors import ExecutorError
 from .worker import Outcome, Task, load_evaluator, run_task
 
@@ -156,14 +157,14 @@ class DaskExecutor:
             self._probe = _write_probe(Path(task.out_path).parent)
         fut = self.client.submit(dask_task, self.case, task, self.spec, self._probe, pure=False,
                                  key=f"lccopt-eval-{task.id}-{uuid.uuid4().hex[:8]}")
-        self._futures[fut] = (task, time.monotonic())
+        self._futures[fut] = (task, awake.now())
         fut.add_done_callback(self._done.put)  # no scan of every future in flight per wait
 
     def wait(self, timeout: float) -> list[Outcome]:
         if not self._futures:
             time.sleep(timeout)
             return []
-        now = time.monotonic()
+        now = awake.now()   # the driver's own clock: its pauses are not the designs' (awake.py)
         limit = min([timeout] + [max(0.0, t0 + self.timeout - now)
                                  for _, t0 in self._futures.values()])
         finished = []
@@ -174,7 +175,7 @@ class DaskExecutor:
         except queue.Empty:
             pass
         out: list[Outcome] = []
-        now = time.monotonic()
+        now = awake.now()
         for fut in finished:
             if fut in self._futures:
                 task, t0 = self._futures.pop(fut)

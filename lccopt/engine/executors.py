@@ -34,6 +34,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import STOP_SIGNALS
+from . import awake
 from .worker import SINGLE_THREAD_ENV, Outcome, Task, _death_reason
 
 
@@ -206,7 +207,7 @@ class LocalPool:
         raise RuntimeError("submit() without a free worker")
 
     def _give(self, s: _Slot, task: Task) -> None:
-        s.task, s.started = task, time.monotonic()
+        s.task, s.started = task, awake.now()
         try:
             s.conn.send(task)
         except OSError:
@@ -224,7 +225,7 @@ class LocalPool:
             return
         if killed:
             reason = f"{reason}, {self._deaths[key]} times"
-        out.append(Outcome.of(task, error=reason, wall_time=time.monotonic() - s.started,
+        out.append(Outcome.of(task, error=reason, wall_time=awake.now() - s.started,
                               worker=f"local-{s.index}"))
 
     def kill_running(self) -> None:
@@ -252,7 +253,9 @@ class LocalPool:
             s.pidfd = None
 
     def wait(self, timeout: float) -> list[Outcome]:
-        now = time.monotonic()
+        # timeouts on the driver's own clock: a pause of this process (SIGSTOP, Ctrl-Z) is
+        # never charged to the designs in flight (awake.py)
+        now = awake.now()
         limit = timeout
         for s in self._slots:
             if s.task is not None:
@@ -266,7 +269,7 @@ class LocalPool:
             if (s.conn in ready or (s.pidfd is not None and s.pidfd in ready)
                     or s.proc.poll() is not None):
                 self._drain(s, out)
-        now = time.monotonic()
+        now = awake.now()
         for s in self._slots:
             if s.task is not None and now - s.started > self.timeout:
                 task = s.task

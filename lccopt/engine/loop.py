@@ -48,6 +48,7 @@ from ..errors import (
 )
 from ..problem import Problem
 from ..terminal import PipeGuard, wrap_items
+from . import awake
 from .journal import Journal, line_mark
 from .progress import Progress, fmt, hms, objective_text, objective_value, reference_objectives
 from .rundir import (
@@ -127,6 +128,10 @@ class Engine:
         # is never reported as killed by them
         for sig in STOP_SIGNALS:
             self._old_handlers[sig] = signal.signal(sig, self._on_signal)
+        # SIGCONT after SIGSTOP or Ctrl-Z: the pause was this process's (awake.py)
+        old = awake.install()
+        if old is not None:
+            self._old_handlers[signal.SIGCONT] = old
 
     def _restore_signals(self) -> None:
         for sig, h in self._old_handlers.items():

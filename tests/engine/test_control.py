@@ -374,3 +374,31 @@ def test_a_reference_design_at_zero_names_the_default_worst_and_resumes_once_set
                        capture_output=True, text=True, timeout=120, env=subprocess_env(**env))
     assert r.returncode == 0, r.stderr
     assert len(read_table(run)["id"]) == 8
+
+
+# ------------------------------------------------------------------------ a stopped driver
+
+def test_a_driver_stopped_longer_than_the_timeout_charges_nothing_to_the_designs(tmp_path):
+    """Ctrl-Z (SIGSTOP to the process group: driver and workers) for twice the timeout, then
+    SIGCONT: the evaluations in flight finish as if nothing happened (they were recorded as
+    timed out), and the table is the uninterrupted run's."""
+    from .conftest import n_done
+
+    case = write_case(tmp_path, "paused", budget=8, initial=4, seed=4, timeout=2.0)
+    reference = read_table(optimise(case, workers=2, runs=tmp_path / "whole", evaluator=FAKE,
+                                    progress=False))
+    p = _lccopt("optimise", case, "--workers", "2", "--runs", tmp_path / "runs",
+                env={**ENV, "LCCOPT_FAKE_DELAY": "1.0"})
+    run = tmp_path / "runs" / "paused"
+    deadline = time.monotonic() + 120
+    while n_done(run) < 2:
+        assert time.monotonic() < deadline and p.poll() is None
+        time.sleep(0.05)
+    time.sleep(0.3)              # evaluations in flight
+    os.killpg(p.pid, signal.SIGSTOP)
+    time.sleep(4.5)
+    os.killpg(p.pid, signal.SIGCONT)
+    r = _done(p)
+    assert r.returncode == 0, r.stderr
+    assert "FAILED" not in r.stderr, r.stderr
+    assert_same_evaluations(reference, read_table(run))
