@@ -42,6 +42,12 @@ class ExecutorError(Exception):
     """The executor cannot run at all (bad evaluator, no Dask, scheduler unreachable)."""
 
 
+class ExecutorLost(ExecutorError):
+    """The workers went away during a run (a Dask scheduler gone, frozen, or without workers
+    for too long): an environment fault, never a failed design; what was in flight stays
+    pending."""
+
+
 # What one local worker costs: its interpreter with numpy, scipy and h5py loaded (~55 MB
 # resident) and the child forked for each evaluation (~40-60 MB more with a paper-case
 # simulation), with room to spare; and four descriptors of this process (socket, pidfd, and

@@ -49,6 +49,7 @@ from ..errors import (
 from ..problem import Problem
 from ..terminal import PipeGuard, wrap_items
 from . import awake
+from .executors import ExecutorLost
 from .journal import Journal, line_mark
 from .progress import Progress, fmt, hms, objective_text, objective_value, reference_objectives
 from .rundir import (
@@ -149,6 +150,10 @@ class Engine:
     def run(self) -> None:
         try:
             self._run()
+        except ExecutorLost as exc:  # the cluster went away: the evaluations stay pending
+            raise EnvironmentFault(f"{exc}; the run stopped with nothing lost (the evaluations "
+                                   f"in flight stay pending): when the cluster is back, "
+                                   f"'lccopt resume {self.rd.path} --scheduler ADDRESS'") from None
         except (OSError, RuntimeError) as exc:  # h5py reports a full disk as either
             if environment_errno(exc) is None:
                 raise
