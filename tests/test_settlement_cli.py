@@ -230,3 +230,23 @@ def test_a_settlement_objective_alone_is_what_the_run_minimises(tmp_path):
         assert np.all(void > 0) and np.ptp(void) > 1e-5     # the designs differ
     r = cli("status", tmp_path / "runs" / "v", cwd=tmp_path)
     assert r.returncode == 0 and "max_void" in r.stdout, r.stdout + r.stderr
+
+
+@pytest.mark.parametrize("degradation, key", [
+    ("{trains_per_day: 30}", "degradation.trains_per_day"),
+    ("{trains_per_day: 30, vehicles_per_train: 4, tamping: {unreachable_sleepers: 25}}",
+     "degradation.tamping.unreachable_sleepers"),
+    ("{trains_per_day: 30, vehicles_per_train: 4, subgrade: {depth: 0}}",
+     "degradation.subgrade.depth"),
+])
+def test_bad_traffic_tamping_and_subgrade_are_one_line_exit_2(tmp_path, degradation, key):
+    """What a user gets wrong most (a train without its length, a tamping that reaches no
+    sleeper, a subgrade at no depth): exit 2, one line naming the file, line and key."""
+    case = tmp_path / "bad.yaml"
+    case.write_text(f"extends: {BOGIE}\nname: bad\ndegradation: {degradation}\n",
+                    encoding="utf-8")
+    r = cli("check", case, cwd=tmp_path)
+    assert r.returncode == 2, r.stdout + r.stderr
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in r.stderr, r.stderr
+    assert re.search(rf"{re.escape(str(case))}:3: {re.escape(key)}: ", lines[0]), lines[0]
