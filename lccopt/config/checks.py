@@ -288,12 +288,13 @@ def check_optimisation(data: dict, err, n_variables: int) -> None:
     budget = opt["budget"]
     if opt["initial_points"] is None and budget is not None:
         opt["initial_points"] = default_initial_points(budget, n_variables)
+    check_degenerate_objectives(data, err)
     budget_at, points_at = ("optimisation", "budget"), ("optimisation", "initial_points")
     if budget is not None and opt["initial_points"] is not None \
             and opt["initial_points"] > budget:
         if _typed(err, budget_at, points_at):
             raise err(budget_at, f"{budget} is below the {opt['initial_points']} initial points "
-                                 f"({err.where(points_at)}): give at least "
+                                 f"({_where(err, points_at)}): give at least "
                                  f"{opt['initial_points']}, or set initial_points too")
         raise err(points_at,
                   f"{opt['initial_points']} initial points exceed the budget of {budget}")
@@ -308,17 +309,54 @@ def check_optimisation(data: dict, err, n_variables: int) -> None:
         objectives_at, worst_at = ("optimisation", "objectives"), ("optimisation", "asf", "worst")
         if _typed(err, objectives_at, worst_at):
             raise err(objectives_at, f"{n_obj} objective(s), but asf.worst "
-                                     f"({err.where(worst_at)}) gives {len(worst)} values: set "
+                                     f"({_where(err, worst_at)}) gives {len(worst)} values: set "
                                      f"asf.worst too")
         raise err(worst_at,
                   f"expected {n_obj} values (one per objective){also}, got {len(worst)}")
 
 
+# Objectives that are a spread (max - min) over a set of sleepers: with one sleeper they are 0
+# for every design. (objective -> the key that counts the sleepers, what they are)
+_SPREADS = {"E_max": (("evaluation", "sleepers"), "zone sleeper"),
+            "differential_settlement": (("degradation", "settling_sleepers"), "settling sleeper")}
+
+
+def check_degenerate_objectives(data: dict, err) -> None:
+    """An objective the case makes the same for every design is refused here, before any
+    simulation: a spread over one sleeper (0 for every design: nothing to minimise, and an ASF
+    whose reference point and worst value are both 0), or maintenance_rate counting to a limit
+    on such a spread (the limit is never reached: 1 / horizon for every design). The key
+    blamed is the count that makes it so."""
+    opt = data["optimisation"]
+    objectives = list(opt.get("objectives") or [])
+    deg = data.get("degradation") or {}
+    limit = (deg.get("limit") or {}).get("measure") if deg else None
+    asked = [(k, k) for k in objectives]
+    if "maintenance_rate" in objectives and limit in _SPREADS:
+        asked.append((limit, f"maintenance_rate (its limit is on {limit})"))
+    for measure, objective in asked:
+        if measure not in _SPREADS:
+            continue
+        at, what = _SPREADS[measure]
+        section = data.get(at[0]) or {}
+        count = section.get(at[1])
+        if count == 1:
+            listed = _where(err, ("optimisation", "objectives"))
+            raise err(at, f"1 {what} makes {measure} (max - min over them) 0 for every design, so "
+                          f"{objective}, an objective of this case ({listed}), cannot be "
+                          f"minimised: at least 2, or another objective")
+
+
+def _where(err, at: tuple) -> str:
+    """Where key ``at`` was set (file:line or --set), if ``err`` can tell; else its name."""
+    where = getattr(err, "where", None)
+    return where(at) if where is not None else ".".join(at)
+
+
 def _typed(err, first: tuple, second: tuple) -> bool:
     """Whether of two keys that disagree ``first`` came from the command line (--set) and
     ``second`` did not: the message then names what the user typed."""
-    where = getattr(err, "where", None)
-    return where is not None and where(first) == "--set" and where(second) != "--set"
+    return _where(err, first) == "--set" and _where(err, second) != "--set"
 
 
 def check_design_size(sizes: list[tuple[int, int]], err) -> None:

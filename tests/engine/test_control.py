@@ -15,9 +15,10 @@ import pytest
 from lccopt.engine.runner import optimise
 from tests.conftest import lccopt_command, subprocess_env
 
-from .conftest import FAKE, assert_same_evaluations, read_table, write_case
+from .conftest import FAKE, REPO, assert_same_evaluations, read_table, write_case
 
 ENV = {"LCCOPT_EVALUATOR": FAKE}
+REPO_CONFIGS = REPO / "configs"
 
 
 def _lccopt(*args, env=None, shell_redirect: str = "", cwd=None, **kw) -> subprocess.Popen:
@@ -323,3 +324,53 @@ def test_each_message_names_what_the_user_typed(tmp_path, finished):
     bad.write_text(f"extends: {case}\ndescription: a\x1bb\n")
     got = line("check", bad)
     assert got.startswith(f"lccopt: error: {bad}:2: ") and "\x1b" not in got, got
+
+
+# ------------------------------------------------------------------------ degenerate objectives
+
+def test_an_objective_no_design_can_change_is_refused_by_check(tmp_path):
+    """A spread (max - min) over one sleeper is 0 for every design: check refuses it with the
+    file, line and key of the count, before anything is simulated (optimise spent the
+    reference simulation, then blamed an asf.worst the user never set, on every resume)."""
+    settle = tmp_path / "one.yaml"
+    settle.write_text(f"extends: {REPO_CONFIGS / 'settlement.yaml'}\nname: one\n"
+                      "degradation:\n  settling_sleepers: 1\n  tamping: {unreachable_sleepers: 0}\n"
+                      "optimisation:\n  objectives: [differential_settlement, F_max]\n")
+    zone = tmp_path / "zone.yaml"
+    zone.write_text(f"extends: {REPO_CONFIGS / 'quickstart.yaml'}\nname: zone\n"
+                    "evaluation:\n  sleepers: 1\n")
+    for case, key, line in ((settle, "degradation.settling_sleepers", 4),
+                            (zone, "evaluation.sleepers", 4)):
+        for args in (["check", case], ["optimise", case, "--runs", tmp_path / "runs"]):
+            r = subprocess.run(lccopt_command() + [str(a) for a in args], capture_output=True,
+                               text=True, timeout=120, env=subprocess_env())
+            got = _error_line(r)
+            assert got.startswith(f"lccopt: error: {case}:{line}: {key}: 1 "), got
+            assert "0 for every design" in got, got
+    assert not (tmp_path / "runs").exists()
+
+
+def test_a_reference_design_at_zero_names_the_default_worst_and_resumes_once_set(tmp_path):
+    """An objective the reference design brings to 0 (data, not the case's making) leaves the
+    default ASF worst value no room: one line naming the case and what to set, no budget spent,
+    and the run carries on once asf.worst is set."""
+    case = write_case(tmp_path, "zero", budget=8, initial=4, worst=(60000.0, 5.0))
+    text = case.read_text()
+    case.write_text(text.replace("  asf:\n    worst: [60000.0, 5.0]\n", ""))
+    env = {**ENV, "LCCOPT_FAKE_ZERO": "E_max"}
+    r = subprocess.run(lccopt_command() + ["optimise", str(case), "--workers", "1", "--runs",
+                                           str(tmp_path / "runs")],
+                       capture_output=True, text=True, timeout=120, env=subprocess_env(**env))
+    got = _error_line(r)
+    assert got.startswith(f"lccopt: error: {case}: E_max: the reference design's E_max is 0"), got
+    assert "set optimisation.asf.worst" in got, got
+    from .conftest import journal_events
+
+    run = tmp_path / "runs" / "zero"
+    assert not [e for e in journal_events(run) if e["event"] in ("evaluated", "failed")]
+    case.write_text(text)
+    r = subprocess.run(lccopt_command() + ["resume", str(run), "--allow-changed-case",
+                                           "--workers", "1"],
+                       capture_output=True, text=True, timeout=120, env=subprocess_env(**env))
+    assert r.returncode == 0, r.stderr
+    assert len(read_table(run)["id"]) == 8
