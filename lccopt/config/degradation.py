@@ -245,7 +245,7 @@ def _check_cost(data: dict, deg: dict, conditions: tuple, rates: dict, err) -> N
                   f"max_simulations or a coarser time_step")
 
 
-def degradation_spec(data: dict, conditions: tuple) -> DegradationSpec:
+def degradation_spec(data: dict, conditions: tuple, variation=None) -> DegradationSpec:
     """The settlement prediction's typed inputs from a case checked by
     :func:`check_degradation`.
 
@@ -255,6 +255,9 @@ def degradation_spec(data: dict, conditions: tuple) -> DegradationSpec:
         the checked case.
     conditions
         its traffic conditions (empty: the case's own vehicle is the one condition).
+    variation
+        one realisation of the built track (``lccopt.vti.specs.TrackVariation``), or None
+        for the track as drawn.
 
     Returns
     -------
@@ -262,10 +265,11 @@ def degradation_spec(data: dict, conditions: tuple) -> DegradationSpec:
     """
     deg = data["degradation"]
     if conditions:
-        traffic = tuple(Traffic(c.name, build.scenario(c.data), deg["traffic"][c.name],
-                                c.weight) for c in conditions)
+        traffic = tuple(Traffic(c.name, build.scenario(c.data, variation),
+                                deg["traffic"][c.name], c.weight) for c in conditions)
     else:
-        traffic = (Traffic(SINGLE_CONDITION, build.scenario(data), deg["passages_per_year"]),)
+        traffic = (Traffic(SINGLE_CONDITION, build.scenario(data, variation),
+                           deg["passages_per_year"]),)
     law = deg["law"]
     params = tuple((arg, float(law[key])) for key, (arg, _) in LAW_PARAMETERS[law["name"]].items())
     mode = (data.get("optimisation") or {}).get("conditions") or "worst"
@@ -285,7 +289,19 @@ def degradation_spec(data: dict, conditions: tuple) -> DegradationSpec:
         bearing_area=standard, strengthened_bearing_area=strengthened, subgrade=subgrade,
         reading=deg["reading"],
         tamping=None if deg.get("tamping") is None else TampingSpec(
-            int(deg["tamping"]["unreachable_sleepers"]), float(deg["tamping"]["min_interval"])))
+            int(deg["tamping"]["unreachable_sleepers"]), float(deg["tamping"]["min_interval"])),
+        **_settling_variation(variation, deg["settling_sleepers"]))
+
+
+def _settling_variation(variation, n: int) -> dict:
+    """A realisation's settlement factors and initial voids of the ``n`` settling sleepers
+    (nearest the interface first), as the prediction takes them."""
+    out = {}
+    for name, key in (("settlement", "sleeper_gamma"), ("void", "initial_gap")):
+        pair = None if variation is None else getattr(variation, name)
+        if pair is not None:
+            out[key] = tuple(float(v) for v in pair[0][:n])
+    return out
 
 
 DEFAULT_BEARING_AREA = 0.375     # [m^2] per rail seat: schema, track.sleeper.bearing_area

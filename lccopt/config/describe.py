@@ -16,6 +16,7 @@ from ..vti.vehicle import build_vehicle
 from .build import vehicle_spec
 from .checks import simulation_size
 from .degradation import SINGLE_CONDITION, axles, bearing_areas
+from .uncertainty import uncertainty_lines
 from .zones import force_zone_end, interfaces, zone_end_x
 
 
@@ -320,6 +321,8 @@ def case_lines(case, file) -> list[str]:
                  f"most {steps:,} steps of about {dofs:,} track dofs")
     if case.degradation is not None:
         lines += degradation_lines(case)
+    if case.realisations:
+        lines += uncertainty_lines(case)
     lines += [f"  {line}" for line in optimisation_line(case).split("\n")]
     if case.overrides:
         lines += wrap_items([f"--set {o}" for o in case.overrides], "  with ")

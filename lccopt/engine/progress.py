@@ -27,7 +27,7 @@ def objective_value(k: str, v) -> str:
     if v is None or not math.isfinite(v):
         return "-"
     scale, unit = objective_display(k)
-    return f"{v * scale:.3g} {unit}"
+    return f"{v * scale:.3g} {unit}" if unit else f"{v * scale:.3g}"
 
 
 def objective_text(k: str, v) -> str:

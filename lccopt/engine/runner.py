@@ -187,6 +187,7 @@ def resume(run, workers: int | None = None, scheduler=None, case=None,
             out.log("dropped a torn last line of the journal (the run was killed while writing "
                     "it)")
         case_obj = _resume_case(rd, meta, case, allow_changed_case, out, budget)
+        _check_realisations(events[0].get("realisations"), case_obj)
         problem = Problem.from_case(case_obj)
         if events and events[0].get("objectives") not in (None, list(problem.objectives)):
             raise _usage_error(f"the case's objectives {list(problem.objectives)} differ from the "
@@ -248,6 +249,23 @@ def resume(run, workers: int | None = None, scheduler=None, case=None,
     finally:
         rd.unlock()
     return rd.path
+
+
+def _check_realisations(recorded, case) -> None:
+    """The case draws the realisations of the track the run recorded (the same seed and
+    section drawn by another numpy could differ: the run's designs would then not share
+    their tracks)."""
+    if not isinstance(recorded, dict) or not getattr(case, "realisations", 0):
+        return
+    from ..config.uncertainty import record
+
+    now = record(case)
+    if now["fingerprint"] != recorded.get("fingerprint"):
+        raise _usage_error(f"the realisations of the track drawn now (fingerprint "
+                           f"{now['fingerprint']}) are not those the run recorded "
+                           f"({str(recorded.get('fingerprint'))[:16]}): the same seed gives "
+                           f"other tracks here (another numpy?); carry the run on where it "
+                           f"started, or start a new run")
 
 
 def _check_budget(budget: int | None, asked: int) -> None:

@@ -169,9 +169,11 @@ def history_facts(best: tuple, ref: tuple, condition: str | None = None) -> list
 
 
 def build_summary(run: RunData, figs: dict, notes: dict, facts: list[str] | None = None,
-                  indices: dict | None = None, settlement=None) -> tuple[Doc, dict]:
+                  indices: dict | None = None, settlement=None,
+                  robust=None) -> tuple[Doc, dict]:
     """The summary document and summary.json's numbers; ``settlement``: (designs, limit) of a
-    run that predicted settlement (``lccopt.report.settlement``)."""
+    run that predicted settlement (``lccopt.report.settlement``); ``robust``: the designs
+    compared over the realisations of the track (``lccopt.report.robust``)."""
     doc = Doc()
     bi, ri = run.best_index(), run.ref_index()
     n_failed = int((run.status == "failed").sum())
@@ -315,6 +317,10 @@ def build_summary(run: RunData, figs: dict, notes: dict, facts: list[str] | None
         _conditions_section(doc, run, bi, ri, figs)
     if settlement is not None:
         _settlement_section(doc, run, *settlement, figs)
+    if robust:
+        from .robust import robust_section
+
+        summary["realisations"] = robust_section(doc, run, robust, figs)
 
     # --- why
     doc.h(2, "Why it is better")

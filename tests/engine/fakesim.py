@@ -1,8 +1,9 @@
 """Test evaluators for the run engine (pointed at by LCCOPT_EVALUATOR or the ``evaluator``
 argument): a cheap analytic stand-in for the simulator, and faulty variants.
 
-``evaluate``: deterministic smooth objectives of x and the vehicle speed (+ small time
-histories; with ``LCCOPT_FAKE_LOG`` set, one line per simulation appended to it); sleeps
+``evaluate``: deterministic smooth objectives of x, the vehicle speed and, on a realisation of
+the track, its support stiffness next to the slab (+ small time histories; with
+``LCCOPT_FAKE_LOG`` set, one line per simulation appended to it); sleeps
 ``LCCOPT_FAKE_DELAY`` seconds (default 0) to look like a simulation; with
 ``LCCOPT_FAKE_SPREAD`` = s (0 <= s < 1) the delay varies between (1-s) and (1+s) times that
 from point to point (a fixed function of x), so that results come back out of order.
@@ -38,6 +39,11 @@ def _objectives(case, x) -> dict:
     # a traffic condition's speed scales the objectives (exactly 1 at the reference speed)
     s = case.vehicle["speed"] / 38.88888888888889
     f, e = f * s, e * s * s
+    # a realisation of the track (uncertainty:) scales them by its zone's mean support factor
+    variation = getattr(case, "variation", None)
+    if variation is not None and variation.support_stiffness is not None:
+        k = float(np.mean(variation.support_stiffness[0][:20]))
+        f, e = f * k, e / k
     return {"F_rms": 49000.0 + 0.1 * f, "F_max": float(f), "E_rms": 1.5 + e, "E_max": float(e)}
 
 
