@@ -436,7 +436,12 @@ def get(name: str, seed: int = 0) -> TestFunction:
 # tuned on them (benchmarks/optimiser.py --problems fresh-... --seeds 100-111).
 _FRESH_MIXED = ("ackley", "rastrigin", "levy", "rosenbrock", "styblinski_tang", "zakharov")
 _FRESH_INTEGER = ("ellipsoid_int", "rastrigin_int")
-FRESH = tuple(f"fresh-{n}" for n in _FRESH_MIXED + _FRESH_INTEGER)
+# Mixed families whose integers all have 5 values: the integer lattice is coarse in the
+# classic function's domain (Ackley's: 16 units of z apart), so a local basin of the
+# continuous part holds each integer assignment, and a run must move the integers as such.
+_FRESH_FIVE = ("ackley", "rastrigin", "levy", "styblinski_tang")
+FRESH = (tuple(f"fresh-{n}" for n in _FRESH_MIXED + _FRESH_INTEGER)
+         + tuple(f"fresh5-{n}" for n in _FRESH_FIVE))
 _FRESH_ROTATED = {"ackley", "rastrigin", "levy", "styblinski_tang", "ellipsoid_int"}
 _FRESH_VALUES = (5, 11, 21, 51, 121)  # integer ranges to draw from (the paper's box: 5 to 121)
 _FRESH_DIM, _FRESH_N_INT = 8, 5
@@ -447,26 +452,29 @@ def _ellipsoid_1e4(z):
 
 
 def fresh(family: str, seed: int) -> TestFunction:
-    """The instance of ``family`` (a name of FRESH, with or without "fresh-") for ``seed``.
+    """The instance of ``family`` (a name of FRESH; "fresh-" may be left off) for ``seed``.
 
-    Mixed families: 8 variables, 5 of them integer (chosen at random) with 5 to 121 values
-    each, continuous bounds [0, 10^U(-1, 3)]; the box maps onto the classic function's usual
-    domain (as ``paper_size``), its optimum moved to a random integer-feasible point x* away
-    from the bounds. Integer families: 8 integers of 11 to 51 values; "ellipsoid_int" a
-    rotated ellipsoid (condition 1e4), "rastrigin_int" Rastrigin with a local minimum every
-    4 steps. ``f(x) = g(z* + R ((x - x*) * step))``, R a random rotation for the families
-    of _FRESH_ROTATED (identity otherwise): g >= g(z*) everywhere, so f* = g(z*) at x*.
+    Mixed families: 8 variables, 5 of them integer (chosen at random) with 5 to 121 values each
+    ("fresh5-": 5 values each), continuous bounds [0, 10^U(-1, 3)]; the box maps onto the
+    classic function's usual domain (as ``paper_size``), its optimum moved to a random
+    integer-feasible point x* away from the bounds. Integer families: 8 integers of 11 to 51
+    values; "ellipsoid_int" a rotated ellipsoid (condition 1e4), "rastrigin_int" Rastrigin with
+    a local minimum every 4 steps. ``f(x) = g(z* + R ((x - x*) * step))``, R a random rotation
+    for the families of _FRESH_ROTATED (identity otherwise): g >= g(z*) everywhere, so f* =
+    g(z*) at x*.
     """
-    name = family.removeprefix("fresh-")
-    if name not in _FRESH_MIXED + _FRESH_INTEGER:
+    five = family.startswith("fresh5-")
+    name = family.removeprefix("fresh5-" if five else "fresh-")
+    if name not in (_FRESH_FIVE if five else _FRESH_MIXED + _FRESH_INTEGER):
         raise KeyError(f"unknown family {family!r}; known: {', '.join(FRESH)}")
-    rng = np.random.default_rng([int(seed), FRESH.index(f"fresh-{name}"), 43])
+    prefix = "fresh5-" if five else "fresh-"
+    rng = np.random.default_rng([int(seed), FRESH.index(f"{prefix}{name}"), 43])
     d = _FRESH_DIM
     if name in _FRESH_MIXED:
         g, width, zstar = _CLASSIC[name]
         integer = np.zeros(d, dtype=bool)
         integer[rng.choice(d, _FRESH_N_INT, replace=False)] = True
-        values = rng.choice(_FRESH_VALUES, d)
+        values = np.full(d, 5) if five else rng.choice(_FRESH_VALUES, d)
     else:
         g, width, zstar = ({"ellipsoid_int": (_ellipsoid_1e4, 10.0, 0.0),
                             "rastrigin_int": (rastrigin, 10.24, 0.0)})[name]
@@ -491,6 +499,6 @@ def fresh(family: str, seed: int) -> TestFunction:
         else "multimodal"
     ranges = "/".join(str(int(v)) for v in values[integer])
     kind = f"{int(integer.sum())} integer of {ranges} values"
-    return TestFunction(f"fresh-{name}", space, fun, float(g(z_opt[None, :])[0]), x_opt, category,
+    return TestFunction(f"{prefix}{name}", space, fun, float(g(z_opt[None, :])[0]), x_opt, category,
                         f"{name}, instance of seed {seed}: 8 variables, {kind}"
                         + (", rotated" if name in _FRESH_ROTATED else ""))

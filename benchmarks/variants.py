@@ -5,7 +5,9 @@ The product has one strategy; an idea to measure is a candidate generator
 policy (``lccopt.optim.restarts.RestartPolicy``'s interface) given to ``Strategy`` here, never
 a setting of the package. ``VARIANTS`` names them for ``benchmarks/optimiser.py --variant``;
 each maps the run's settings to the Strategy keyword arguments that plug it in. Levers that
-were measured this way (or as settings before) and not adopted are in RESULTS-optimiser.md.
+were measured this way (or as settings before) and not adopted are in RESULTS-optimiser.md
+(one line each; the sections named below are in its history, git show
+7c763ea:benchmarks/RESULTS-optimiser.md).
 
 * ``uniform``: uniform points (10 d, at most 1000) compete with the DYCORS steps at the merit
   weight 0.3, as lccopt's first optimiser had them (RESULTS-optimiser.md, "Levers tried on

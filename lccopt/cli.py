@@ -64,6 +64,7 @@ _APP_HELP = (
     "E_rms and E_max, the rms and the max - min over the zone sleepers of the energy "
     "dissipated in the ballast under each (J)."
 )
+_RUN_HELP = "run directory, e.g. runs/moo (or moo: runs/moo)"
 _WORKERS_HELP = "local worker processes (default: number of cores)"
 _SCHEDULER_HELP = "Dask scheduler address, e.g. tcp://host:8786"
 
@@ -110,6 +111,30 @@ def check(case: Path = typer.Argument(..., help="case file (YAML)"),
 
 
 @app.command()
+def example(
+    names: Optional[List[str]] = typer.Argument(
+        None, metavar="[NAME]...", help="bundled case(s), e.g. quickstart, reference, "
+                                        "vehicles/virm-bogie (lccopt example --list)"),
+    list_: bool = typer.Option(False, "--list", help="list the bundled cases and exit"),
+    all_: bool = typer.Option(False, "--all", help="write every bundled case"),
+    out: Path = typer.Option(Path("."), "--out", help="folder to write into (default: the "
+                             "current one)"),
+    force: bool = typer.Option(False, "--force", help="replace files that differ from the "
+                               "bundled ones"),
+) -> None:
+    """Write a bundled case (and the cases it extends) into the current folder, or list them."""
+    from .config.bundled import example_names
+    from .example_command import list_lines, write_examples
+
+    if list_ or not (names or all_):
+        typer.echo("\n".join(list_lines()))
+        return
+    if names and all_:
+        raise UsageError("give case names or --all, not both")
+    typer.echo("\n".join(write_examples(example_names() if all_ else names, out, force)))
+
+
+@app.command()
 def simulate(
     case: Path = typer.Argument(..., help="case file (YAML)"),
     design: Optional[str] = typer.Option(
@@ -149,9 +174,19 @@ def optimise(
                  runs=runs, force=force)
 
 
+def _run_dir(run: Path) -> Path:
+    """RUN as given, or runs/RUN where RUN is a bare name (the case's name) with no folder of
+    that name here: `lccopt status quickstart` reads runs/quickstart."""
+    if os.path.lexists(run) or len(run.parts) != 1:
+        return run
+    if os.path.lexists(Path("runs") / run):
+        return Path("runs") / run
+    raise UsageError(f"{run}: no such run directory, nor {Path('runs') / run}")
+
+
 @app.command()
 def resume(
-    run: Path = typer.Argument(..., help="run directory, e.g. runs/moo"),
+    run: Path = typer.Argument(..., help=_RUN_HELP),
     workers: Optional[int] = typer.Option(None, help=_WORKERS_HELP),
     scheduler: Optional[str] = typer.Option(None, help=_SCHEDULER_HELP),
     case: Optional[Path] = typer.Option(None, help="the case file to check against (default: the "
@@ -165,19 +200,19 @@ def resume(
     """Carry on an interrupted run where it stopped, or a finished one to a larger budget."""
     from .engine.runner import resume as run_resume
 
-    run_resume(run, workers=workers, scheduler=scheduler, case=case,
+    run_resume(_run_dir(run), workers=workers, scheduler=scheduler, case=case,
                allow_changed_case=allow_changed_case, budget=budget)
 
 
 @app.command()
-def status(run: Path = typer.Argument(..., help="run directory, e.g. runs/moo")) -> None:
+def status(run: Path = typer.Argument(..., help=_RUN_HELP)) -> None:
     """Where a run stands: state, evaluations, best so far, pace (safe while it runs)."""
     from .engine.journal import JournalError
     from .engine.rundir import RunError
     from .engine.status import status_lines
 
     try:
-        lines = status_lines(run)
+        lines = status_lines(_run_dir(run))
     except (RunError, JournalError) as exc:
         raise UsageError(str(exc)) from None
     typer.echo("\n".join(lines))
@@ -185,7 +220,7 @@ def status(run: Path = typer.Argument(..., help="run directory, e.g. runs/moo"))
 
 @app.command()
 def report(
-    run: Path = typer.Argument(..., help="run directory, e.g. runs/moo"),
+    run: Path = typer.Argument(..., help=_RUN_HELP),
     format: Format = typer.Option(Format.both, "--format", help="summary format"),
     out: Optional[Path] = typer.Option(
         None, "--out", help="output directory (default: RUN/report)"),
@@ -194,7 +229,7 @@ def report(
     """Write figures and a summary of a run into RUN/report/ (or --out)."""
     from .report import write_report
 
-    write_report(run, format.value, out, force)
+    write_report(_run_dir(run), format.value, out, force)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -239,7 +274,7 @@ def _main(argv, usage_errors, aborts) -> int:
     except (KeyboardInterrupt, *aborts) as exc:
         return _interrupted(exc)
     except usage_errors as exc:  # usage errors: one line naming the command, exit 2
-        return _fail(_usage_line(exc), EXIT_USAGE)
+        return _fail(_usage_line(exc, sys.argv[1:] if argv is None else argv), EXIT_USAGE)
     except BrokenPipeError:  # the reader went away (| head): stop quietly, as SIGPIPE would
         _silence_stdio()
         return EXIT_PIPE
@@ -272,13 +307,31 @@ def _click_exception_types() -> tuple[tuple, tuple]:
     return tuple(usage), tuple(aborts)
 
 
-def _usage_line(exc: Exception) -> str:
-    """click's usage error as one line: `lccopt report: error: ... (see lccopt report --help)`."""
+def _usage_line(exc: Exception, argv=()) -> str:
+    """click's usage error as one line: `lccopt report: error: ... (see lccopt report --help)`,
+    with how to write --set where a --set value split into two words caused it."""
     ctx = getattr(exc, "ctx", None)
     command = "lccopt" + (f" {ctx.info_name}" if ctx is not None and ctx.parent is not None else "")
     message = exc.format_message() if hasattr(exc, "format_message") else str(exc)
     message = " ".join(message.replace("Value error, ", "").split())
-    return f"{command}: error: {message} (see {command} --help)"
+    hint = _set_hint(list(argv)) if "unexpected extra argument" in message else ""
+    return f"{command}: error: {message} (see {command} --help){hint}"
+
+
+def _set_hint(argv: list[str]) -> str:
+    """For a --set whose value the shell split in two (`--set optimisation.budget 30`,
+    `--set vehicle.speed=120 km/h`): the one word it should have been."""
+    for i, arg in enumerate(argv[:-2]):
+        value, extra = argv[i + 1], argv[i + 2]
+        if arg != "--set" or extra.startswith("-"):
+            continue
+        if "=" not in value:
+            return (f"; --set takes KEY=VALUE as one word: --set {value}={extra}"
+                    if " " not in extra else f"; --set takes KEY=VALUE as one word, quoted "
+                                             f"if it holds a space: --set '{value}={extra}'")
+        return (f"; a --set value with a space must be quoted: --set '{value} {extra}' "
+                f"(or no space: --set {value}{extra})")
+    return ""
 
 
 def _fail(message: str, code: int) -> int:

@@ -28,6 +28,7 @@ import numpy as np
 
 from .config import Case
 from .errors import CaseError
+from .uncertainty import statistics as robust
 
 # The ASF's worst values when a case gives none: 1.5 x the reference design's objectives. The
 # paper takes them from the single-objective optima, which cost a run per objective; this
@@ -90,6 +91,10 @@ class Problem:
     log: tuple[bool, ...] = ()            # variables searched on a log scale (empty: none)
     # conditions simulated inside one evaluation (a settlement prediction's traffic)
     traffic: tuple[str, ...] = ()
+    # realisations of the track every design is simulated on (a case with uncertainty:), and
+    # the robust statistics recorded for every design (``complete``)
+    realisations: int = 0
+    statistics: tuple[str, ...] = ()
 
     @classmethod
     def from_case(cls, case: Case) -> "Problem":
@@ -109,7 +114,7 @@ class Problem:
         if conditions and mode == "each":  # objective-major: F_max@a, F_max@b, E_max@a, ...
             if worst is not None and len(worst) == len(objectives):
                 worst = [w for w in worst for _ in conditions]
-            objectives = tuple(f"{k}@{c}" for k in objectives for c in conditions)
+            objectives = tuple(robust.at_condition(k, c) for k in objectives for c in conditions)
         return cls(
             names=tuple(case.names),
             lower=tuple(float(v) for v in case.lower),
@@ -130,6 +135,8 @@ class Problem:
             log=tuple(bool(v) for v in case.log) if case.log.any() else (),
             traffic=(tuple(c.name for c in case.traffic) if case.degradation is not None
                      else ()),
+            realisations=case.realisations,
+            statistics=tuple(robust.recorded(objectives)) if case.realisations else (),
         )
 
     # -- design space -----------------------------------------------------------------------
@@ -158,6 +165,13 @@ class Problem:
     @property
     def multi(self) -> bool:
         return len(self.objectives) > 1
+
+    @property
+    def reference_first(self) -> bool:
+        """The reference design's result comes before any other design's value: it fixes the
+        ASF's reference point (two or more objectives) or what p_worse compares with."""
+        return self.multi or any(robust.parse(k) is not None and robust.parse(k)[0] == "p_worse"
+                                 for k in self.objectives)
 
     @property
     def scalarisation(self) -> str:
@@ -216,7 +230,7 @@ class Problem:
         """Same variables, bounds, scales, reference design and objectives (what a resume must
         keep: the optimiser's proposals depend on them)."""
         keys = ("names", "lower", "upper", "integer", "reference", "objectives", "conditions",
-                "weights", "condition_mode", "log")
+                "weights", "condition_mode", "log", "realisations")
         return all(getattr(self, k) == getattr(other, k) for k in keys)
 
     # -- scalar value ------------------------------------------------------------------------
@@ -283,6 +297,30 @@ class Problem:
 
         return float(asf(self.objective_vector(objectives), reference_point,
                          self.worst, rho=self.rho))
+
+    # -- realisations of the track -------------------------------------------------------------
+    def realisation_objectives(self, tracks: list[dict]) -> dict:
+        """Each realisation's objectives as ``F_max#r`` from the objectives of each
+        realisation's track (in order): every combined objective, and a condition's own
+        (``F_max@name``) where a statistic of the case names it."""
+        named = {robust.objective_of(k) for k in self.statistics}
+        out = {}
+        for r, objectives in enumerate(tracks):
+            for k, v in objectives.items():
+                if "@" not in k or k in named:
+                    out[robust.realisation_key(k, r)] = float(v)
+        return out
+
+    def complete(self, objectives: dict, reference_objectives: dict | None) -> dict:
+        """The objectives with the robust statistics the run records (``statistics``): the
+        mean and quantiles of a design's realisations, and p_worse against the reference
+        design's (``reference_objectives``; the design's own for the reference design)."""
+        if not self.statistics:
+            return objectives
+        out = dict(objectives)
+        for k in self.statistics:
+            out[k] = robust.statistic(k, objectives, self.realisations, reference_objectives)
+        return out
 
     # -- traffic conditions ------------------------------------------------------------------
     def combine(self, per_condition: list[dict]) -> dict:

@@ -13,6 +13,7 @@ import math
 import time
 from pathlib import Path
 
+import numpy as np
 import typer
 
 from . import machine
@@ -49,6 +50,8 @@ def run_simulate(case_path: Path, design: str | None, out: Path | None, plots: b
         raise UsageError(f"{out} already holds a simulation: choose another --out, or add --force "
                          f"to replace it")
     evaluate = _simulator()
+    if case.realisations:
+        return _simulate_realisations(case, case_path, x, out, plots, evaluate)
     if case.degradation is not None:
         return _simulate_settlement(case, case_path, x, out, plots, evaluate)
     if case.conditions:
@@ -63,9 +66,11 @@ def run_simulate(case_path: Path, design: str | None, out: Path | None, plots: b
     typer.echo(zone_line(case))
     typer.echo(f"Hertz spring linearised at P = {info['hertz_load'] / 1e3:.1f} kN: "
                f"k_w = {info['contact_stiffness'] / 1e9:.3f} GN/m")
+    edge = info.get("interface_entry", 0.0)   # positions from the entry slab edge, as plotted
     typer.echo(f"{info['n_dofs']} track dofs, {info['n_steps']} steps of "
-               f"{info['time_step'] * 1e3:g} ms, wheel from {info['x_start']:.1f} m to "
-               f"{info['x_end']:.1f} m, {wall:.2f} s")
+               f"{info['time_step'] * 1e3:g} ms, {wall:.2f} s")
+    typer.echo(f"wheel from {info['x_start'] - edge:.1f} m to {info['x_end'] - edge:.1f} m "
+               f"from the entry slab edge")
     for k, v in ev.objectives.items():
         scale, unit = objective_display(k)
         typer.echo(f"  {k:<6} = {v * scale:10.5g} {unit:<2}  {OBJECTIVE_DOC.get(k, '')}")
@@ -199,6 +204,116 @@ def _simulate_settlement(case, case_path: Path, x, out: Path, plots: bool, evalu
         for p in paths:
             typer.echo(f"plot: {p}")
     return ev
+
+
+def _simulate_realisations(case, case_path: Path, x, out: Path, plots: bool,
+                           evaluate) -> Evaluation:
+    """A case with uncertainty: the design on the track as drawn and on each realisation
+    (each under every traffic condition, combined as the optimiser would), one line per
+    track, the statistics over the realisations, one file with every track and the spread
+    figure."""
+    from .config.uncertainty import uncertainty_lines
+    from .problem import Problem
+    from .report.data import BEST_COLOR
+    from .report.robust import fig_spread, spread_of
+    from .store import write_condition_evaluations
+    from .uncertainty import statistics as stats
+
+    problem = Problem.from_case(case) if _optimisable(case) else None
+    keys = _spread_keys(case)
+    _echo_design(case, case_path, x)
+    if case.traffic:
+        typer.echo("\n".join(line[2:] for line in condition_lines(case)))
+    else:
+        typer.echo(f"vehicle: {vehicle_line(case.vehicle)}")
+    typer.echo(zone_line(case))
+    typer.echo("\n".join(line[2:] for line in uncertainty_lines(case)[:-1]))
+    head = "".join(f"{k[:13]:>14}" for k in keys)
+    units = "".join(f"{'[' + (objective_display(k)[1] or '-') + ']':>14}" for k in keys)
+    typer.echo(f"{'track':<16}{head}{'time':>7}")
+    typer.echo(f"{'':<16}{units}")
+    names = [c.name for c in case.conditions]
+    weights = [c.weight for c in case.conditions]
+    conditions = list(range(len(case.conditions))) or [-1]
+    on_track, first, drawn_evs = [], [], []
+    for r in [-1, *range(case.realisations)]:
+        t0 = time.perf_counter()
+        evs = []
+        for c in conditions:
+            ev = evaluate(case.part_case(c, r), x)
+            where = (f"{names[c]}, " if c >= 0 else "") + (f"realisation {r}" if r >= 0 else
+                                                          "the drawn track")
+            _check_finite(ev.objectives, case, x, where)
+            evs.append(ev)
+        combined = (combine_tracks(evs, names, weights, case.condition_mode) if names
+                    else dict(evs[0].objectives))
+        label = "as drawn" if r < 0 else f"realisation {r}"
+        vals = "".join(f"{combined[k] * objective_display(k)[0]:14.5g}" for k in keys)
+        typer.echo(f"{label:<16}{vals}{time.perf_counter() - t0:6.2f}s")
+        if r < 0:
+            drawn_evs = evs
+        else:
+            on_track.append(combined)
+            first.append(evs[0])
+    n = case.realisations
+    realised = {stats.realisation_key(k, r): v for r, o in enumerate(on_track)
+                for k, v in o.items() if "@" not in k}
+    combined = (combine_tracks(drawn_evs, names, weights, case.condition_mode) if names
+                else dict(drawn_evs[0].objectives))
+    objectives = {**combined, **realised}
+    levels = sorted({stats.parse(k)[2] for k in (problem.objectives if problem else ())
+                     if stats.parse(k) and stats.parse(k)[0] == "quantile"}) or [0.9]
+    rows = [("mean", lambda v: stats.mean(v))]
+    rows += [(f"{q:.0%} quantile", lambda v, q=q: stats.quantile(v, q)) for q in levels]
+    rows += [("lowest", np.min), ("highest", np.max)]
+    for label, fn in rows:
+        vals = "".join(f"{fn(stats.values(objectives, k, n)) * objective_display(k)[0]:14.5g}"
+                       for k in keys)
+        typer.echo(f"{label:<16}{vals}")
+    out.mkdir(parents=True, exist_ok=True)
+    h5 = write_condition_evaluations(out / "simulation.h5", drawn_evs, x, case.names, names,
+                                     weights, objectives,
+                                     {"case": case.resolved, **machine.describe()},
+                                     realisations=list(zip(on_track, first)))
+    typer.echo(f"histories: {h5}")
+    if plots:
+        from .report.simulation import simulation_figures
+
+        label = ("the reference design" if np.array_equal(x, case.reference)
+                 else "this design")
+        spread = spread_of(label, objectives, n, BEST_COLOR)
+        paths = [fig_spread([spread], keys, out, f"'{case.name}': the design on {n} "
+                                                 f"realisations of the track")]
+        paths += simulation_figures(drawn_evs[0], case.name, out)
+        for p in paths:
+            typer.echo(f"plot: {p}")
+    return Evaluation(objectives, drawn_evs[0].histories, drawn_evs[0].info)
+
+
+def combine_tracks(evs, names, weights, mode) -> dict:
+    """One track's objectives from its conditions' evaluations, combined as the optimiser
+    would (``Problem.combine``)."""
+    from .problem import combine_conditions
+
+    return combine_conditions([e.objectives for e in evs], names, weights, mode)
+
+
+def _optimisable(case) -> bool:
+    opt = case.optimisation or {}
+    return bool(opt.get("objectives")) and bool(opt.get("budget"))
+
+
+def _spread_keys(case) -> list[str]:
+    """The objectives a simulation of a case with uncertainty shows per track: those the
+    case's objectives measure, then the paper's F_max and E_max (and a settlement measure),
+    four at most."""
+    from .uncertainty import statistics as stats
+
+    named = [stats.objective_of(k) for k in (case.optimisation or {}).get("objectives") or []]
+    default = ["F_max", "E_max", "F_rms", "E_rms"]
+    if case.degradation is not None:
+        default = ["differential_settlement", "max_settlement", "F_max", "E_max"]
+    return list(dict.fromkeys([*named, *default]))[:4]
 
 
 def _echo_objectives(objectives: dict, keys) -> None:

@@ -15,6 +15,7 @@ import numpy as np
 
 from .atomic import atomic_path
 from .safeio import h5_open_owned
+from .uncertainty import statistics
 from .vti.response import HISTORY_DOC, OBJECTIVE_UNITS, Evaluation
 
 
@@ -67,42 +68,67 @@ def evaluation_problem(path: str | Path, i: int, x) -> str | None:
     return None
 
 
-# Traffic conditions (engine/conditions.py): one file per design holds every condition under
-# /conditions/<name>/{objectives,histories,info}; the top level keeps the combined objectives
-# and the first condition's histories and info, so readers of one-condition files read it too.
+# Traffic conditions and realisations of the track (engine/conditions.py): one file per
+# design holds every condition under /conditions/<name>/{objectives,histories,info} and, for a
+# case with uncertainty:, every realisation r under /realisations/<r>/{objectives,histories,
+# info} (its objectives combined over the conditions, the first condition's per-sleeper
+# histories and info). The top level keeps the combined objectives (with each realisation's
+# as F_max#r) and the first condition's histories and info on the track as drawn, so readers
+# of one-simulation files read it too.
 
 def merge_condition_files(path: str | Path, parts, names, weights, objectives: dict,
-                          attrs: dict, durable: bool = True) -> Path:
-    """Merge the per-condition files ``parts`` (in condition order) into one file, atomically
-    (``durable``: as ``write_evaluation``)."""
+                          attrs: dict, durable: bool = True, realisations=()) -> Path:
+    """Merge the per-condition files ``parts`` (in condition order; one file and no names for
+    a case without conditions) into one file, atomically (``durable``: as
+    ``write_evaluation``); ``realisations``: (objectives, first condition's file) of each
+    realisation, in order."""
     path = Path(path)
     with atomic_path(path, durable) as tmp, h5py.File(tmp, "w") as f:
-        for i, (part, name) in enumerate(zip(parts, names)):
+        for i, part in enumerate(parts):
             with h5_open_owned(part) as src:
                 if i == 0:
                     for key in ("design", "histories", "info"):
                         src.copy(src[key], f, name=key)
-                g = f.require_group("conditions").create_group(name)
-                for key in ("objectives", "histories", "info"):
+                if names:
+                    g = f.require_group("conditions").create_group(names[i])
+                    for key in ("objectives", "histories", "info"):
+                        src.copy(src[key], g, name=key)
+        for r, (obj, part) in enumerate(realisations):
+            g = f.require_group("realisations").create_group(str(r))
+            with h5_open_owned(part) as src:
+                for key in ("histories", "info"):
                     src.copy(src[key], g, name=key)
+            _write_objectives(g.create_group("objectives"), obj)
         _write_objectives(f.create_group("objectives"), objectives)
         _set_attrs(f["info"], attrs)
-        _condition_attrs(f, names, weights)
+        if names:
+            _condition_attrs(f, names, weights)
+        if realisations:
+            f.attrs["realisations"] = len(realisations)
     return path
 
 
 def write_condition_evaluations(path: str | Path, evaluations, x, design_names, names, weights,
-                                objectives: dict, attrs: dict, durable: bool = True) -> Path:
-    """Write the evaluations of one design under every condition (in order) as one file
-    (``durable``: as ``write_evaluation``)."""
+                                objectives: dict, attrs: dict, durable: bool = True,
+                                realisations=()) -> Path:
+    """Write the evaluations of one design under every condition (in order; one evaluation
+    and no names for a case without conditions) as one file (``durable``: as
+    ``write_evaluation``); ``realisations``: (objectives, first condition's evaluation) of
+    each realisation, in order."""
     path = Path(path)
     with atomic_path(path, durable) as tmp, h5py.File(tmp, "w") as f:
         _write_design(f, x, design_names)
         first = evaluations[0]
         _write_group(f, Evaluation(objectives, first.histories, first.info), attrs)
-        for ev, name in zip(evaluations, names):
-            _write_group(f.require_group("conditions").create_group(name), ev)
-        _condition_attrs(f, names, weights)
+        if names:
+            for ev, name in zip(evaluations, names):
+                _write_group(f.require_group("conditions").create_group(name), ev)
+            _condition_attrs(f, names, weights)
+        for r, (obj, ev) in enumerate(realisations):
+            _write_group(f.require_group("realisations").create_group(str(r)),
+                         Evaluation(obj, ev.histories, ev.info))
+        if realisations:
+            f.attrs["realisations"] = len(realisations)
     return path
 
 
@@ -113,6 +139,14 @@ def read_conditions(path: str | Path) -> dict[str, Evaluation]:
         if "conditions" not in f:
             return {}
         return {str(name): _read_group(f["conditions"][name]) for name in f.attrs["conditions"]}
+
+
+def read_realisations(path: str | Path) -> list[Evaluation]:
+    """Every realisation's evaluation of a merged file, in order ([] for a file without):
+    objectives combined over the conditions, the first condition's per-sleeper histories."""
+    with h5_open_owned(path) as f:
+        n = int(f.attrs.get("realisations", 0))
+        return [_read_group(f["realisations"][str(r)]) for r in range(n)]
 
 
 # -- one evaluation in an HDF5 group --------------------------------------------------------------
@@ -142,9 +176,16 @@ def _write_group(g, evaluation: Evaluation, attrs: dict | None = None) -> None:
 
 
 def _write_objectives(g, objectives: dict) -> None:
-    for k, v in objectives.items():           # F_max, or F_max@<condition>
+    for k, v in objectives.items():   # F_max, F_max@<condition>, F_max#<realisation>, q90(F_max)
         g.attrs[k] = v
-        g.attrs[k + "_unit"] = OBJECTIVE_UNITS.get(k.split("@")[0], "")
+        g.attrs[k + "_unit"] = stored_unit(k)
+
+
+def stored_unit(k: str) -> str:
+    """The unit an evaluation file writes beside objective ``k`` ("" when unknown)."""
+    if statistics.parse(k) is not None and statistics.parse(k)[0] == "p_worse":
+        return "-"
+    return OBJECTIVE_UNITS.get(statistics.objective_of(k).split("@")[0], "")
 
 
 def _set_attrs(g, attrs: dict) -> None:

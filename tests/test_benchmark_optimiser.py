@@ -6,6 +6,11 @@ import os
 import subprocess
 import sys
 
+import pytest
+
+# seconds a test: the benchmark scripts' runs
+pytestmark = pytest.mark.slow
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SCRIPT = os.path.join(ROOT, "benchmarks", "optimiser.py")
 

@@ -101,6 +101,8 @@ def test_fresh_instances_have_their_stated_optimum(name):
         x = sp.check(p.x_opt, what=f"{name} x_opt")
         assert p(x) == pytest.approx(p.f_opt, rel=1e-12, abs=1e-12)
         assert int(sp.int_mask.sum()) == (8 if name.endswith("_int") else 5)
+        if name.startswith("fresh5-"):
+            assert set((sp.ub - sp.lb)[sp.int_mask]) == {4.0}  # 5 values each
         rng = np.random.default_rng(seed)
         for i in range(sp.dim):
             vals = (np.arange(sp.lb[i], sp.ub[i] + 1) if sp.int_mask[i]

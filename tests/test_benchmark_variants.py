@@ -8,6 +8,7 @@ import subprocess
 import sys
 
 import numpy as np
+import pytest
 
 from benchmarks import problems, variants
 from lccopt.optim.settings import Settings
@@ -63,6 +64,7 @@ def test_alternate_restarts_go_on_from_the_best_point_on_odd_restarts():
     assert all(designs[r] == (0 if r % 2 == 1 else 10) for r in designs), designs
 
 
+@pytest.mark.slow
 def test_a_variant_run_resumes_exactly_with_its_extension_passed_again():
     p = problems.paper_size("rastrigin")
     for variant in variants.VARIANTS:

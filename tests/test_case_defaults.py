@@ -38,6 +38,7 @@ def test_initial_points_default(tmp_path, body, initial):
     assert Problem.from_case(c).initial_points == initial
 
 
+@pytest.mark.slow
 def test_check_and_simulate_need_no_optimisation_key(tmp_path, run_cli):
     # a multi-objective section without worst (the issue: simulate refused it), and one
     # without objectives or budget
@@ -74,6 +75,7 @@ def test_the_default_worst_values_follow_the_reference_design(tmp_path):
     assert Problem.from_case(given).with_reference(ref).worst == (9000.0, 1.0)
 
 
+@pytest.mark.slow
 def test_a_run_without_worst_journals_the_default_with_the_reference(tmp_path, run_cli):
     p = case(tmp_path, "optimisation:\n  objectives: [F_max, E_max]\n  budget: 8\n"
                        "  initial_points: 4\n" + CHEAP_SIMULATION, "w")

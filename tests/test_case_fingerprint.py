@@ -10,6 +10,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from lccopt.config import load_case
 from lccopt.engine.journal import read_journal
@@ -35,6 +36,7 @@ def _wait_for(cond, what: str, timeout: float = 120.0) -> None:
         time.sleep(0.05)
 
 
+@pytest.mark.slow
 def test_an_edited_profile_is_a_changed_case_and_the_run_keeps_its_own(tmp_path):
     (tmp_path / "profile.csv").write_text(ORIGINAL)
     case = write_case(tmp_path, "irr", budget=30, initial=5,
@@ -95,6 +97,7 @@ def test_every_condition_profile_is_held_and_the_copy_reads_back_the_same(tmp_pa
         assert (a is None and b is None) or np.array_equal(a, b)
 
 
+@pytest.mark.slow
 def test_a_run_copy_with_a_long_profile_exceeds_the_case_limit_and_still_loads(tmp_path):
     """A case file is at most 1 MB besides its profiles' rows: the run's copy of a case with a
     25 000-row profile (1.2 MB) loads, and reads back the same rows."""

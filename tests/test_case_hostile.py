@@ -267,6 +267,7 @@ NEXT_TO = {
 
 
 @pytest.mark.parametrize("kind", list(NEXT_TO))
+@pytest.mark.slow
 def test_hostile_files_names_and_sizes_next_to_the_case(tmp_path, run_cli, kind):
     make, start, words = NEXT_TO[kind]
     target = make(tmp_path)

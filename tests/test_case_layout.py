@@ -48,12 +48,13 @@ def test_a_nine_metre_slab_moves_the_zone_end_with_it(tmp_path, run_cli):
     case = write(tmp_path, ONE_SLAB + CHEAP_SIMULATION)
     r = run_cli("check", case)
     assert r.returncode == 0, r.stderr
-    assert "force to 2 m before the exit interface (x = 107 m)" in r.stdout
+    assert ("force to 2 m before the exit interface,\n        7 m past the entry slab edge"
+            in r.stdout)
     # and the Type II strip's range with it: the whole ERS, by default
     assert "x_l [0, 9] m in 0.1 m steps" in r.stdout
     r = run_cli("simulate", case, "--out", tmp_path / "out", "--no-plots")
     assert r.returncode == 0, r.stderr
-    assert "(x = 107 m)" in r.stdout
+    assert "7 m past the entry slab edge" in r.stdout
     with h5py.File(tmp_path / "out" / "simulation.h5") as f:
         info = f["info"].attrs
         assert info["interface_exit"] == pytest.approx(109.0)

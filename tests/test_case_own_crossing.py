@@ -63,7 +63,8 @@ def test_check_follows_the_slab_length_and_the_speed(cases, run_cli):
     assert r.returncode == 0, r.stderr
     out = r.stdout.splitlines()
     assert "  vehicle: half-car, 160 km/h, static wheel load 87.22 kN per wheel" in out
-    assert "  zone: 20 sleepers; force to 2 m before the exit interface (x = 107 m)" in out
+    assert "  zone: 20 sleepers; force to 2 m before the exit interface," in out
+    assert "        7 m past the entry slab edge" in out
     assert "x_l [0, 9] m in 0.1 m steps" in r.stdout
     assert "  optimisation: F_max, E_max; budget 100, 20 initial points; histories: best" in out
     assert "    asf.worst: 1.5 x the reference design's objectives (the default)" in out

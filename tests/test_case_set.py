@@ -82,6 +82,7 @@ def test_check_and_simulate_take_set(tmp_path, run_cli):
     assert resolved["vehicle"]["speed"] == pytest.approx(100 / 3.6)
 
 
+@pytest.mark.slow
 def test_optimise_takes_set_and_the_run_records_it(tmp_path, run_cli):
     case = write_case(tmp_path, "ov", objectives=("F_max",), budget=20, initial=5)
     r = run_cli("optimise", case, "--workers", "1", "--runs", tmp_path / "runs",

@@ -178,6 +178,7 @@ def test_bundled_vehicle_cases_load_and_simulate(tmp_path, name, kind, wheels, l
     assert ev.info["contact_loss_steps"] == 0
 
 
+@pytest.mark.slow
 def test_simulate_command_runs_a_half_car(tmp_path):
     import os
     import subprocess

@@ -126,6 +126,7 @@ def test_design_is_given_in_mn_per_m_and_checked_in_those_units(run_cli, tmp_pat
         "lccopt: error: --design: x_r1 = 2.14e+08 MN/m is outside [50, 1200] MN/m")
 
 
+@pytest.mark.slow
 def test_simulate_refuses_to_overwrite_without_force(run_cli, tmp_path):
     args = ("simulate", CONFIGS / "reference.yaml", "--out", tmp_path / "o", "--no-plots")
     assert run_cli(*args).returncode == 0

@@ -12,7 +12,12 @@ import subprocess
 import termios
 import time
 
-from tests.conftest import REFERENCE, lccopt_command, subprocess_env, write_case
+import pytest
+
+from tests.conftest import CONFIGS, REFERENCE, lccopt_command, subprocess_env, write_case
+
+# seconds a test: runs on a pseudo-terminal
+pytestmark = pytest.mark.slow
 
 ANSI = re.compile(r"\x1b\[[0-9;?]*[A-Za-z]")
 
@@ -47,20 +52,43 @@ def run_in_terminal(args, cwd, columns=80, timeout=300) -> str:
 
 
 def test_progress_fits_80_columns_and_names_objectives_in_engineering_units(tmp_path):
-    case = write_case(tmp_path, name="tty", budget=8, initial=4)
-    out = run_in_terminal(["optimise", case, "--workers", "1", "--runs", tmp_path / "runs"],
-                          tmp_path)
+    write_case(tmp_path, name="tty", budget=8, initial=4)
+    out = run_in_terminal(["optimise", "tty.yaml", "--workers", "1"], tmp_path)
     text = ANSI.sub("", out)
     screen_lines = [seg for line in text.split("\n") for seg in line.split("\r")]
     progress = [s for s in screen_lines if re.search(r"\b\d/8\b", s)]
     assert len(progress) >= 8, text           # redrawn in place: one segment per evaluation
-    too_wide = [s for s in progress if len(s.rstrip()) > 80]
+    too_wide = [s for s in screen_lines if len(s.rstrip()) > 80]
     assert not too_wide, too_wide
     # an ETA once known
     assert "8/8" in progress[-1] and "-:--:--" not in progress[-1], progress[-1]
-    assert re.search(r"F_max [0-9.]+ kN [+-]\d+%", progress[-1]), progress[-1]
+    # the best design below the line, in engineering units with the change
+    best = [s for s in screen_lines if s.startswith("  best ")]
+    assert best and re.search(r"F_max [0-9.]+ kN [+-]\d+%, E_max [0-9.]+ J [+-]\d+%", best[-1]), \
+        best
     # the full best-design line is in the summary printed at the end
     assert re.search(r"F_max [0-9.]+ kN", text) and re.search(r"E_max [0-9.]+ J", text), text
+
+
+def test_long_objective_names_are_never_cut_at_80_columns(tmp_path):
+    """A settlement run's three objectives (differential_settlement, maintenance_rate, F_max)
+    do not fit beside the bar on 80 columns: they go on the lines below it, wrapped between
+    objectives, each name whole."""
+    case = tmp_path / "long.yaml"
+    case.write_text(f"extends: {CONFIGS / 'settlement.yaml'}\nname: long\noptimisation:\n"
+                    "  objectives: [differential_settlement, maintenance_rate, F_max]\n"
+                    "  budget: 6\n  initial_points: 4\n", encoding="utf-8")
+    code, text = _pty_run(["optimise", "long.yaml", "--workers", "1"], tmp_path,
+                          env={"LCCOPT_EVALUATOR": "tests.engine.fakesim:settled"})
+    assert code == 0, text
+    lines = [seg for line in ANSI.sub("", text).split("\n") for seg in line.split("\r")]
+    assert not [s for s in lines if len(s.rstrip()) > 80]
+    assert not [s for s in lines if "…" in s], text            # nothing cut
+    best = [s for s in lines if s.startswith("  best ")]
+    assert best, text
+    shown = " ".join(s for s in lines if s.startswith(("  best ", "       ")))
+    for name in ("differential_settlement", "maintenance_rate", "F_max"):
+        assert re.search(rf"{name} [0-9.]+ \S+ [+-]\d+%", shown), (name, shown)
 
 
 def test_a_traffic_run_moves_per_condition_from_the_first_simulation(tmp_path):

@@ -20,6 +20,9 @@ import pytest
 from lccopt.engine.journal import read_journal
 from tests.conftest import CONFIGS, lccopt_command
 
+# seconds a test: settlement runs through the command line
+pytestmark = pytest.mark.slow
+
 BOGIE = (CONFIGS / "vehicles" / "virm-bogie.yaml").as_posix()
 SETTLEMENT = ("level_d1_max", "level_d1_std", "rail_step", "rail_angle",
               "differential_settlement", "max_settlement", "max_void", "level_std",
@@ -230,3 +233,55 @@ def test_a_settlement_objective_alone_is_what_the_run_minimises(tmp_path):
         assert np.all(void > 0) and np.ptp(void) > 1e-5     # the designs differ
     r = cli("status", tmp_path / "runs" / "v", cwd=tmp_path)
     assert r.returncode == 0 and "max_void" in r.stdout, r.stdout + r.stderr
+
+
+def test_settlement_history_keeps_its_labels_clear_of_the_legend_and_the_limit(run, monkeypatch,
+                                                                               tmp_path):
+    """The time marks (1 day, 1 week, ...) are labelled on an axis of their own above the lower
+    panel, and its legend sits below it: no label runs into the legend, the curves or the
+    limit line (measured on the drawn figure, in pixels)."""
+    from lccopt.report import settlement, write_report
+
+    figs = {}
+
+    def keep(fig, path):
+        fig.canvas.draw()
+        figs[Path(path).stem] = fig
+        return path
+
+    monkeypatch.setattr(settlement, "_save", keep)
+    write_report(run[0] / "runs" / "s", "md", tmp_path / "rep", False)
+    fig = figs["settlement-history"]
+    lower = [ax for ax in fig.axes if ax.get_ylabel() == "[mm]"][0]
+    assert not lower.texts                     # nothing written inside the panel
+    inside = lower.get_window_extent()
+    labels = [t for ax in fig.axes if ax is not lower and ax.bbox.bounds == lower.bbox.bounds
+              for t in ax.get_xticklabels() if t.get_text()]
+    labels += [t for child in lower.child_axes for t in child.get_xticklabels() if t.get_text()]
+    texts = [t.get_text() for t in labels]
+    assert {"1 day", "1 week", "1 month"} <= set(texts), texts
+    boxes = [t.get_window_extent() for t in labels]
+    assert all(b.y0 >= inside.y1 - 1 for b in boxes), "a time label inside the panel"
+    legend = lower.get_legend().get_window_extent()
+    assert legend.y1 <= inside.y0, "the legend overlaps the panel"
+    assert not any(a.overlaps(b) for i, a in enumerate(boxes) for b in boxes[i + 1:]), texts
+
+
+@pytest.mark.parametrize("degradation, key", [
+    ("{trains_per_day: 30}", "degradation.trains_per_day"),
+    ("{trains_per_day: 30, vehicles_per_train: 4, tamping: {unreachable_sleepers: 25}}",
+     "degradation.tamping.unreachable_sleepers"),
+    ("{trains_per_day: 30, vehicles_per_train: 4, subgrade: {depth: 0}}",
+     "degradation.subgrade.depth"),
+])
+def test_bad_traffic_tamping_and_subgrade_are_one_line_exit_2(tmp_path, degradation, key):
+    """What a user gets wrong most (a train without its length, a tamping that reaches no
+    sleeper, a subgrade at no depth): exit 2, one line naming the file, line and key."""
+    case = tmp_path / "bad.yaml"
+    case.write_text(f"extends: {BOGIE}\nname: bad\ndegradation: {degradation}\n",
+                    encoding="utf-8")
+    r = cli("check", case, cwd=tmp_path)
+    assert r.returncode == 2, r.stdout + r.stderr
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in r.stderr, r.stderr
+    assert re.search(rf"{re.escape(str(case))}:3: {re.escape(key)}: ", lines[0]), lines[0]

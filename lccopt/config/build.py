@@ -24,6 +24,7 @@ from ..vti.specs import (
     StrengthenedSleeper,
     TrackDesign,
     TrackSpec,
+    TrackVariation,
     VehicleSpec,
 )
 from .profiles import profile_array
@@ -114,11 +115,12 @@ def profile(data: dict) -> np.ndarray | None:
                      f"keeps its rows")
 
 
-def scenario(data: dict) -> Scenario:
-    """One simulation's inputs from the typed sections of a case (or of one condition)."""
+def scenario(data: dict, variation: TrackVariation | None = None) -> Scenario:
+    """One simulation's inputs from the typed sections of a case (or of one condition), on
+    the track as drawn or as one realisation (``variation``) has it."""
     return Scenario(vehicle=vehicle_spec(data["vehicle"]), track=track_spec(data["track"]),
                     settings=settings(data["simulation"]), zones=zones(data["evaluation"]),
-                    irregularity=profile(data))
+                    irregularity=profile(data), variation=variation)
 
 
 def track_design(variables, x, dynamic_to_static: float | None = None) -> TrackDesign:

@@ -10,7 +10,7 @@ prints it and exits with status 2.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 from pathlib import Path
 
@@ -50,6 +50,7 @@ from .reading import (
     shown,
 )
 from .schema import SAFE_NAME, SCHEMA, check
+from .uncertainty import check_uncertainty, draw
 from .zones import check_design_space, derive_strip_bounds, resolve_zone
 
 
@@ -103,6 +104,10 @@ class Case:
     over its workers: the same, except for a case with ``degradation:``, whose one settlement
     prediction per design simulates every condition on the track they settle together (so
     ``conditions`` is empty and the prediction reads ``traffic``).
+
+    ``variations`` holds the realisations of a case with ``uncertainty:`` (drawn once, when
+    the case is loaded: ``lccopt.config.uncertainty``); ``realisation`` is the one this case
+    object simulates (``part_case``), -1 for the track as drawn.
     """
     path: Path
     text: str
@@ -111,6 +116,8 @@ class Case:
     conditions: tuple["Condition", ...] = ()
     overrides: tuple[str, ...] = ()
     traffic: tuple["Condition", ...] = ()
+    variations: tuple = field(default=(), repr=False)
+    realisation: int = -1
 
     @cached_property
     def resolved(self) -> str:
@@ -192,16 +199,33 @@ class Case:
 
     def degradation_spec(self):
         """The settlement prediction's inputs
-        (:class:`lccopt.degradation.specs.DegradationSpec`) of a case with ``degradation:``."""
-        return degradation_spec(self.data, self.traffic)
+        (:class:`lccopt.degradation.specs.DegradationSpec`) of a case with ``degradation:``,
+        on this case object's track (``variation``)."""
+        return degradation_spec(self.data, self.traffic, self.variation)
+
+    @property
+    def realisations(self) -> int:
+        """Realisations of the track every design is simulated on (0: the drawing only)."""
+        return len(self.variations)
+
+    @property
+    def variation(self):
+        """This case object's realisation of the track (``lccopt.vti.specs.TrackVariation``),
+        None for the track as drawn."""
+        return None if self.realisation < 0 else self.variations[self.realisation]
+
+    def part_case(self, condition: int, realisation: int) -> "Case":
+        """The case of one task of a design: traffic condition ``condition`` (-1: the case as
+        it is) on realisation ``realisation`` of the track (-1: as drawn)."""
+        one = self if condition < 0 else self.condition_case(condition)
+        return one if realisation == one.realisation else replace(one, realisation=realisation)
 
     def with_simulation(self, **settings) -> "Case":
         """A copy with some simulation settings replaced (convergence studies, tests)."""
         data = {**self.data, "simulation": {**self.data["simulation"], **settings}}
         traffic = tuple(c.with_simulation(settings) for c in self.traffic)
         conditions = () if self.degradation is not None else traffic
-        return Case(self.path, self.text, data, self.variables, conditions, self.overrides,
-                    traffic)
+        return replace(self, data=data, conditions=conditions, traffic=traffic)
 
     @property
     def condition_mode(self) -> str:
@@ -209,8 +233,10 @@ class Case:
         return (self.optimisation or {}).get("conditions") or "worst"
 
     def condition_case(self, i: int) -> "Case":
-        """The case of traffic condition i: one simulation, as the simulator runs it."""
-        return Case(self.path, self.text, self.traffic[i].data, self.variables)
+        """The case of traffic condition i: one simulation, as the simulator runs it (on this
+        case object's track)."""
+        return Case(self.path, self.text, self.traffic[i].data, self.variables,
+                    variations=self.variations, realisation=self.realisation)
 
     def check_design(self, x) -> np.ndarray:
         """Return x as floats if it is a valid design vector, else raise ValueError."""
@@ -228,8 +254,9 @@ class Case:
 
     def scenario(self) -> Scenario:
         """The simulator's inputs of this case's one simulation (for a case with traffic
-        conditions: of its own vehicle section; ``condition_case(i).scenario()`` for one)."""
-        return build.scenario(self.data)
+        conditions: of its own vehicle section; ``condition_case(i).scenario()`` for one), on
+        this case object's track (``variation``)."""
+        return build.scenario(self.data, self.variation)
 
     def track_design(self, x) -> TrackDesign:
         """Design vector x, checked (ValueError), as the simulator takes it."""
@@ -364,8 +391,9 @@ def load_case(path: str | Path, overrides=()) -> Case:
     check_design_size([simulation_size(one) for one in sims], err)
     check_degradation(data, conditions, err)
     split = () if data.get("degradation") is not None else conditions
+    check_uncertainty(data, conditions, err)
     return Case(path=path, text=text, data=data, variables=variables, conditions=split,
-                overrides=overrides, traffic=conditions)
+                overrides=overrides, traffic=conditions, variations=draw(data))
 
 
 def _profile_rows(value, path: Path, lines: dict, err, at: tuple):

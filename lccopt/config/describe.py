@@ -8,13 +8,16 @@ add up to the real vehicle, shows before anything is simulated.
 
 from __future__ import annotations
 
-from ..terminal import WIDTH, wrap_items
+import math
+
+from ..terminal import WIDTH, wrap_items, wrap_message
 from ..vti import pads
 from ..vti.vehicle import build_vehicle
 from .build import vehicle_spec
 from .checks import simulation_size
-from .degradation import SINGLE_CONDITION, axles, bearing_areas
-from .zones import force_zone_end, zone_end_x
+from .degradation import SINGLE_CONDITION, axles, bearing_areas, resolved_traffic
+from .uncertainty import uncertainty_lines
+from .zones import force_zone_end, interfaces, zone_end_x
 
 
 def vehicle_facts(vehicle: dict) -> tuple[str, float, float]:
@@ -88,19 +91,91 @@ def pad_facts(case) -> list[str]:
     return facts
 
 
-def pad_lines(case) -> list[str]:
-    """:func:`pad_facts` in lines of at most 78 columns (broken at ': ', ' = ' and ', ')."""
+def pad_lines(case, width: int = WIDTH - 2) -> list[str]:
+    """:func:`pad_facts` in lines of at most ``width`` columns (broken at ': ', ' = ' and
+    ', ')."""
     lines = []
     for fact in pad_facts(case):
         head, rest = fact.split(": ", 1)
         items = rest.replace(" = ", ", = ").split(", ")
         wrapped = [line.replace(", =", " =") for line in
-                   wrap_items(items, f"{head}: ", width=WIDTH - 2)]
+                   wrap_items(items, f"{head}: ", width=width)]
         for i in range(len(wrapped) - 1):       # no comma before a line that goes on with =
             if wrapped[i + 1].lstrip().startswith("="):
                 wrapped[i] = wrapped[i].rstrip(",")
         lines += wrapped
     return lines
+
+
+# A strengthened sleeper's support against the standard one's outside this range is flagged by
+# check: its larger base makes it stiffer (the bundled cases take 1.25 x), but rarely more than
+# twice as stiff, and never softer; a ratio outside is usually a support changed in one key and
+# not the other (the two are separate keys).
+STRENGTHENED_SUPPORT_RATIO = (1.0, 2.0)
+
+
+def _mnm(v: float, per: str = "") -> str:
+    return f"{v / 1e6:.4g} MN/m{per}"
+
+
+def _kns(v: float, per: str = "") -> str:
+    return f"{v / 1e3:.4g} kN s/m{per}"
+
+
+def track_lines(case) -> list[str]:
+    """The track lccopt resolved, in 80 columns: support, pads, sleepers, strengthened sleepers
+    (and their ratio to the standard ones), the ERS; per rail, pads and supports per rail
+    seat, as the simulation takes them."""
+    t = case.data["track"]
+    lay, sup, ss, ers = t["layout"], t["support"], t["strengthened_sleeper"], t["ers"]
+    slab = ers["slab"]
+    lines = ["  track, one rail (pads and supports per rail seat):",
+             f"    support: {_mnm(sup['stiffness'])}, {_kns(sup['damping'])} under each sleeper"]
+    lines += [f"    {line}" for line in pad_lines(case, WIDTH - 4)]
+    lines += wrap_items([f"{t['sleeper']['mass']:.4g} kg", f"{lay['sleeper_spacing']:g} m apart",
+                         f"{lay['entry_length']:g} m of ballast before the ERS",
+                         f"{lay['exit_length']:g} m after it"], "    sleepers: ")
+    ratio = (ss["mass"] / t["sleeper"]["mass"], ss["support_stiffness"] / sup["stiffness"],
+             ss["support_damping"] / sup["damping"] if sup["damping"] else math.nan)
+    lines += wrap_items([f"{ss['mass']:.4g} kg ({ratio[0]:.3g} x)",
+                         f"support {_mnm(ss['support_stiffness'])} ({ratio[1]:.3g} x)",
+                         f"{_kns(ss['support_damping'])} ({ratio[2]:.3g} x the standard)"],
+                        "    strengthened sleepers: ", width=WIDTH)
+    lengths = " + ".join(f"{x:g}" for x in ers["slab_lengths"])
+    lines += wrap_items([f"{lengths} m of slab{'s' if len(ers['slab_lengths']) > 1 else ''}",
+                         f"{slab['width_bottom']:g}/{slab['width_top']:g} m wide",
+                         f"{slab['height']:g} m high", f"{slab['youngs_modulus'] / 1e9:g} GPa",
+                         f"on {_mnm(ers['foundation']['stiffness'], '/m')} "
+                         f"({ers['share_per_rail']:g} of it per rail)",
+                         f"compound {_mnm(ers['compound']['stiffness'], '/m')}",
+                         f"Type II strip {_mnm(ers['type_ii_compound']['stiffness'], '/m')}"],
+                        "    ERS: ")
+    return lines + track_warnings(case)
+
+
+def track_warnings(case) -> list[str]:
+    """``warning:`` lines for a track that is valid but probably not what was meant: a
+    strengthened sleeper's support much stiffer or softer than the standard support."""
+    t = case.data["track"]
+    sup, ss = t["support"], t["strengthened_sleeper"]
+    lo, hi = STRENGTHENED_SUPPORT_RATIO
+    out = []
+    for what, own, standard, shown in (("stiffness", "support_stiffness", "stiffness", _mnm),
+                                       ("damping", "support_damping", "damping", _kns)):
+        if not standard_value_ok(ss[own], sup[standard], lo, hi):
+            out.append(wrap_message(
+                f"warning: strengthened_sleeper.{own} {shown(ss[own])} is "
+                f"{ss[own] / sup[standard]:.3g} x support.{standard} {shown(sup[standard])} "
+                f"(the bundled cases assume 1.25 x, for a larger base; check warns outside "
+                f"{lo:g}-{hi:g} x): if you changed the support, change this key too", WIDTH - 2))
+    return ["  " + line.replace("\n", "\n  ") for line in out]
+
+
+def standard_value_ok(value: float, standard: float, lo: float, hi: float) -> bool:
+    """Whether VALUE lies within [LO, HI] x STANDARD (a zero standard: only zero is)."""
+    if standard == 0:
+        return value == 0
+    return lo * (1 - 1e-9) <= value / standard <= hi * (1 + 1e-9)
 
 
 def zone_line(case) -> str:
@@ -109,8 +184,12 @@ def zone_line(case) -> str:
     side = "after" if point.offset >= 0 else "before"
     where = point.at.replace("_", " ")
     at = (f"{abs(point.offset):g} m {side} the {where}" if point.offset else f"the {where}")
-    return (f"zone: {case.evaluation['sleepers']} sleepers; force to {at} "
-            f"(x = {zone_end_x(case.data):g} m)")
+    # along the track from the entry slab edge, as every figure measures
+    past = zone_end_x(case.data) - interfaces(case.data)[0]
+    return "\n".join(wrap_items(
+        [f"{case.evaluation['sleepers']} sleepers; force to {at}",
+         f"{abs(past):.4g} m {'past' if past >= 0 else 'before'} the entry slab edge"],
+        "zone: ", width=WIDTH - 2))
 
 
 def optimisation_line(case) -> str:
@@ -159,6 +238,46 @@ def law_items(law: dict) -> list[str]:
             for k, v in law.items() if k != "name"]
 
 
+def traffic_lines(case) -> tuple[list[str], float]:
+    """The traffic as ``lccopt check`` prints it: each condition's trains (when given so),
+    passages of its modelled vehicle and axle passes, then the trains, axle passes and gross
+    tonnes of all together; and the axle passes a year.
+
+    Parameters
+    ----------
+    case
+        a loaded case with a ``degradation:`` section.
+
+    Returns
+    -------
+    (list of str, float)
+        lines of at most 80 columns, and the axle passes a year.
+    """
+    vehicles = ({c.name: c.data["vehicle"] for c in case.traffic}
+                or {SINGLE_CONDITION: case.vehicle})
+    lines, axle_passes, tonnes, trains = [], 0.0, 0.0, 0.0
+    for name, t in resolved_traffic(case.data, case.traffic).items():
+        v = vehicles[name]
+        n, load = axles(v), vehicle_facts(v)[2]                 # kN per wheel
+        what = {"bogie": "bogie", "half-car": "half-car"}.get(v.get("type") or "", "wheel")
+        head = f"    traffic {name}: "
+        if t.trains_per_day is not None:
+            trains += t.trains_per_day
+            items = [f"{t.trains_per_day:g} trains a day x {t.per_train:g} {what} passages",
+                     f"= {t.passages:.3g} a year ({n} axles each)"]
+        else:
+            items = [f"{t.passages:.3g} {what} passages a year ({n} axles each)"]
+        items.append(f"axle load {2 * load:.3g} kN")
+        lines += wrap_items(items, head)
+        axle_passes += t.axle_passes
+        tonnes += t.axle_passes * 2 * load * 1e3 / 9.81 / 1e3            # t
+    total = [f"{axle_passes:.3g} axle passes", f"about {tonnes / 1e6:.3g} million gross tonnes "
+                                               f"a year"]
+    if trains:
+        total.insert(0, f"{trains:g} trains a day")
+    return lines + wrap_items(total, "    "), axle_passes
+
+
 def degradation_lines(case) -> list[str]:
     """The settlement prediction as ``lccopt check`` prints it: law,
     traffic (axle passes and gross tonnage a year), horizon, limit and cost cap.
@@ -174,23 +293,13 @@ def degradation_lines(case) -> list[str]:
         lines of at most 80 columns, indented by two.
     """
     deg = case.degradation
-    rows = [(c.name, deg["traffic"][c.name], c.data["vehicle"]) for c in case.traffic] or [
-        (SINGLE_CONDITION, deg["passages_per_year"], case.vehicle)]
-    per_year = tonnes = 0.0
-    items = []
-    for name, passages, vehicle in rows:
-        n = axles(vehicle)
-        per_year += passages * n
-        tonnes += passages * n * 2 * vehicle_facts(vehicle)[2] * 1e3 / 9.81 / 1e3   # t
-        items.append(f"{name} {passages:.3g}/year ({n} axles)")
-    horizon = deg["horizon_years"]
-    limit = deg["limit"]
-    simulated = sum(p > 0 for _, p, _ in rows)
     lines = wrap_items(law_items(deg["law"]), f"  settlement: {deg['law']['name']} law: ")
     lines += _pressure_lines(case)
-    lines += wrap_items(items, "    traffic: ")
-    lines.append(f"    {per_year:.3g} axle passes, about {tonnes / 1e6:.3g} million gross tonnes "
-                 f"a year")
+    traffic, per_year = traffic_lines(case)
+    lines += traffic
+    simulated = sum(t.passages > 0 for t in resolved_traffic(case.data, case.traffic).values())
+    horizon = deg["horizon_years"]
+    limit = deg["limit"]
     lines.append(f"    horizon {horizon:.4g} year{'' if horizon == 1 else 's'} = "
                  f"{horizon * per_year:.3g} axle passes; "
                  f"{deg['settling_sleepers']} settling sleepers")
@@ -235,13 +344,15 @@ def case_lines(case, file) -> list[str]:
         lines += condition_lines(case)
     else:
         lines.append(f"  vehicle: {vehicle_line(case.vehicle)}")
-    lines += [f"  {line}" for line in pad_lines(case)]
-    lines.append(f"  {zone_line(case)}")
+    lines += track_lines(case)
+    lines += [f"  {line}" for line in zone_line(case).split("\n")]
     steps, dofs = max(simulation_size(one.data) for one in (case.traffic or [case]))
     lines.append(f"  {'the longest simulation' if case.traffic else 'one simulation'}: at "
                  f"most {steps:,} steps of about {dofs:,} track dofs")
     if case.degradation is not None:
         lines += degradation_lines(case)
+    if case.realisations:
+        lines += uncertainty_lines(case)
     lines += [f"  {line}" for line in optimisation_line(case).split("\n")]
     if case.overrides:
         lines += wrap_items([f"--set {o}" for o in case.overrides], "  with ")

@@ -205,6 +205,11 @@ def read_input_bytes(path: Path, limit: int, fail) -> bytes:
         return read_input(path, limit)
     except UnsafeFile as exc:
         raise fail(exc.strerror) from None
+    except FileNotFoundError as exc:
+        from .bundled import suggest_for_missing
+
+        hint = suggest_for_missing(path)
+        raise fail(f"cannot read: {exc.strerror or exc}" + (f"; {hint}" if hint else "")) from None
     except OSError as exc:
         raise fail(f"cannot read: {exc.strerror or exc}") from None
     except ValueError as exc:   # e.g. a NUL in a name built by a program

@@ -13,16 +13,32 @@ wrong unit, and the message proposes the unit that fits.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 from ..degradation.specs import LAW_NAMES, LIMIT_MEASURES, READINGS, SOILS
+from ..uncertainty.fields import DISTRIBUTIONS
+from ..uncertainty.statistics import ObjectiveNames
 from ..vti.irregularity import SPECTRA
 from ..vti.pads import NAMED_PADS
 from ..vti.response import PAPER_OBJECTIVES, REPORTED_ONLY, SETTLEMENT_OBJECTIVES
 from ..vti.specs import VEHICLE_TYPES, ZONE_POINTS
-from .spec import Items, Named, Num, NumList, Rows, Section, Str, StrList, TextOrSection  # noqa: F401
+from .spec import (  # noqa: F401
+    Items,
+    Named,
+    Num,
+    NumList,
+    NumOrSection,
+    Rows,
+    Section,
+    Str,
+    StrList,
+    TextOrSection,
+)
 from .validate import MAX_MAGNITUDE, SAFE_NAME, check  # noqa: F401  (the schema's validator)
 
 # years_to_limit is listed so that asking to minimise it gets its own message (checks)
-OBJECTIVES = PAPER_OBJECTIVES + SETTLEMENT_OBJECTIVES + REPORTED_ONLY
+# any of them also in a robust statistic (a case with uncertainty:): mean(F_max), q90(F_max)
+OBJECTIVES = ObjectiveNames(PAPER_OBJECTIVES + SETTLEMENT_OBJECTIVES + REPORTED_ONLY)
 CONDITION_MODES = ("worst", "mean", "each")
 HISTORIES = ("all", "best", "none")
 
@@ -296,7 +312,9 @@ _OPTIMISATION = Section({
                           "differential_settlement, max_settlement, max_void, level_std [m], "
                           "force_growth [-], maintenance_rate [1/year] (1 / years_to_limit, "
                           "which is reported, not minimised), level_d1_max, level_d1_std, "
-                          "rail_step [m], rail_angle [-], interventions [-] (tamping:)",
+                          "rail_step [m], rail_angle [-], interventions [-] (tamping:). With "
+                          "uncertainty: any of them over the realisations: mean(F_max), "
+                          "q90(F_max) (a quantile, q1-q99), p_worse(F_max) (docs/robust.md)",
                           OBJECTIVES, required=False),
     "budget": Num("evaluations in all, failures included (required by lccopt optimise)",
                   integer=True, ge=2, le=100_000, required=False),
@@ -387,6 +405,24 @@ _LAW = Section({
 }, "the settlement law, driven by the peak ballast force of each axle passing each sleeper",
    required=False)
 _PASSAGES = dict(unit="1/year", le=1e8, why="a busy line carries some 10^5-10^6 passages a year")
+# Traffic as people count it: trains a day and what each train is, or axle passes a year
+# (lccopt/config/degradation.py turns them into passages of the modelled vehicle).
+_TRAINS = {
+    "trains_per_day": Num("trains a day on the modelled track, each of vehicles_per_train or "
+                          "bogies_per_train (instead of passages_per_year)", gt=0, le=5000.0,
+                          why="a busy track carries some 50-500 trains a day", required=False,
+                          keep_absent=True),
+    "vehicles_per_train": Num("vehicles (cars) of each train, each on two bogies of two axles "
+                              "like the modelled one (a four-car VIRM: 4)", integer=True, ge=1,
+                              le=100, required=False, keep_absent=True),
+    "bogies_per_train": Num("bogies of each train (instead of vehicles_per_train: articulated "
+                            "trains, locomotives and wagons mixed)", integer=True, ge=1, le=400,
+                            required=False, keep_absent=True),
+    "axle_passes_per_year": Num("axle passes a year, every axle of the modelled vehicle's load "
+                                "(instead of trains or passages)", gt=0, le=1e9,
+                                why="a busy line carries some 10^5-10^7 axle passes a year",
+                                required=False, keep_absent=True),
+}
 _DEGRADATION = Section({
     "horizon_years": Num("the horizon: the settlement objectives are the track's state after "
                          "this many years of the traffic. Default 10 years (when "
@@ -397,12 +433,19 @@ _DEGRADATION = Section({
                                required=False, keep_absent=True),
     "passages_per_year": Num("a case without conditions: passages of its vehicle a year (a "
                              "bogie: one bogie, 2 axles; a half car: one car, 4 axles; "
-                             "three-dof: one wheelset)", gt=0, required=False, keep_absent=True,
-                             **_PASSAGES),
-    "traffic": Named(Num("passages of the condition's vehicle a year (0: it counts for the "
-                         "paper's objectives only)", ge=0, **_PASSAGES),
-                     "a case with conditions: passages a year of each condition's vehicle, "
-                     "every condition named", keep_absent=True),
+                             "three-dof: one wheelset). Or trains_per_day with "
+                             "vehicles_per_train or bogies_per_train, or axle_passes_per_year",
+                             gt=0, required=False, keep_absent=True, **_PASSAGES),
+    **{k: replace(v, doc="a case without conditions: " + v.doc) for k, v in _TRAINS.items()},
+    "traffic": Named(NumOrSection(
+        "passages of the condition's vehicle a year (0: it counts for the paper's objectives "
+        "only), or its trains",
+        Num("passages a year", ge=0, **_PASSAGES),
+        Section({"passages_per_year": Num("passages of the condition's vehicle a year", ge=0,
+                                          required=False, keep_absent=True, **_PASSAGES),
+                 **_TRAINS})),
+        "a case with conditions: the traffic of each condition, every condition named",
+        keep_absent=True),
     "law": _LAW,
     "rail_seats": Num("the law's force = rail_seats x the modelled support force (one rail "
                       "seat); 1 as ROSE applies the Varandas defaults", gt=0, le=10.0,
@@ -477,6 +520,91 @@ _DEGRADATION = Section({
 }, "predict the settlement of each design under its traffic and judge it by the settlement "
    "objectives (docs/settlement.md)", required=False, none_if_absent=True, keep_absent=True)
 
+# The track as built rather than as drawn (lccopt/uncertainty, docs/robust.md): random
+# variations over the sleepers, each quantity a field of its own. Defaults and their sources:
+# docs/robust.md, "The quantities".
+MAX_REALISATIONS = 500
+_ROSE_FIELD = ("(ROSE, Deltares / TU Delft: rose/utils/random_field.py and its demo, "
+               "cov 0.25 over 20 m)")
+_CORRELATION_DOC = ("correlation length l along the track: rho(r) = exp(-(pi/4) (r/l)^2) "
+                    "between sleepers r apart (ROSE's Gaussian model); 0: each sleeper on its "
+                    "own")
+
+
+def _variation(doc: str, cov: Num, correlation: float | None, extra: dict | None = None,
+               mean_doc: str | None = None) -> Section:
+    fields = {
+        "distribution": Str("lognormal (positive, skewed: ROSE's) or uniform (a tolerance band; "
+                            "cov at most 0.5)", DISTRIBUTIONS, default="lognormal",
+                            required=False),
+        "cov": cov,
+        "correlation_length": Num(_CORRELATION_DOC + (f". Default {correlation:g} m"
+                                                      if correlation else ""),
+                                  "m", ge=0, le=1000.0, default=correlation or 0.0,
+                                  required=False),
+    }
+    if mean_doc:
+        fields["mean"] = Num(mean_doc, gt=0, le=10.0, default=1.0, required=False)
+    fields.update(extra or {})
+    return Section(fields, doc, required=False, none_if_absent=True, keep_absent=True)
+
+
+_UNCERTAINTY = Section({
+    "realisations": Num("realisations of the track drawn for a run: every design is simulated "
+                        "on each of them (and on the track as drawn), the same ones for every "
+                        "design", integer=True, ge=2, le=MAX_REALISATIONS,
+                        why="a spread needs two; beyond 500 the statistics no longer move"),
+    "seed": Num("seed the realisations are drawn from. Default: optimisation.seed (0 without "
+                "one); another seed draws fresh realisations (to judge designs on tracks "
+                "their optimisation never saw)", integer=True, ge=0, required=False,
+                keep_absent=True),
+    "support_stiffness": _variation(
+        "each sleeper's ballast/subgrade stiffness (a factor on the drawing's, strengthened "
+        "sleepers too); {} takes the defaults",
+        Num("coefficient of variation of the factor. Default 0.25 " + _ROSE_FIELD, ge=0,
+            le=1.0, default=0.25, required=False, why="a factor varying by more than its mean "
+            "is no longer one track"), 20.0),
+    "support_damping": _variation(
+        "each sleeper's ballast/subgrade damping (a factor on the drawing's); {} takes the "
+        "defaults",
+        Num("coefficient of variation of the factor. Default 0.25 " + _ROSE_FIELD, ge=0,
+            le=1.0, default=0.25, required=False, why="a factor varying by more than its mean "
+            "is no longer one track"), 20.0,
+        {"field": Str("stiffness: drawn from support_stiffness's field, so that damping rises "
+                      "with stiffness sleeper by sleeper (ROSE draws both from one seed); own: "
+                      "a field of its own", ("stiffness", "own"), default="stiffness",
+                      required=False)}),
+    "pad_stiffness": _variation(
+        "each railpad's stiffness (a factor on the catalogue's or the design's; pad damping "
+        "follows it): manufacturing tolerance (cov) and ageing (mean)",
+        Num("coefficient of variation of the factor (required: no published spread of pad "
+            "stiffness in track could be found)", ge=0, le=1.0, why="a factor varying by more "
+            "than its mean is no longer one track"), None,
+        mean_doc="mean factor: 1 (the default) for new pads as catalogued; above 1 for pads "
+                 "that stiffened with age"),
+    "settlement_coefficient": _variation(
+        "each settling sleeper's ballast settlement (a factor on the settlement law's "
+        "coefficient: gamma of varandas, first_cycle of logarithmic); needs degradation:",
+        Num("coefficient of variation of the factor (required: no published spread from "
+            "sleeper to sleeper could be found)", ge=0, le=1.0, why="a factor varying by "
+            "more than its mean is no longer one track"), None),
+    "initial_void": Section({
+        "probability": Num("fraction of the ballast sleepers that hang (required: hanging "
+                           "sleepers are common on crossing approaches, Le Pen et al., "
+                           "but no published fraction fits every site)", ge=0, le=1),
+        "gap": Num("mean gap between a hanging sleeper and its ballast (required)", "m", ge=0,
+                   le=0.05, shown="mm", why="a void deeper than 50 mm is a missing sleeper"),
+        "cov": Num("coefficient of variation of the gap (lognormal). Default 0: every hanging "
+                   "sleeper hangs by gap", ge=0, le=2.0, default=0.0, required=False),
+        "correlation_length": Num(_CORRELATION_DOC + " (a length groups hanging sleepers: "
+                                  "they often come in a row, Lazarevic et al. 2016)", "m",
+                                  ge=0, le=1000.0, default=0.0, required=False),
+    }, "sleepers that hang over a void at rest (the unilateral support model)",
+       required=False, none_if_absent=True, keep_absent=True),
+}, "random variations over the sleepers: every design is judged on the same realisations of "
+   "the track (docs/robust.md); robust objectives mean(F_max), q90(F_max), p_worse(F_max)",
+   required=False, none_if_absent=True, keep_absent=True)
+
 SCHEMA = Section({
     "name": Str("case name, also the run directory name (letters, digits, - and _)"),
     "description": Str("free text", required=False, default=""),
@@ -489,4 +617,5 @@ SCHEMA = Section({
     "vehicles": _VEHICLES,
     "conditions": _CONDITIONS,
     "degradation": _DEGRADATION,
+    "uncertainty": _UNCERTAINTY,
 })

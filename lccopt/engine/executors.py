@@ -139,7 +139,8 @@ class LocalPool:
         self.slots = int(workers)
         self._slots = [_Slot(i) for i in range(self.slots)]
         self._retry: list[Task] = []        # tasks whose worker was killed, to run again
-        self._deaths: dict[tuple, int] = {}  # (id, condition) -> times its worker was killed
+        # (id, condition, realisation) -> times its worker was killed
+        self._deaths: dict[tuple, int] = {}
         self.description = f"{self.slots} local worker process{'es' if self.slots > 1 else ''}"
 
     # -- lifecycle --------------------------------------------------------------------------
@@ -224,7 +225,7 @@ class LocalPool:
         worker) says nothing about the design: it runs again, up to MAX_KILLS times; any other
         death (an exit status) is the evaluation's own failure."""
         task, s.task = s.task, None
-        key = (task.id, task.condition)
+        key = (task.id, task.condition, task.realisation)
         self._deaths[key] = self._deaths.get(key, 0) + 1
         if killed and self._deaths[key] < MAX_KILLS:
             self._retry.append(task)

@@ -81,10 +81,12 @@ class Engine:
         self.journal, self.table, self.strategy = journal, table, strategy
         self.progress = progress
         self.meta = rd.meta()
-        if case.conditions:  # one task per (design, condition)
+        self.parts = 1           # tasks per design: its conditions x tracks (conditions.py)
+        if case.conditions or getattr(case, "realisations", 0):
             from .conditions import ConditionPool
 
             executor = ConditionPool(executor, case, problem, rd.path)
+            self.parts = executor.m
         self.executor = executor
         self.strategy.budget = problem.budget
         self.ref_point = (table.reference or {}).get("point")
@@ -161,7 +163,8 @@ class Engine:
 
     def _run(self) -> None:
         p, pb = self.progress, self.problem
-        if pb.multi and 0 in self.table.rows and self.table.rows[0]["status"] == "failed" \
+        if pb.reference_first and 0 in self.table.rows \
+                and self.table.rows[0]["status"] == "failed" \
                 and self.table.reference is None:
             raise self._reference_failed(self.table.rows[0]["reason"])
         self._install_signals()
@@ -173,7 +176,7 @@ class Engine:
             p.log(f"run {self.rd.path} (case '{self.case.name}'): {pb.dim} variables, "
                   f"budget {pb.budget}, {self.table.n_done} done")
             p.log(f"minimising {what}; {self.executor.description}")
-            p.start(self.table, len(self.case.conditions) or 1)
+            p.start(self.table, self.parts)
             if self.table.lag != self.lag or self.table.batch != self.batch:
                 self.table.apply(self.journal.append("schedule", lag=self.lag, batch=self.batch,
                                                      time=now_iso()))
@@ -204,7 +207,7 @@ class Engine:
                 for o in self.executor.wait(0.2):
                     self._record(o)
                 self.journal.flush()  # the results' lines survive a kill -9 from here on
-                if self.case.conditions:   # the designs' conditions, not a re-simulation's
+                if self.parts > 1:   # the designs' parts, not a re-simulation's
                     p.parts(self.table, self.executor.parts_done(set(self.table.pending_ids())))
                 if idle:
                     self.t_held += idle * (time.monotonic() - t_wait)
@@ -307,11 +310,12 @@ class Engine:
 
     def _ask(self) -> dict | None:
         """One proposal from the optimiser, committed to the journal; None if there is none now."""
-        if self.problem.multi and self.ref_point is None and self.strategy.n_asked >= 1:
-            return None  # the reference design runs alone: it fixes the reference point
+        if (self.problem.reference_first and self.table.reference is None
+                and self.strategy.n_asked >= 1):
+            return None  # the reference design runs alone: the others' values need its result
         if self.strategy.done:
             return None
-        if not may_ask(self.strategy, self.lag, self.problem.multi):
+        if not may_ask(self.strategy, self.lag, self.problem.reference_first):
             self._held = True
             return None  # waits for the results it must see (in id order, whatever the timing)
         t0 = time.perf_counter()
@@ -344,7 +348,7 @@ class Engine:
     def _release(self) -> None:
         """Tell the optimiser the results it may see now (in id order; see schedule.py)."""
         t0 = time.perf_counter()
-        release(self.strategy, self.lag, self.problem.multi, self._result)
+        release(self.strategy, self.lag, self.problem.reference_first, self._result)
         self.t_optimiser += time.perf_counter() - t0
 
     def _submit(self, row: dict) -> None:
@@ -376,6 +380,10 @@ class Engine:
         pb, j = self.problem, self.journal
         error = o.error
         objectives = o.objectives
+        if objectives is not None and pb.statistics:   # the robust statistics of its tracks
+            reference = (objectives if o.id == 0
+                         else (self.table.reference or {}).get("objectives"))
+            objectives = pb.complete(objectives, reference)
         if error is None:
             error = pb.finite(objectives)
         file = ""
@@ -419,7 +427,8 @@ class Engine:
         self.t_bookkeeping += time.perf_counter() - t0
         self._release()  # told when its turn comes, not when it arrives (schedule.py)
         self.progress.update(self.table, last=row)
-        if error is not None and pb.multi and o.id == 0 and self.table.reference is None:
+        if error is not None and pb.reference_first and o.id == 0 \
+                and self.table.reference is None:
             raise self._reference_failed(error)
 
     def _restored(self, o: Outcome) -> None:
@@ -447,9 +456,10 @@ class Engine:
                               f"kept")
 
     def _reference_failed(self, reason: str) -> CaseError:
+        need = ("the ASF reference point" if self.problem.multi
+                else "what p_worse compares with")
         return CaseError(f"{self.case.path}: the reference design (evaluation #0) failed: "
-                         f"{reason}; a multi-objective case needs its objectives for the ASF "
-                         f"reference point")
+                         f"{reason}; the case needs its objectives for {need}")
 
     def _snapshot(self) -> None:
         if self.table.seq == self._saved_seq:

@@ -7,7 +7,7 @@ import sys
 import time
 
 from ..errors import printable, printable_lines
-from ..terminal import wrap_message
+from ..terminal import wrap_items, wrap_message
 from ..vti.response import objective_display
 
 
@@ -27,7 +27,7 @@ def objective_value(k: str, v) -> str:
     if v is None or not math.isfinite(v):
         return "-"
     scale, unit = objective_display(k)
-    return f"{v * scale:.3g} {unit}"
+    return f"{v * scale:.3g} {unit}" if unit else f"{v * scale:.3g}"
 
 
 def objective_text(k: str, v) -> str:
@@ -44,12 +44,12 @@ def reference_objectives(table) -> dict | None:
     return ref
 
 
-def best_text(table, short: bool = False) -> str:
-    """The best design so far: its objectives and their change against the reference design
-    (SHORT: without the evaluation number, for a terminal line)."""
+def best_items(table, short: bool = False) -> list[str]:
+    """The best design's objectives so far with their change against the reference design,
+    one item each (``F_max 5.4 kN -28%``; SHORT: without parentheses), [] if none yet."""
     best = table.best()
     if best is None:
-        return "best -"
+        return []
     ref = reference_objectives(table)
     parts = []
     for k in table.objectives:
@@ -58,7 +58,16 @@ def best_text(table, short: bool = False) -> str:
         if r and v is not None and math.isfinite(v):
             rel = f" {(v - r) / r:+.0%}" if short else f" ({(v - r) / r:+.0%})"
         parts.append(printable(objective_text(k, v)) + rel)
-    return ("best " if short else f"best #{best['id']}: ") + ", ".join(parts)
+    return parts
+
+
+def best_text(table, short: bool = False) -> str:
+    """The best design so far: its objectives and their change against the reference design
+    (SHORT: without the evaluation number, for a terminal line)."""
+    best = table.best()
+    if best is None:
+        return "best -"
+    return ("best " if short else f"best #{best['id']}: ") + ", ".join(best_items(table, short))
 
 
 BAR = 5  # characters of the progress bar on a terminal
@@ -72,9 +81,11 @@ def fit(text: str, width: int) -> str:
 class Progress:
     """Evaluations, elapsed time, ETA and the best design so far.
 
-    On a terminal a rich live line that fits the terminal's width (its text column is cut
-    with an ellipsis rather than wrapped, so a redraw never leaves stale lines); in a log
-    file or pipe one plain line per finished evaluation."""
+    On a terminal a rich live display that fits the terminal's width: the bar and the times
+    on one line, the best design's objectives below it, wrapped between objectives (a long
+    name such as differential_settlement never cut), each line cut with an ellipsis rather
+    than wrapped by the terminal, so a redraw never leaves stale lines; in a log file or pipe
+    one plain line per finished evaluation."""
 
     def __init__(self, budget: int, stream=None, enabled: bool = True):
         self.stream = stream or sys.stderr
@@ -113,30 +124,40 @@ class Progress:
         )
         from rich.progress import Progress as RichProgress
         from rich.table import Column
+        from rich.text import Text
+
+        class _Lines(RichProgress):
+            """The progress line with lines of text below it (the best design)."""
+            below: list[str] = []
+
+            def get_renderables(self):
+                yield self.make_tasks_table(self.tasks)
+                for line in self.below:
+                    yield Text(line, no_wrap=True, overflow="ellipsis")
 
         # the terminal itself: the live line is made of control sequences (what it shows is
         # made printable here)
         console = Console(file=getattr(self.stream, "raw", self.stream), highlight=False)
         fixed = Column(no_wrap=True)
-        self._live = RichProgress(
+        self._live = _Lines(
             BarColumn(bar_width=BAR), MofNCompleteColumn(table_column=fixed),
             TimeElapsedColumn(table_column=fixed), TextColumn("ETA", table_column=fixed),
             TimeRemainingColumn(table_column=fixed),
             TextColumn("{task.description}",
                        table_column=Column(no_wrap=True, overflow="ellipsis")),
             console=console, transient=False, auto_refresh=False)
-        # what the columns before the description take: bar, n/budget, two times, "ETA", gaps
+        self._text_width = console.width - 1
         total = self.budget * self.per_design
-        self._text_width = console.width - (BAR + 2 * len(str(total)) + 1 + 7 + 3 + 7 + 5) - 1
         self._task = self._live.add_task("", total=total, completed=done * self.per_design)
         self._live.start()
 
     def _draw(self, table, parts: int) -> None:
         failed = table.n_failed
-        tail = f"  failed {failed}" if failed else ""
+        items = best_items(table, short=True) or ["-"]
+        self._live.below = [fit(line, self._text_width)
+                            for line in wrap_items(items, "  best ", self._text_width)]
         self._live.update(self._task, completed=table.n_done * self.per_design + parts,
-                          description=fit(printable(best_text(table, short=True) + tail),
-                                          self._text_width))
+                          description=f"failed {failed}" if failed else "")
         self._live.refresh()
 
     def parts(self, table, parts: int) -> None:

@@ -87,7 +87,7 @@ def _restore(problem: Problem, events: list[dict], snapshot: dict | None):
         start = 0
     elif not problem.multi:  # not part of the state (for E_max alone: sleeper_energy_spread)
         strategy.set_aggregate(problem.aggregate(None))
-    replayer = Replay(strategy, problem.multi, problem)
+    replayer = Replay(strategy, problem.reference_first, problem)
     for ev in events[:start]:  # what the snapshot already reflects: results held back, the lag
         replayer.note(ev)
     for ev in events[start:]:

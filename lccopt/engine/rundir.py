@@ -101,6 +101,12 @@ class RunDir:
                 # the --set items the case was loaded with: resume loads it the same way
                 "overrides": list(getattr(case, "overrides", ())),
             }
+            if getattr(case, "realisations", 0):
+                from ..config.uncertainty import record
+
+                # the realisations of the track every design meets: a resume checks that it
+                # draws the same ones
+                meta["realisations"] = record(case)
             (tmp / "case.yaml").write_text(resolved, encoding="utf-8")
             (tmp / "case.source.yaml").write_text(case.text, encoding="utf-8")
             (tmp / "run.json").write_text(json.dumps(meta, indent=2) + "\n", encoding="utf-8")
@@ -115,6 +121,8 @@ class RunDir:
                         # resume rebuilds the optimiser from these (replay.restore)
                         "surrogate": problem.surrogate,
                         "optimiser": problem.optimiser_settings().to_dict()}
+                if "realisations" in meta:
+                    line["realisations"] = meta["realisations"]
                 fh.write((json.dumps(line, separators=(",", ":")) + "\n").encode())
                 fh.flush()
                 os.fsync(fh.fileno())
@@ -353,8 +361,9 @@ def objective_columns(rows: list[dict], objectives) -> list[str]:
     """The objective columns of results.h5's /evaluations.
 
     The paper's four, then the case's objectives, then every other objective an evaluation
-    returned (e.g. a settlement prediction's), in the order first met; a condition's own
-    values (``F_max@name``) go to /conditions instead.
+    returned (e.g. a settlement prediction's, a robust statistic), in the order first met; a
+    condition's own values (``F_max@name``) go to /conditions and a realisation's
+    (``F_max#r``) to /realisations instead.
 
     Parameters
     ----------
@@ -369,7 +378,7 @@ def objective_columns(rows: list[dict], objectives) -> list[str]:
     """
     out = list(OBJECTIVE_NAMES)
     for k in [*objectives, *(k for r in rows for k in r["objectives"])]:
-        if "@" not in k and k not in out:
+        if k not in out and (k in objectives or ("@" not in k and "#" not in k)):
             out.append(k)
     return out
 
@@ -447,6 +456,8 @@ def write_results(path: Path, table: Table, *, case, problem, meta: dict) -> Non
                         [float(r["objectives"].get(f"{k}@{c}", math.nan)) for r in rows],
                         dtype=float))
                     col.attrs["unit"] = objective_unit(k)
+        if getattr(problem, "realisations", 0):  # every realisation's objectives: (n, R) each
+            _write_realisations(f, rows, problem, case, meta)
         e.create_dataset("value", data=np.array([r["value"] for r in rows], dtype=float))
         for k in ("status", "reason", "phase", "worker", "file"):
             e.create_dataset(k, data=[str(r[k]) for r in rows], dtype=sdt)
@@ -478,3 +489,28 @@ def write_results(path: Path, table: Table, *, case, problem, meta: dict) -> Non
             ds.attrs["names"] = list(table.names)
             for k, v in best["objectives"].items():
                 g.attrs[k] = v
+
+
+def _write_realisations(f, rows: list[dict], problem, case, meta: dict) -> None:
+    """/realisations: the run's realisations of the track (count, seed, fingerprint) and, for
+    each objective recorded per realisation, an (evaluations, realisations) table in the rows
+    of /evaluations."""
+    from ..uncertainty.statistics import is_realisation_key, objective_of
+    from ..vti.response import objective_unit
+
+    n = int(problem.realisations)
+    g = f.create_group("realisations")
+    g.attrs["count"] = n
+    g.attrs["seed"] = int(meta.get("realisations", {}).get("seed", -1))
+    g.attrs["fingerprint"] = str(meta.get("realisations", {}).get("fingerprint", ""))
+    names = []
+    for r in rows:
+        for k in r["objectives"]:
+            base = objective_of(k)
+            if is_realisation_key(k) and base not in names:
+                names.append(base)
+    for base in names:
+        ds = g.create_dataset(base, data=np.array(
+            [[float(r["objectives"].get(f"{base}#{j}", math.nan)) for j in range(n)]
+             for r in rows], dtype=float).reshape(len(rows), n))
+        ds.attrs["unit"] = objective_unit(base)

@@ -187,6 +187,7 @@ def resume(run, workers: int | None = None, scheduler=None, case=None,
             out.log("dropped a torn last line of the journal (the run was killed while writing "
                     "it)")
         case_obj = _resume_case(rd, meta, case, allow_changed_case, out, budget)
+        _check_realisations(events[0].get("realisations"), case_obj)
         problem = Problem.from_case(case_obj)
         if events and events[0].get("objectives") not in (None, list(problem.objectives)):
             raise _usage_error(f"the case's objectives {list(problem.objectives)} differ from the "
@@ -248,6 +249,23 @@ def resume(run, workers: int | None = None, scheduler=None, case=None,
     finally:
         rd.unlock()
     return rd.path
+
+
+def _check_realisations(recorded, case) -> None:
+    """The case draws the realisations of the track the run recorded (the same seed and
+    section drawn by another numpy could differ: the run's designs would then not share
+    their tracks)."""
+    if not isinstance(recorded, dict) or not getattr(case, "realisations", 0):
+        return
+    from ..config.uncertainty import record
+
+    now = record(case)
+    if now["fingerprint"] != recorded.get("fingerprint"):
+        raise _usage_error(f"the realisations of the track drawn now (fingerprint "
+                           f"{now['fingerprint']}) are not those the run recorded "
+                           f"({str(recorded.get('fingerprint'))[:16]}): the same seed gives "
+                           f"other tracks here (another numpy?); carry the run on where it "
+                           f"started, or start a new run")
 
 
 def _check_budget(budget: int | None, asked: int) -> None:
@@ -317,23 +335,29 @@ def _resume_case(rd: RunDir, meta: dict, case, allow_changed: bool, out: Progres
             raise
         allow_changed = True
     if sha256_text(case_obj.resolved) != meta.get("case_sha256"):
+        old_case = load_case(rd.case_path)
+        old, new = Problem.from_case(old_case), Problem.from_case(case_obj)
+        refused = [k for k in changed_keys(old_case.data, case_obj.data)
+                   if k not in HONOURED_CHANGES]
+        if not old.same_space(new) and not refused:
+            refused = ["the design variables"]
+        if refused:
+            # no flag carries a run on with another track, design space or model: say what
+            # does work
+            more = f" (and {len(refused) - 1} more key(s))" if len(refused) > 1 else ""
+            raise _usage_error(
+                f"{case_obj.path}: {refused[0]}{more} changed since the run started; a run "
+                f"carries on only with the case it started with (budget, timeout, asf.worst and "
+                f"asf.rho may change). To run the changed case, give it a new name (name: in "
+                f"the file, or --set name=NEW) or replace this run with 'lccopt optimise "
+                f"{case_obj.path} --force'; to carry this run on, restore the file or resume "
+                f"with --case {rd.case_path} (the run's copy)")
         if not allow_changed:
             raise _usage_error(
                 f"the case file {case_obj.path} or a file it reads (extends, irregularity) "
-                f"changed since the run started (the resolved case differs from {rd.case_path}); "
-                f"restore it, resume with --case {rd.case_path} (the run's copy), or with "
-                f"--allow-changed-case to use the changed case")
-        old_case = load_case(rd.case_path)
-        old, new = Problem.from_case(old_case), Problem.from_case(case_obj)
-        if not old.same_space(new):
-            raise _usage_error(f"the changed case {case_obj.path} has other design variables, "
-                               f"bounds, scales, reference design or objectives; start a new run "
-                               f"instead")
-        refused = [k for k in changed_keys(old_case.data, case_obj.data)
-                   if k not in HONOURED_CHANGES]
-        if refused:
-            raise _usage_error(f"{case_obj.path}: {refused[0]} changed since the run started; only "
-                               f"budget, timeout, asf.worst and asf.rho may: start a new run")
+                f"changed since the run started (the resolved case differs from {rd.case_path}) "
+                f"in what a run may change (budget, timeout, asf.worst, asf.rho): resume with "
+                f"--allow-changed-case to use it, or with --case {rd.case_path} (the run's copy)")
         out.log(f"carrying on to a budget of {budget} (--budget)" if budget is not None else
                 f"the case file {case_obj.path} changed since the run started: carrying on with it "
                 f"(--allow-changed-case)")

@@ -39,9 +39,13 @@ def status_lines(run: Path) -> list[str]:
     running = rd.locked_by_other()
     state = "finished" if table.finished else ("running" if running else "stopped")
     done, failed, pending = table.n_done, table.n_failed, len(table.pending_ids())
+    # at most one design per worker runs (the schedule's lag); the loop asks one ahead, which
+    # waits for a free worker
+    flying = min(pending, table.lag) if getattr(table, "lag", None) else pending
     lines = [f"{rd.path}: {state}, {done}/{budget} evaluations"
              + (f" ({failed} failed)" if failed else "")
-             + (f", {pending} in flight" if pending and running else "")]
+             + (f", {flying} in flight" if flying and running else "")
+             + (f" and {pending - flying} proposed" if pending > flying and running else "")]
     lines.append("  " + best_text(table))
     best = table.best()
     if best is not None:

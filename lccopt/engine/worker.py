@@ -75,6 +75,7 @@ class Task:
     out_path: str | None = None  # local pool: the worker writes evals/NNNNNN.h5 itself
     condition: int = -1          # traffic condition (engine/conditions.py); -1: the case as it is
     histories: bool = True       # keep the time histories (else only the per-sleeper ones)
+    realisation: int = -1        # realisation of the track (uncertainty:); -1: as drawn
 
 
 # Histories small enough to keep for every design (one value per sleeper, not per time step):
@@ -99,6 +100,7 @@ class Outcome:
     """What came back for a task: ``objectives`` (ok) or ``error`` (failed)."""
     id: int
     condition: int = -1           # the task's traffic condition
+    realisation: int = -1         # and realisation of the track
     objectives: dict | None = None
     parts: list | None = None     # the zone sleepers' energies (composite surrogate of E_max)
     info: dict = field(default_factory=dict)
@@ -114,18 +116,18 @@ class Outcome:
 
     @classmethod
     def of(cls, task: "Task", **fields) -> "Outcome":
-        """The outcome of ``task`` (its id and traffic condition)."""
-        return cls(task.id, condition=task.condition, **fields)
+        """The outcome of ``task`` (its id, traffic condition and realisation)."""
+        return cls(task.id, condition=task.condition, realisation=task.realisation, **fields)
 
 
 def run_task(case, task: Task, evaluator: Callable, worker: str) -> Outcome:
-    """Evaluate one design (under one traffic condition); never raises (an exception becomes a
-    failed Outcome)."""
+    """Evaluate one design (under one traffic condition, on one realisation of the track);
+    never raises (an exception becomes a failed Outcome)."""
     import numpy as np
 
     t0 = time.perf_counter()
     try:
-        one = case if task.condition < 0 else case.condition_case(task.condition)
+        one = case.part_case(task.condition, task.realisation)
         ev = evaluator(one, np.asarray(task.x, dtype=float))
         objectives = {k: float(v) for k, v in ev.objectives.items()}
         energy = (ev.histories or {}).get("sleeper_energy")
@@ -146,7 +148,9 @@ def run_task(case, task: Task, evaluator: Callable, worker: str) -> Outcome:
             write_evaluation(task.out_path, kept(ev, task.histories), task.x, case.names,
                              attrs={"id": task.id, "phase": task.phase, "restart": task.restart,
                                     "worker": worker, "wall_time": wall,
-                                    "condition": task.condition, **out.machine}, durable=False)
+                                    "condition": task.condition,
+                                    "realisation": task.realisation, **out.machine},
+                             durable=False)
             out.file_written = True
         except Exception as exc:  # noqa: BLE001
             from ..errors import describe_os_error, environment_errno

@@ -57,6 +57,9 @@ class CandidateRequest:
     local : callable
         ``local()``: the local search's points on the surrogate (computed on the first call),
         or None before the surrogate can be fitted.
+    ranked : ndarray (n, d)
+        The phase's told points (with the point it went on from), best first: ``best`` is
+        the first; empty before a result.
     """
 
     space: DesignSpace
@@ -68,6 +71,7 @@ class CandidateRequest:
     weight: float
     attempt: int
     local: Callable[[], np.ndarray | None]
+    ranked: np.ndarray
 
 
 class Dycors:

@@ -34,6 +34,7 @@ class AskContext:
         self.taken = taken
         self.near_u = space.to_unit(near)
         self.best: np.ndarray | None = None  # the phase's best point
+        self.ranked = np.empty((0, space.dim))  # the phase's told points, best first
         self.probing = False  # bound probes join the candidates (a phase from the best point)
         self.phase_x = np.empty((0, space.dim))  # the phase's points, with the one it went on from
         self.surrogate = None  # ScalarSurrogate's RBF or a CompositeSurrogate, once fitted

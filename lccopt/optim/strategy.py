@@ -322,7 +322,9 @@ class Strategy:
         ok = sorted((r for r, o in zip(recs, own) if r["status"] == "ok" and o),
                     key=lambda r: r["id"])
         if ok:
-            ctx.best = min(ok, key=lambda r: (r["value"], r["id"]))["x"]
+            ranked = sorted(ok, key=lambda r: (r["value"], r["id"]))
+            ctx.best = ranked[0]["x"]
+            ctx.ranked = np.array([r["x"] for r in ranked])
         if ok and (ph.anchor is not None or self.settings.restart_keeps_points):
             ok = sorted((r for r in recs if r["status"] == "ok"), key=lambda r: r["id"])
         if len(ok) >= 2:
@@ -386,7 +388,7 @@ class Strategy:
         movable = self._movable()
         for attempt in range(8):
             req = CandidateRequest(self.space, self.rng, ctx.best, sigma, probability, movable,
-                                   w, attempt, ctx.local)
+                                   w, attempt, ctx.local, ctx.ranked)
             parts = list(self.candidates(req))
             if attempt == 0 and ctx.best is not None and ctx.probing:
                 parts.append((bound_probes(self.space, ctx.best, ctx.phase_x, self._free),

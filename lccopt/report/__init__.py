@@ -20,6 +20,9 @@ Writes into ``RUN/report/`` (or ``--out DIR``):
     settlement-history.png settlement per sleeper against axle passes, best and reference (a
                            case with degradation:; lccopt/report/settlement.py)
     settlement-profile.png the settlement along the zone at chosen times, and the voids
+    robust-spread.png      each objective over the realisations of the track, reference, nominal
+                           and robust optimum side by side (a case with uncertainty:;
+                           lccopt/report/robust.py)
     report.md / report.html  the summary (HTML self-contained: figures embedded as base64)
     summary.json           the key numbers, machine-readable
 
@@ -43,6 +46,7 @@ from ..safeio import UnsafeFile, check_owned_dir
 from .along_track import fig_contact_force, fig_sleeper_energy
 from .data import FIGURES, FORMATS, _usage, load_run, pct, read_history
 from .design import fig_best_vs_reference, fig_conditions, fig_track_layout
+from .robust import fig_spread, run_spreads, spread_keys
 from .search import fig_objective_space, fig_search_history
 from .sensitivity import fig_sensitivity, sensitivity_of
 from .settlement import (
@@ -147,6 +151,11 @@ def write_report(run: Path, format: str = "both", out: Path | None = None,
                                          bi, out, figs)
     else:
         facts, settlement = [], None
+    robust = run_spreads(data, bi, ri) if bi is not None else None
+    if robust:
+        figs["robust-spread"] = fig_spread(robust, spread_keys(data), out,
+                                           f"'{data.name}' on {data.realisations} realisations "
+                                           f"of the track")
     indices = sensitivity_of(data)
     p = fig_sensitivity(data, out, indices)
     if p is not None:
@@ -155,7 +164,7 @@ def write_report(run: Path, format: str = "both", out: Path | None = None,
         notes["sensitivity"] = ("too few successful evaluations to fit a surrogate for the "
                                 "sensitivity indices")
 
-    doc, summary = build_summary(data, figs, notes, facts, indices, settlement)
+    doc, summary = build_summary(data, figs, notes, facts, indices, settlement, robust)
     wrote = []
     if fmt_ in ("md", "both"):
         atomic_write_text(out / "report.md", doc.markdown())
@@ -174,6 +183,14 @@ def write_report(run: Path, format: str = "both", out: Path | None = None,
             f"{printable(k)} "
             f"{pct(summary['best']['objectives'][k], data.ref_objectives.get(k, math.nan))}"
             for k in data.objectives))
+        from ..terminal import wrap_items
+
+        on = [f"{k} ({side})" for k, side in summary["on_bound"].items()]
+        worse = [f"{k} {pct(summary['best']['objectives'][k], data.ref_objectives[k])}"
+                 for k in summary["worse"]]
+        for head, items in (("  on a bound: ", on), ("  worse than the reference: ", worse)):
+            if items:
+                typer.echo("\n".join(wrap_items(items, head)))
     typer.echo(f"  {len(figs)} figures and {', '.join(p.name for p in wrote)} in {out} "
                f"({summary['seconds']:.1f} s)")
     return out

@@ -9,7 +9,16 @@ from pathlib import Path
 import numpy as np
 
 from .data import BEST_COLOR, REF_COLOR, RunData, fnum
-from .plotting import pyplot, range_bracket, save_figure, sleeper_ticks, speed_text, zone_marks
+from .plotting import (
+    ALONG_TRACK,
+    from_slab_edge,
+    pyplot,
+    range_bracket,
+    save_figure,
+    sleeper_ticks,
+    speed_text,
+    zone_marks,
+)
 
 
 def fig_contact_force(run: RunData, best: tuple, ref: tuple, bi: int, out: Path,
@@ -23,11 +32,11 @@ def fig_contact_force(run: RunData, best: tuple, ref: tuple, bi: int, out: Path,
     if not have:
         return None
     plt = pyplot()
-    info = ib if hb is not None and "wheel_position" in hb else ir
+    origin, info = from_slab_edge(ib if hb is not None and "wheel_position" in hb else ir)
     fig, ax = plt.subplots(figsize=(9, 5.0))
-    xmax = max(float(np.max(h["wheel_position"])) for h, _ in have)
+    xmax = max(float(np.max(h["wheel_position"])) for h, _ in have) - origin
     zone_marks(ax, info, xmax)
-    x0 = min(float(np.min(h["wheel_position"])) for h, _ in have)
+    x0 = min(float(np.min(h["wheel_position"])) for h, _ in have) - origin
     if "zone_start" in info:  # the run-in from static equilibrium is not of interest
         x0 = max(x0, float(info["zone_start"]) - 2.0)
     zone = (info.get("zone_start", x0), info.get("zone_end", xmax))
@@ -42,7 +51,7 @@ def fig_contact_force(run: RunData, best: tuple, ref: tuple, bi: int, out: Path,
     if hb is not None and "contact_force" in hb and "wheel_position" in hb:
         curves.append((hb, BEST_COLOR, f"best #{run.ids[bi]}", f_max_of[bi], 1))
     for h, color, lab, fmax, row in curves:
-        xw, f = h["wheel_position"], h["contact_force"] / 1e3
+        xw, f = h["wheel_position"] - origin, h["contact_force"] / 1e3
         ax.plot(xw, f, color=color, lw=1.1,
                 label=f"{lab}: F_max = {fnum(fmax / 1e3, 4)} kN (max - min in the zone)")
         in_zone = (xw >= zone[0]) & (xw <= zone[1])
@@ -58,7 +67,7 @@ def fig_contact_force(run: RunData, best: tuple, ref: tuple, bi: int, out: Path,
             range_bracket(ax, row, lo, hi, color, "F_max")
         positions = h.get("sleeper_position", h.get("entry_sleeper_position"))
         if positions is not None:
-            positions = np.asarray(positions, float)
+            positions = np.asarray(positions, float) - origin
             sleeper_ticks(ax, positions[(positions >= x0) & (positions <= xmax)], color, row,
                           f"sleepers of the {lab.split(':')[0]}")
     if "static_wheel_load" in info:
@@ -69,13 +78,14 @@ def fig_contact_force(run: RunData, best: tuple, ref: tuple, bi: int, out: Path,
                 transform=ax.get_xaxis_transform(), va="top",
                 ha="left", fontsize=8)
     speed = speed_text(info, run.case)
-    ax.set(xlabel="wheel position along the track [m]", ylabel="wheel-rail contact force [kN]",
+    ax.set(xlabel=f"wheel position {ALONG_TRACK} (the vehicle comes from the left)",
+           ylabel="wheel-rail contact force [kN]",
            title="Contact "
                  "force: best against reference design" + (f", vehicle at {speed}" if speed else "")
                  + (f"\ncondition {first}, the best design's worst F_max (leading wheel; every "
                     f"condition: conditions.png)" if first else ""))
     ax.set_xlim(x0, xmax)
-    shown = [h["contact_force"][h["wheel_position"] >= x0] / 1e3 for h, _ in have]
+    shown = [h["contact_force"][h["wheel_position"] - origin >= x0] / 1e3 for h, _ in have]
     lo, hi = min(float(v.min()) for v in shown), max(float(v.max()) for v in shown)
     ax.set_ylim(lo - 0.15 * (hi - lo or 1), hi + 0.15 * (hi - lo or 1))
     fig.legend(*ax.get_legend_handles_labels(), loc="lower center", ncol=2, frameon=False)

@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from ..safeio import h5_open_owned, is_regular_file, read_owned
+from ..uncertainty.statistics import is_realisation_key, objective_of
 from ..vti.response import OBJECTIVE_DOC, improvement_sign  # noqa: F401 (re-exported)
 from ..vti.response import objective_display as obj_display
 
@@ -30,11 +31,17 @@ PHASE_STYLE = {  # phase -> (label, marker, colour)
 REF_COLOR, BEST_COLOR, FAIL_COLOR, FRONT_COLOR = (OKABE_ITO["orange"], OKABE_ITO["blue"],
                                                   OKABE_ITO["vermillion"], OKABE_ITO["green"])
 ZONE_COLOR, TYPE_II_COLOR = OKABE_ITO["yellow"], OKABE_ITO["purple"]
+
+
+def colour_name(colour: str) -> str:
+    """The palette's name of a colour ('yellow' for ZONE_COLOR): captions say what the figure
+    draws, from the one place the figure takes it."""
+    return {v: k for k, v in OKABE_ITO.items()}[colour]
 DPI = 110
 
 FIGURES = ("search-history", "objective-space", "best-vs-reference", "conditions", "contact-force",
            "sleeper-energy", "track-layout", "sensitivity", "settlement-history",
-           "settlement-profile")
+           "settlement-profile", "robust-spread")
 
 
 def _usage(message: str) -> Exception:
@@ -98,6 +105,11 @@ class RunData:
     sessions_wall: float = math.nan
     conditions: list[str] = field(default_factory=list)   # traffic conditions, in case order
     cond_obj: dict = field(default_factory=dict)   # condition -> objective name -> array
+    # realisations of the track (a case with uncertainty:): count, objective -> (n, count)
+    # array of each evaluation's values on each, and the run's record (seed, fingerprint)
+    realisations: int = 0
+    real_obj: dict = field(default_factory=dict)
+    real_record: dict = field(default_factory=dict)
 
     @property
     def n(self) -> int:
@@ -311,7 +323,10 @@ def load_run(path: Path) -> RunData:
         notes=notes, warnings=[journal_error] if journal_error else [], created=created,
         updated=d.get("updated", ""),
         sessions_wall=float(sum(sessions)) if sessions else math.nan,
-        conditions=list(d.get("conditions", [])), cond_obj=d.get("cond_obj", {}))
+        conditions=list(d.get("conditions", [])), cond_obj=d.get("cond_obj", {}),
+        realisations=int(d.get("realisations", 0)), real_obj=d.get("real_obj", {}),
+        real_record=d.get("real_record") or (events[0].get("realisations") if events else {})
+        or {})
 
 
 def _read_results(path: Path) -> dict:
@@ -354,7 +369,19 @@ def _read_results(path: Path) -> dict:
             "cond_obj": {_s(c): {k: f["conditions"][_s(c)][k][()].astype(float)
                                  for k in OBJECTIVE_NAMES if k in f["conditions"][_s(c)]}
                          for c in a.get("conditions", []) if "conditions" in f},
+            **_read_realisations(f),
         }
+
+
+def _read_realisations(f) -> dict:
+    """results.h5's /realisations: their count, record and each objective's (n, count) table."""
+    if "realisations" not in f:
+        return {}
+    g = f["realisations"]
+    return {"realisations": int(g.attrs.get("count", 0)),
+            "real_record": {"seed": int(g.attrs.get("seed", -1)),
+                            "fingerprint": _s(g.attrs.get("fingerprint", ""))},
+            "real_obj": {k: g[k][()].astype(float) for k in g}}
 
 
 MAX_ROWS = 1_000_000        # evaluations of a run: the budget is at most 100 000
@@ -410,7 +437,13 @@ def _from_journal(run: Path, events: list[dict], res: dict | None) -> dict:
            for k in objective_columns(rows, objectives)}
     status = np.array([r["status"] for r in rows], dtype=object)
     conditions = list(dict.fromkeys(k.split("@", 1)[1] for r in rows for k in r["objectives"]
-                                    if "@" in k))
+                                    if "@" in k and "#" not in k and "(" not in k))
+    count = int((head.get("realisations") or {}).get("count", 0))
+    bases = list(dict.fromkeys(objective_of(k) for r in rows for k in r["objectives"]
+                               if is_realisation_key(k)))
+    real_obj = {b: np.array([[float(r["objectives"].get(f"{b}#{j}", math.nan))
+                              for j in range(count)] for r in rows],
+                            dtype=float).reshape(n, count) for b in bases}
     cond_obj = {c: {k: np.array([float(r["objectives"].get(f"{k}@{c}", math.nan)) for r in rows])
                     for k in OBJECTIVE_NAMES} for c in conditions}
     F = np.column_stack([obj[k] for k in objectives]) if n else np.zeros((0, len(objectives)))
@@ -443,6 +476,7 @@ def _from_journal(run: Path, events: list[dict], res: dict | None) -> dict:
         "n_pending": len(table.pending_ids()), "finished": table.finished,
         "created": head.get("time", ""), "updated": events[-1].get("time", "") if events else "",
         "resolved": (res or {}).get("resolved"), "conditions": conditions, "cond_obj": cond_obj,
+        "realisations": count, "real_obj": real_obj, "real_record": head.get("realisations"),
     }
 
 
@@ -510,7 +544,8 @@ def pct(new: float, old: float) -> str:
         return "–"
     if new == old:
         return "0 %"
-    return f"{(new - old) / abs(old) * 100:+.1f} %"
+    text = f"{(new - old) / abs(old) * 100:+.1f}"
+    return "0.0 %" if text in ("+0.0", "-0.0") else f"{text} %"    # rounded to nothing: unsigned
 
 
 def var_value(v: VarInfo, value: float) -> str:

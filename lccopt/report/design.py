@@ -80,8 +80,12 @@ def fig_best_vs_reference(run: RunData, bi: int, ri: int | None, out: Path) -> P
     a2.invert_yaxis()
     a2.set_xlim(-0.05, 1.05)
     a2.set_xticks([0, 0.5, 1], ["lower bound", "middle", "upper bound"])
-    a2.set(title="design "
-                 "variables within their bounds" + (" (pads: in ratios)" if log.any() else ""))
+    logged = [v.name for v in run.variables if getattr(v, "log", False)]
+    if len(logged) > 3:
+        logged = [f"{logged[0]} to {logged[-1]}"]
+    a2.set(title="design variables within their bounds" + (
+        f"\n({', '.join(logged)} on a log scale, as the optimiser searches "
+        f"{'it' if len(logged) == 1 and ' to ' not in logged[0] else 'them'})" if logged else ""))
     a2.grid(axis="y", visible=False)
     a2.legend(loc="upper center", bbox_to_anchor=(0.5, -0.1), ncol=2, frameon=False)
     fig.tight_layout()

@@ -44,6 +44,19 @@ def log_ticks(lo: float, hi: float, at_least: int = 5) -> list[float]:
     return ticks
 
 
+# Along the track every figure measures from the entry slab edge (the interface the designed
+# side ends at): negative on the approach, positive over the ERS, as the track drawing and the
+# settlement figures do.
+ALONG_TRACK = "from the entry slab edge [m]"
+_POSITIONS = ("interface_entry", "interface_exit", "zone_start", "zone_end", "type_ii_end")
+
+
+def from_slab_edge(info: dict) -> tuple[float, dict]:
+    """(origin, info with its positions along the track measured from the entry slab edge)."""
+    origin = float(info.get("interface_entry", 0.0))
+    return origin, {k: (float(v) - origin if k in _POSITIONS else v) for k, v in info.items()}
+
+
 def zone_marks(ax, info: dict, xmax: float, label: bool = True):
     x_a, x_b = info.get("interface_entry"), info.get("interface_exit")
     if x_a is not None and x_b is not None:

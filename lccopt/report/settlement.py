@@ -207,7 +207,9 @@ def _measures_panel(ax, designs: list[Design], limit) -> None:
         m = _measure(h, name) * 1e3
         v = np.asarray(h["settlement_void"], float).max(axis=1) * 1e3
         ax.plot(p[keep], m[keep], color=d.color, lw=1.8, label=f"{d.label}: {name}")
-        ax.plot(p[keep], v[keep], color=d.color, lw=1.2, ls="--", label=f"{d.label}: max_void")
+        if name != "max_void":    # else the solid line is it already
+            ax.plot(p[keep], v[keep], color=d.color, lw=1.2, ls="--",
+                    label=f"{d.label}: max_void")
         tamped = np.asarray(h.get("settlement_tamped", np.zeros(len(p))), bool)
         for j, at in enumerate(p[tamped]):
             ax.axvline(at, color=d.color, lw=1.0, ls=d.style if d.style != "-" else "-.",
@@ -218,7 +220,9 @@ def _measures_panel(ax, designs: list[Design], limit) -> None:
     ax.set_xscale("log")
     _time_marks(ax, designs[0].histories, labels=True)
     ax.set(xlabel="axle passes", ylabel="[mm]")
-    ax.legend(loc="upper left", frameon=False, fontsize=7.5, ncol=2)
+    # below the axis, clear of the curves, the limit line and the time labels above
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.2), frameon=False, fontsize=7.5,
+              ncol=3)
 
 
 def _time_marks(ax, h: dict, labels: bool) -> None:
@@ -226,14 +230,40 @@ def _time_marks(ax, h: dict, labels: bool) -> None:
     proportional to time)."""
     t = np.asarray(h["settlement_years"], float)
     per = float(np.asarray(h["settlement_axle_passes"], float)[-1]) / t[-1]
+    at, texts = [], []
     for years, text in ((1 / 365, "1 day"), (7 / 365, "1 week"), (1 / 12, "1 month"),
                         (1.0, "1 year"), (10.0, "10 years"), (100.0, "100 years")):
         if years * per < 2.0 or years > t[-1] * 1.0001:
             continue
         ax.axvline(years * per, color="0.6", lw=0.7, ls=":", zorder=1)
-        if labels:
-            ax.text(years * per, 0.98, f" {text}", transform=ax.get_xaxis_transform(),
-                    fontsize=7, color="0.4", va="top", rotation=90)
+        at.append(years * per)
+        texts.append(text)
+    if labels and at:
+        # on an axis of their own above the panel: inside it they ran into the legend, the
+        # curves and the limit line
+        from matplotlib.ticker import NullLocator
+
+        at, texts = _apart(ax, at, texts, fontsize=7)
+        top = ax.secondary_xaxis("top")
+        top.set_xticks(at, texts, fontsize=7, color="0.35")
+        top.xaxis.set_minor_locator(NullLocator())
+        top.tick_params(length=3, color="0.6")
+
+
+def _apart(ax, at: list, texts: list, fontsize: float) -> tuple[list, list]:
+    """The time labels that fit side by side on AX's log axis, the longer times first (on a
+    long horizon "1 week" and "1 month" would touch): each label's width estimated from its
+    characters, against the axes' width in the figure."""
+    lo, hi = (np.log10(v) for v in ax.get_xlim())
+    inches = ax.get_position().width * ax.figure.get_figwidth()
+    per_inch = (hi - lo) / max(inches, 1e-9)                 # decades per inch
+    half = [0.5 * (0.6 * fontsize * len(t) / 72.0 + 0.08) * per_inch for t in texts]
+    kept: list[int] = []
+    for i in reversed(range(len(at))):
+        if not kept or np.log10(at[kept[-1]]) - half[kept[-1]] >= np.log10(at[i]) + half[i]:
+            kept.append(i)
+    kept.reverse()
+    return [at[i] for i in kept], [texts[i] for i in kept]
 
 
 def _measure(h: dict, name: str) -> np.ndarray:

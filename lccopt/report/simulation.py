@@ -12,8 +12,15 @@ from pathlib import Path
 import numpy as np
 
 from ..vti.response import Evaluation
-from .data import OKABE_ITO, TYPE_II_COLOR, ZONE_COLOR
-from .plotting import range_bracket, sleeper_ticks, speed_text
+from .data import OKABE_ITO, TYPE_II_COLOR
+from .plotting import (
+    ALONG_TRACK,
+    from_slab_edge,
+    range_bracket,
+    sleeper_ticks,
+    speed_text,
+    zone_marks,
+)
 
 
 def simulation_figures(ev: Evaluation, name: str, out: Path) -> list[Path]:
@@ -36,19 +43,18 @@ def simulation_figures(ev: Evaluation, name: str, out: Path) -> list[Path]:
 
 
 def _mark(ax, info: dict, x: np.ndarray) -> None:
-    """The ERS, the force evaluation zone and the Type II strip along the track."""
-    x_a, x_b = info["interface_entry"], info["interface_exit"]
-    ax.axvspan(x_a, min(x_b, x.max()), color="0.85", label="ERS (level crossing)")
-    ax.axvspan(info["zone_start"], info["zone_end"], color=ZONE_COLOR, alpha=0.18,
-               label="force evaluation zone")
-    if info["type_ii_end"] > x_a:
-        ax.axvspan(x_a, info["type_ii_end"], color=TYPE_II_COLOR, alpha=0.2,
-                   label="Type II strip")
+    """The ERS, the force evaluation zone and the Type II strip along the track (positions
+    from the entry slab edge), marked as the report's figures mark them."""
+    zone_marks(ax, info, float(x.max()))
+    if info["type_ii_end"] > info["interface_entry"]:
+        ax.axvspan(info["interface_entry"], info["type_ii_end"], ymin=0.025, ymax=0.05,
+                   color=TYPE_II_COLOR, label="Type II strip")
 
 
 def _contact_force(plt, ev: Evaluation, name: str):
-    h, info = ev.histories, ev.info
-    x = h["wheel_position"]
+    h = ev.histories
+    origin, info = from_slab_edge(ev.info)
+    x = h["wheel_position"] - origin
     speed = speed_text(info)
     fig, ax = plt.subplots(figsize=(9, 4.6))
     _mark(ax, info, x)
@@ -56,7 +62,7 @@ def _contact_force(plt, ev: Evaluation, name: str):
     fw = h.get("contact_force_wheels")
     several = fw is not None and fw.ndim == 2 and fw.shape[1] > 1
     if several:  # trailing wheels, each at its position
-        xw, inw = h["wheel_positions"], h["in_force_zone_wheels"].astype(bool)
+        xw, inw = h["wheel_positions"] - origin, h["in_force_zone_wheels"].astype(bool)
         for j in range(1, fw.shape[1]):
             ax.plot(xw[:, j], fw[:, j] / 1e3, lw=0.6, color=OKABE_ITO["sky"], alpha=0.7,
                     label="trailing wheels" if j == 1 else None)
@@ -71,8 +77,9 @@ def _contact_force(plt, ev: Evaluation, name: str):
     range_bracket(ax, 0, lo, hi, OKABE_ITO["blue"], "F_max")
     ax.axhline(info["static_wheel_load"] / 1e3, color="k", ls=":", lw=0.8,
                label="static wheel load")
-    sleeper_ticks(ax, h["entry_sleeper_position"], "0.3", 0, "sleepers")
-    ax.set(xlabel="wheel position along the track [m]", ylabel="wheel-rail contact force [kN]",
+    sleeper_ticks(ax, h["entry_sleeper_position"] - origin, "0.3", 0, "sleepers")
+    ax.set(xlabel=f"wheel position {ALONG_TRACK} (the vehicle comes from the left)",
+           ylabel="wheel-rail contact force [kN]",
            title=f"case {name}" + (f" at {speed}" if speed else "")
                  + f": F_max = {ev.objectives['F_max'] / 1e3:.2f} kN (max - min in the zone), "
                  f"F_rms = {ev.objectives['F_rms'] / 1e3:.2f} kN", xlim=(x.min(), x.max()))
@@ -109,8 +116,9 @@ def _sleeper_energy(plt, ev: Evaluation, name: str):
 
 
 def _displacement(plt, ev: Evaluation, name: str):
-    h, info = ev.histories, ev.info
-    x = h["wheel_position"]
+    h = ev.histories
+    origin, info = from_slab_edge(ev.info)
+    x = h["wheel_position"] - origin
     speed = speed_text(info)
     fig, ax = plt.subplots(figsize=(9, 4.4))
     _mark(ax, info, x)
@@ -118,7 +126,8 @@ def _displacement(plt, ev: Evaluation, name: str):
     ax.plot(x, h["rail_displacement"] * 1e3, lw=0.9, color=OKABE_ITO["vermillion"],
             label="rail under the wheel")
     ax.invert_yaxis()
-    ax.set(xlabel="wheel position along the track [m]", ylabel="displacement, downward [mm]",
+    ax.set(xlabel=f"wheel position {ALONG_TRACK} (the vehicle comes from the left)",
+           ylabel="displacement, downward [mm]",
            title="wheel and rail displacement" + (f" at {speed}" if speed else ""))
     ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=5, fontsize=8, frameon=False)
     fig.tight_layout()

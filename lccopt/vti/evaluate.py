@@ -12,6 +12,10 @@ wheel is measured while that wheel is between the farthest zone sleeper and
 ``zones.force_zone_end`` (a point relative to an interface); the run ends when the last wheel
 is ``run_out`` past the zone so the zone's sleepers have settled. Sleeper energies use mid-step
 velocities, which makes them exactly the dissipation of Newmark's discrete energy balance.
+
+A scenario whose variation leaves sleepers over voids runs with unilateral supports
+(:mod:`lccopt.vti.unilateral`); a sleeper's energy then counts the steps it touches the
+ballast.
 """
 
 from __future__ import annotations
@@ -24,6 +28,7 @@ from .newmark import integrate
 from .response import Evaluation, objectives_from
 from .specs import Scenario, TrackDesign
 from .track import build_track
+from .unilateral import integrate_unilateral, sleeper_supports
 from .vehicle import build_vehicle
 
 
@@ -61,11 +66,21 @@ def evaluate(scenario: Scenario, design: TrackDesign) -> Evaluation:
         def irregularity(pos: float) -> float:
             return float(np.interp(pos, px, pr, left=0.0, right=0.0))
 
-    h = integrate(track, dt, speed, x_start, n_steps, vehicle=vehicle,
-                  irregularity=irregularity, record_dofs=zone_dofs)
+    voids = _initial_voids(scenario, track)
+    if voids is None:
+        h = integrate(track, dt, speed, x_start, n_steps, vehicle=vehicle,
+                      irregularity=irregularity, record_dofs=zone_dofs)
+        in_contact = 1.0
+    else:   # sleepers over voids: their supports act only in contact (lccopt.vti.unilateral)
+        supports = sleeper_supports(track).with_gaps(voids)
+        h = integrate_unilateral(track, dt, speed, x_start, n_steps, supports=supports,
+                                 vehicle=vehicle, irregularity=irregularity,
+                                 record_dofs=zone_dofs)
+        in_contact = h.support_contact[1:, :n_zone]   # entry sleepers come first, in zone order
 
     v_mid = 0.5 * (h.dof_velocity[1:] + h.dof_velocity[:-1])
-    energy = dt * track.entry_support_damping[:n_zone] * np.sum(v_mid ** 2, axis=0)
+    # the ballast damper dissipates only while its sleeper touches the ballast
+    energy = dt * track.entry_support_damping[:n_zone] * np.sum(v_mid ** 2 * in_contact, axis=0)
     # every wheel's force while that wheel is in the force zone (the same stretch of rail
     # whichever way the vehicle runs)
     wheel_pos, wheel_force = h.wheel_position, h.wheel_force
@@ -83,9 +98,24 @@ def evaluate(scenario: Scenario, design: TrackDesign) -> Evaluation:
     forces = wheel_force.T[in_zone_w.T]            # wheel by wheel, each in step order
     objectives = objectives_from(forces, energy, force_ends=ends)
     info = _info(vehicle, track, h, n_steps, dt, leave)
+    if voids is not None:
+        info["void_sleepers"] = int(np.count_nonzero(voids > 0.0))
+        info["unsettled_steps"] = int(h.info["unsettled"])
     info["wall_time"] = time.perf_counter() - t0
     histories = _histories(vehicle, track, h, n_zone, energy, in_zone_w, profile)
     return Evaluation(objectives, histories, info)
+
+
+def _initial_voids(scenario: Scenario, track) -> np.ndarray | None:
+    """The gaps under the track's sleepers (entry then exit, ``track.sleeper_x``) of the
+    scenario's variation, or None where every sleeper rests on its ballast as drawn (the
+    linear model, bit for bit)."""
+    variation = scenario.variation
+    if variation is None or variation.void is None:
+        return None
+    n_entry, n_exit = len(track.entry_sleeper_x), len(track.exit_sleeper_x)
+    gaps = variation.per_sleeper("void", n_entry, n_exit, 0.0)
+    return gaps if np.any(gaps > 0.0) else None
 
 
 def _info(vehicle, track, h, n_steps: int, dt: float, leave: bool) -> dict:

@@ -54,14 +54,21 @@ def objective_unit(k: str) -> str:
     Parameters
     ----------
     k
-        an objective's name; ``F_max@name`` (a condition's) has F_max's unit.
+        an objective's name; ``F_max@name`` (a condition's), ``F_max#3`` (a realisation's),
+        ``mean(F_max)`` and ``q90(F_max)`` have F_max's unit; ``p_worse(F_max)`` is a
+        probability (``lccopt.uncertainty.statistics``).
 
     Returns
     -------
     str
         e.g. ``"N"``, ``"J"``, ``"m"``, ``"1/year"``.
     """
-    base = k.split("@")[0]
+    from ..uncertainty import statistics
+
+    parsed = statistics.parse(k)
+    if parsed is not None and parsed[0] == "p_worse":
+        return "-"
+    base = statistics.objective_of(k).split("@")[0]
     return OBJECTIVE_UNITS.get(base, "N" if base.startswith("F") else "J")
 
 

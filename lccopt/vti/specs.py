@@ -12,8 +12,10 @@ files or optimisation.
   :class:`LayoutPoint`, relative to a named point of the layout);
 * :class:`TrackDesign`: one design of the entry side next to the interface (the design vector
   split into its groups);
-* :class:`Scenario`: one simulation's inputs but the design (vehicle, track, settings, zones
-  and the rail profile).
+* :class:`Scenario`: one simulation's inputs but the design (vehicle, track, settings, zones,
+  the rail profile and, for one realisation of an uncertain track, its :class:`TrackVariation`).
+* :class:`TrackVariation`: the track as built rather than as drawn: per-sleeper factors on the
+  drawing's supports and pads, and voids under sleepers.
 """
 
 from __future__ import annotations
@@ -179,6 +181,41 @@ class TrackDesign:
     type_ii_strip: float            # x_l, elements from the entry slab edge
 
 
+@dataclass(frozen=True, kw_only=True, eq=False)
+class TrackVariation:
+    """Per-sleeper departures of the built track from its drawing (one realisation).
+
+    Each field is None (as drawn) or a pair ``(entry, exit)`` of arrays, one value per
+    ballast sleeper counted outwards from the ERS on each side (``entry[0]``: the entry
+    sleeper next to the slab, ``exit[0]``: the exit sleeper next to the slab). They belong to
+    the sleeper, not to a point of the track: a design that moves its sleepers moves their
+    values with them. Arrays at least as long as the track's sleepers on that side.
+
+    support_stiffness, support_damping, pad_stiffness: factors on the drawing's value (pad
+    damping follows pad stiffness, as the design's pads do); void: the ballast surface under
+    the sleeper lies this far below the as-built level [m] (``lccopt.vti.unilateral``: the
+    track's weight closes a small one, a larger one leaves the sleeper hanging from the rail);
+    settlement: a factor on the settlement law's coefficient (a settlement prediction).
+    """
+    support_stiffness: tuple | None = None
+    support_damping: tuple | None = None
+    pad_stiffness: tuple | None = None
+    void: tuple | None = None
+    settlement: tuple | None = None
+
+    def per_sleeper(self, name: str, n_entry: int, n_exit: int, fill: float) -> np.ndarray:
+        """The values of ``name`` for the track's ``n_entry`` entry then ``n_exit`` exit
+        sleepers (each side from the slab outwards), ``fill`` where it is as drawn."""
+        pair = getattr(self, name)
+        if pair is None:
+            return np.full(n_entry + n_exit, float(fill))
+        entry, exit_ = (np.asarray(a, dtype=float) for a in pair)
+        if entry.size < n_entry or exit_.size < n_exit:
+            raise ValueError(f"{name}: values for {entry.size} entry and {exit_.size} exit "
+                             f"sleepers, the track has {n_entry} and {n_exit}")
+        return np.concatenate([entry[:n_entry], exit_[:n_exit]])
+
+
 @dataclass(frozen=True, kw_only=True)
 class Scenario:
     """One simulation's inputs but the design: a vehicle running over a track."""
@@ -189,3 +226,5 @@ class Scenario:
     # (N, 2) positions [m] and dips [m, downward positive] of the rail profile, increasing
     # positions; None: a smooth rail
     irregularity: np.ndarray | None = field(default=None, compare=False, repr=False)
+    # one realisation of the track's variability (lccopt.uncertainty); None: as drawn
+    variation: TrackVariation | None = field(default=None, compare=False, repr=False)

@@ -10,7 +10,9 @@ Layout (x along the track; the direction ``enter`` runs the vehicle towards +x,
   Entry sleepers are counted from the interface: sleeper 1 sits x_sM elements from the slab
   edge, sleeper 2 a further x_s(M-1) elements, ..., then the standard spacing. Pads of
   sleepers 1..N get x_rN..x_r1 (x_rN nearest); their damping scales with stiffness. The
-  x_n sleepers nearest the interface are strengthened.
+  x_n sleepers nearest the interface are strengthened. A scenario's ``variation`` (one
+  realisation of the built track) multiplies each sleeper's support and pad values by its
+  factors.
 * ERS: rail on a continuous compound (consistent matrix k∫NNᵀ on the relative deflection
   rail - slab), on slab beams (free-free, not joined), on a continuous foundation. Over
   x_l elements from the entry edge the compound is the Type II one. Compound damping:
@@ -187,6 +189,12 @@ def build_track(scenario: Scenario, design: TrackDesign) -> TrackModel:
     all_mass = np.concatenate([sl_mass, np.full(n_exit, t.sleeper_mass)])
     all_k = np.concatenate([sl_k, np.full(n_exit, t.support.stiffness)])
     all_c = np.concatenate([sl_c, np.full(n_exit, t.support.damping)])
+    variation = scenario.variation
+    if variation is not None:   # the track as built: per-sleeper factors on the drawing's values
+        pad_f = variation.per_sleeper("pad_stiffness", n_entry, n_exit, 1.0)
+        all_pad_k, all_pad_c = all_pad_k * pad_f, all_pad_c * pad_f
+        all_k = all_k * variation.per_sleeper("support_stiffness", n_entry, n_exit, 1.0)
+        all_c = all_c * variation.per_sleeper("support_damping", n_entry, n_exit, 1.0)
 
     # --- slabs: node ranges (each slab has its own nodes; neighbouring slabs are not joined)
     slab_first = node_of(slab_edges[:-1])
@@ -290,7 +298,8 @@ def build_track(scenario: Scenario, design: TrackDesign) -> TrackModel:
         element_length=le, window=window, node_x=node_x, rail_w=rail_w, rail_th=rail_th,
         M=Mas.build(), C=Cas.build(), K=Kas.build(), interface=(x_a, x_b), slab_edges=slab_edges,
         entry_sleeper_x=entry_x, entry_sleeper_dof=sleeper_dof[:n_entry],
-        entry_support_damping=sl_c, entry_strengthened=strengthened, entry_pad_stiffness=pad_k,
+        entry_support_damping=all_c[:n_entry], entry_strengthened=strengthened,
+        entry_pad_stiffness=all_pad_k[:n_entry],
         exit_sleeper_x=exit_x, type_ii_end=float(type_ii_end), info=info,
         sleeper_x=sleeper_x, sleeper_dof=sleeper_dof, support_stiffness=all_k,
         support_damping=all_c)

@@ -1,8 +1,9 @@
 """Test evaluators for the run engine (pointed at by LCCOPT_EVALUATOR or the ``evaluator``
 argument): a cheap analytic stand-in for the simulator, and faulty variants.
 
-``evaluate``: deterministic smooth objectives of x and the vehicle speed (+ small time
-histories; with ``LCCOPT_FAKE_LOG`` set, one line per simulation appended to it); sleeps
+``evaluate``: deterministic smooth objectives of x, the vehicle speed and, on a realisation of
+the track, its support stiffness next to the slab (+ small time histories; with
+``LCCOPT_FAKE_LOG`` set, one line per simulation appended to it); sleeps
 ``LCCOPT_FAKE_DELAY`` seconds (default 0) to look like a simulation; with
 ``LCCOPT_FAKE_SPREAD`` = s (0 <= s < 1) the delay varies between (1-s) and (1+s) times that
 from point to point (a fixed function of x), so that results come back out of order.
@@ -38,6 +39,11 @@ def _objectives(case, x) -> dict:
     # a traffic condition's speed scales the objectives (exactly 1 at the reference speed)
     s = case.vehicle["speed"] / 38.88888888888889
     f, e = f * s, e * s * s
+    # a realisation of the track (uncertainty:) scales them by its zone's mean support factor
+    variation = getattr(case, "variation", None)
+    if variation is not None and variation.support_stiffness is not None:
+        k = float(np.mean(variation.support_stiffness[0][:20]))
+        f, e = f * k, e / k
     return {"F_rms": 49000.0 + 0.1 * f, "F_max": float(f), "E_rms": 1.5 + e, "E_max": float(e)}
 
 
@@ -98,3 +104,17 @@ def faulty(case, x) -> Evaluation:
                     while True:
                         time.sleep(1)
     return evaluate(case, x)
+
+
+def settled(case, x) -> Evaluation:
+    """``evaluate`` with a settlement prediction's objectives too (smooth functions of the same
+    x): a stand-in for a case with ``degradation:``, whose long objective names
+    (differential_settlement, maintenance_rate) are what a terminal line must hold."""
+    ev = evaluate(case, x)
+    f, e = ev.objectives["F_max"], ev.objectives["E_max"]
+    ev.objectives.update({"differential_settlement": 1e-3 * (1.0 + f / 5000.0),
+                          "max_settlement": 2e-3 * (1.0 + e), "max_void": 5e-4 * (1.0 + e),
+                          "level_std": 2e-4 * (1.0 + e), "force_growth": 0.01 * e,
+                          "maintenance_rate": 0.1 * (1.0 + f / 5000.0),
+                          "years_to_limit": 10.0 / (1.0 + f / 5000.0)})
+    return ev

@@ -29,6 +29,9 @@ from .conftest import (
     write_case,
 )
 
+# seconds a test: runs killed and resumed through the command line
+pytestmark = pytest.mark.slow
+
 
 def _children(pid: int) -> list[int]:
     out = []
@@ -218,8 +221,10 @@ def test_bad_case_and_bad_runs_give_one_line_messages_and_exit_2(tmp_path):
     r = cli_run("resume", tmp_path / "runs" / "chg", env={"LCCOPT_EVALUATOR": FAKE})
     assert r.returncode == 2
     lines = r.stderr.strip().splitlines()
-    assert len(lines) == 1 and "changed since the run started" in lines[0]
-    assert "--allow-changed-case" in lines[0]
+    assert len(lines) == 1 and "optimisation.seed changed since the run started" in lines[0]
+    # no flag carries a run on with another seed: the message says what does work
+    assert "--allow-changed-case" not in lines[0]
+    assert "new name" in lines[0] and f"lccopt optimise {case} --force" in lines[0], lines[0]
     copy = tmp_path / "runs" / "chg" / "case.yaml"
     assert f"--case {copy}" in lines[0]
     r = cli_run("resume", tmp_path / "runs" / "chg", "--case", copy, env={"LCCOPT_EVALUATOR": FAKE})
@@ -229,7 +234,8 @@ def test_bad_case_and_bad_runs_give_one_line_messages_and_exit_2(tmp_path):
                     + "design:\n  railpad_stiffness:\n    scale: linear\n")
     r = cli_run("resume", tmp_path / "runs" / "chg", "--allow-changed-case",
                 env={"LCCOPT_EVALUATOR": FAKE})
-    assert r.returncode == 2 and "scales" in r.stderr and "start a new run" in r.stderr
+    assert r.returncode == 2 and "design.railpad_stiffness.scale changed" in r.stderr
+    assert "new name" in r.stderr and "--force" in r.stderr
 
     r = cli_run("optimise", case, "--runs", tmp_path / "runs", env={"LCCOPT_EVALUATOR": FAKE})
     assert r.returncode == 2 and "already exists" in r.stderr

@@ -94,6 +94,7 @@ def test_worst_is_the_largest_and_mean_the_weighted_mean_over_conditions(tmp_pat
             assert worst[f"{k}@{name}"] == vi
 
 
+@pytest.mark.slow
 def test_two_identical_conditions_weigh_as_one_with_the_sum_of_their_weights(tmp_path):
     split = "  - {name: a, speed: 30.0, weight: 0.75}\n  - {name: b, speed: 30.0, weight: 1.5}\n" \
             "  - {name: c, speed: 40.0, weight: 1}\n"
@@ -109,6 +110,7 @@ def test_two_identical_conditions_weigh_as_one_with_the_sum_of_their_weights(tmp
         np.testing.assert_allclose(a[k], b[k], rtol=1e-14, atol=0, err_msg=k)
 
 
+@pytest.mark.slow
 def test_a_run_over_conditions_stores_every_condition_and_its_combination(tmp_path):
     path = conditions_case(tmp_path, THREE, budget=8)
     run = optimise(path, workers=2, runs=tmp_path / "runs", evaluator=FAKE, progress=False)
@@ -140,6 +142,7 @@ def test_a_run_over_conditions_stores_every_condition_and_its_combination(tmp_pa
     assert {k: ev.info[k] for k in machine.describe()} == machine.describe()
 
 
+@pytest.mark.slow
 def test_kill_9_mid_design_keeps_the_finished_conditions_and_resumes_to_the_same_end(tmp_path):
     """A design's conditions run as separate tasks: a kill between them loses none that
     finished, and the resumed run ends exactly as an uninterrupted one."""
@@ -193,6 +196,7 @@ def test_simulate_runs_every_condition_and_prints_their_combination(tmp_path):
     assert conds["v80"].info["speed"] == pytest.approx(22.22222222222222)
 
 
+@pytest.mark.slow
 def test_conditions_on_dask_give_the_process_pools_evaluations_and_files(tmp_path):
     pytest.importorskip("distributed")
     path = conditions_case(tmp_path, THREE, budget=8)

@@ -9,6 +9,9 @@ from lccopt.store import read_evaluation
 
 from .conftest import FAKE, assert_same_evaluations, optimise_on_local_dask, read_table, write_case
 
+# seconds a test: Dask schedulers and workers
+pytestmark = pytest.mark.slow
+
 
 def test_dask_local_cluster_same_evaluations_as_process_pool(tmp_path):
     pytest.importorskip("distributed")

@@ -22,6 +22,9 @@ from lccopt.store import read_evaluation
 
 from .conftest import FAKE, FAULTY, REFERENCE, read_table, write_case
 
+# seconds a test: whole runs of the engine
+pytestmark = pytest.mark.slow
+
 
 def test_run_directory_and_results_layout(tmp_path, capsys):
     case = write_case(tmp_path, "moo", budget=10, initial=4)
@@ -197,7 +200,7 @@ def test_resume_rules(tmp_path, capsys):
     resume(run, workers=1, allow_changed_case=True, evaluator=FAKE, progress=False)
     assert len(read_table(run)["id"]) == 11
     case.write_text(case.read_text() + "design:\n  strengthened_sleepers:\n    bounds: [0, 19]\n")
-    with pytest.raises(UsageError, match="other design variables"):
+    with pytest.raises(UsageError, match="design.strengthened_sleepers.bounds changed"):
         resume(run, allow_changed_case=True, evaluator=FAKE)
 
     # --force starts again.

@@ -28,6 +28,9 @@ from .conftest import (
     write_case,
 )
 
+# seconds a test: runs killed, starved and resumed, in subprocesses
+pytestmark = pytest.mark.slow
+
 ENV = {"LCCOPT_EVALUATOR": FAKE}
 
 

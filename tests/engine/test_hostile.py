@@ -32,6 +32,9 @@ from .conftest import (
     write_case,
 )
 
+# seconds a test: runs attacked through their files, in subprocesses
+pytestmark = pytest.mark.slow
+
 ENV = {"LCCOPT_EVALUATOR": FAKE}
 
 
@@ -196,7 +199,7 @@ def test_changes_a_run_cannot_honour_are_refused_by_name(tmp_path, finished):
                           ("time_step: 1.0e-3", "time_step: 5.0e-4", "simulation.time_step")):
         case.write_text(text.replace(old, new).replace("budget: 10", "budget: 12"))
         line = _error_line(cli_run("resume", run, "--allow-changed-case", env=ENV))
-        assert key in line and "start a new run" in line, line
+        assert key in line and "new name" in line and "--force" in line, line
     case.write_text(text.replace("budget: 10", "budget: 6"))
     line = _error_line(cli_run("resume", run, "--allow-changed-case", env=ENV))
     assert "budget of 6 is below the 10 evaluations" in line, line

@@ -18,6 +18,9 @@ from lccopt.store import read_evaluation
 
 from .conftest import FAKE, REPO, cli_run, optimise_on_local_dask, write_case
 
+# seconds a test: runs resumed under other floating-point kernels
+pytestmark = pytest.mark.slow
+
 NATIVE = machine.describe()
 # Kernels other than this machine's that any x86-64 CPU can run
 OTHER = "Nehalem" if NATIVE["blas_kernels"] != "Nehalem" else "Sandybridge"

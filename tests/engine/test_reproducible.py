@@ -36,6 +36,9 @@ from .conftest import (
     write_case,
 )
 
+# seconds a test: whole runs compared bit for bit
+pytestmark = pytest.mark.slow
+
 
 def _events(run):
     return read_journal(run / "journal.jsonl")[0]

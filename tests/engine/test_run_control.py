@@ -5,9 +5,14 @@ from __future__ import annotations
 
 import json
 
+import pytest
+
 from lccopt.engine.journal import read_journal
 
 from .conftest import FAKE, cli_run, read_table, write_case
+
+# seconds a test: runs carried on through the command line
+pytestmark = pytest.mark.slow
 
 ENV = {"LCCOPT_EVALUATOR": FAKE}
 

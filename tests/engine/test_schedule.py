@@ -114,6 +114,7 @@ def told_before_each_ask(calls, k, multi):
 
 @pytest.mark.parametrize("k,multi", [(1, False), (2, False), (2, True), (3, True), (4, False),
                                      (5, True)])
+@pytest.mark.slow
 def test_same_calls_whatever_the_timing(k, multi):
     p = problems.paper_size("levy")
     runs = []

@@ -61,6 +61,7 @@ def test_at_least_one_coordinate_moves_and_a_held_one_never_does():
         assert np.all(np.sum(C[:, :2] != best[:2], axis=1) == 1)  # probability 0: one each
 
 
+@pytest.mark.slow
 def test_the_perturbation_probability_shrinks_over_the_whole_run():
     """"run" (pySOT): min(20/d, 1) (1 - ln n / ln N) with n the proposals since the first
     initial design and N the budget after it, floored at 1/d, not reset by a restart;
@@ -147,5 +148,11 @@ def test_a_candidate_generator_plugs_in_and_its_runs_resume_exactly():
     req = gen.requests[-1]
     assert req.rng is s.rng and req.attempt == 0 and req.weight in (0.3, 0.5, 0.8, 0.95)
     assert req.best is not None and 0.0 < req.probability <= 1.0 and req.movable.all()
+    # the phase's told points, best first (a generator may centre steps on any of them)
+    phase = [r for r in s.history if r["restart"] == s.restart and r["status"] == "ok"
+             and r["id"] < len(s.history) - 1]
+    values = [p(x) for x in req.ranked]
+    assert np.array_equal(req.ranked[0], req.best) and values == sorted(values)
+    assert len(req.ranked) >= min(len(phase), 2)
     plain = run_serial(Strategy(p.space, budget=60, seed=2), p)
     assert xs(plain) != xs(s)

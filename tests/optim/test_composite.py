@@ -61,6 +61,7 @@ def test_composite_finds_the_known_compromise(seed):
     assert all(r["outputs"] is not None for r in s.history if r["status"] == "ok")
 
 
+@pytest.mark.slow
 def test_composite_beats_the_scalar_surrogate_on_the_kinked_asf():
     comp = [drive(make(seed)).best[1] - BEST for seed in range(4)]
     scal = []
@@ -118,6 +119,7 @@ def test_without_aggregate_or_outputs_the_scalar_surrogate_is_used():
     assert isinstance(s._prepare().surrogate, CubicRBF)
 
 
+@pytest.mark.slow
 def test_with_the_composite_surrogate_the_local_search_competes_at_every_weight():
     """local_weights "all" (the composite default): the local search's points compete at
     every weight of the cycle; "greedy" (the scalar default): at the greediest only."""

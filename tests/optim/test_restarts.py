@@ -23,6 +23,9 @@ from tests.optim.helpers import (
     xs,
 )
 
+# seconds a test: whole optimisations through their restarts
+pytestmark = pytest.mark.slow
+
 
 def _watch_phases(s, f, workers=1, outputs=False):
     """Run s; per phase: (its Phase, the run's best record id and value when it began)."""

@@ -74,6 +74,7 @@ def test_the_candidates_are_dycors_steps_and_the_local_search():
 
 # -- beats random search and Latin hypercube -------------------------------------------------------
 @pytest.mark.parametrize("name", ["ackley8", "levy8", "rastrigin8", "gear", "nvs09"])
+@pytest.mark.slow
 def test_beats_random_and_lhs(name):
     p = problems.get(name)
     budget, seeds = 70, range(3)
@@ -205,6 +206,7 @@ def test_resume_half_way_is_bit_identical(tmp_path, workers):
                (b["phase"], b["restart"], b["status"], b["value"])
 
 
+@pytest.mark.slow
 def test_resume_at_every_step_across_restarts(tmp_path):
     """Saved, dropped and restored after every step through fresh restarts, restarts from the
     run's best point, bound probes and a subspace phase (short phases: many restarts)."""
@@ -270,6 +272,7 @@ def test_is_taken_matches_pairwise_comparison(name):
     assert ctx.is_taken(C[:20]).all()
 
 
+@pytest.mark.slow
 def test_duplicate_radius_lets_a_sharp_minimum_be_refined(monkeypatch):
     """The duplicate radius (settings.DIST_TOL, 1e-4 of the unit box): Schoen's function is
     -1000 + ~1e5 r^2 near its optimum, so a radius ten times larger stops the refinement
@@ -352,6 +355,7 @@ def _ratio_problem(log: bool):
     return space, lambda x: float(np.sum(np.log(x[:3] / a) ** 2) + (x[3] - 3) ** 2)
 
 
+@pytest.mark.slow
 def test_a_log_scale_steps_in_ratios_and_finds_an_optimum_a_linear_scale_misses():
     for log in (True, False):
         best = []

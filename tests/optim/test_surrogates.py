@@ -70,6 +70,7 @@ def test_the_quadratic_tail_must_rank_all_the_points_better_too(monkeypatch, hal
     assert ("quadratic" if len(fit.quad_i) else "linear") == expected
 
 
+@pytest.mark.slow
 def test_the_quadratic_tail_finds_the_optimum_of_a_rotated_ellipsoid():
     """rotellipsoid_int6 (condition 1e4, 100 integer values per variable, f* = 0): each seed
     ends at the optimum within 100 evaluations (with a linear tail always, none did:

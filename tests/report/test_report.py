@@ -13,6 +13,9 @@ import pytest
 
 from .helpers import FIGURES, lccopt, png_size, write_case
 
+# seconds a test: a real optimisation, then its report
+pytestmark = pytest.mark.slow
+
 
 @pytest.fixture(scope="module")
 def run_dir(tmp_path_factory):
@@ -215,3 +218,38 @@ def test_pads_searched_on_a_log_scale_are_placed_in_ratios(run_dir, monkeypatch,
     ref = a2.collections[1].get_offsets()      # after the range lines: the reference diamonds
     np.testing.assert_allclose(ref[:3, 0], np.log(1120 / 50) / np.log(1200 / 50), rtol=1e-9)
     np.testing.assert_allclose(ref[3, 0], 8 / 20, rtol=1e-9)   # x_n = 8 in [0, 20]: linear
+
+
+def test_contact_force_is_drawn_from_the_slab_edge_in_the_colours_its_caption_names(
+        run_dir, monkeypatch, tmp_path):
+    """One convention along the track: contact-force.png measures from the entry slab edge, as
+    the track drawing and the settlement figures do (not the model's absolute metres); the
+    caption in report.md names the colour the zone strip is drawn in."""
+    import numpy as np
+    from matplotlib.colors import to_hex
+
+    from lccopt.report import along_track
+    from lccopt.report.data import OKABE_ITO, load_run, read_history
+
+    run, _ = run_dir
+    data = load_run(run)
+    bi, ri = data.best_index(), data.ref_index()
+    (hb, ib, _), (hr, ir, _) = read_history(data, bi, None), read_history(data, ri, None)
+    drawn = {}
+    monkeypatch.setattr(along_track, "save_figure",
+                        lambda fig, path: drawn.setdefault("fig", fig) and path)
+    along_track.fig_contact_force(data, (hb, ib), (hr, ir), bi, tmp_path)
+    ax = drawn["fig"].axes[0]
+    assert "from the entry slab edge" in ax.get_xlabel()
+    lo, hi = ax.get_xlim()
+    edge = ib["interface_entry"]                         # 100 m into the model's track
+    assert edge > 50 and lo < 0 < hi and hi < ib["interface_exit"] - edge + 5, (lo, hi)
+    curve = next(li for li in ax.lines if li.get_label().startswith("reference design:"))
+    curve = curve.get_xdata()
+    np.testing.assert_allclose(curve, np.asarray(hr["wheel_position"]) - edge)
+    zone = [p for p in ax.patches if p.get_label() == "force evaluation zone"][0]
+    md = (run / "report" / "report.md").read_text()
+    caption = next(line for line in md.splitlines() if line.startswith("*Wheel-rail contact"))
+    named = re.search(r"(\w+) strip: evaluation zone", caption).group(1)
+    assert to_hex(zone.get_facecolor()).lower() == OKABE_ITO[named].lower(), (named, caption)
+    assert "orange" not in caption

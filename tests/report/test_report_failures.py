@@ -15,6 +15,9 @@ import pytest
 
 from .helpers import FIGURES, lccopt, png_size, write_case
 
+# seconds a test: a run with failures and a restart, then its report
+pytestmark = pytest.mark.slow
+
 
 @pytest.fixture(scope="module")
 def run_dir(tmp_path_factory):

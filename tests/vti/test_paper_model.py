@@ -51,6 +51,7 @@ def test_table_7_designs_keep_the_papers_f_max_order(case):
     assert sorted(f_max, key=f_max.get) == list(TABLE7)
 
 
+@pytest.mark.slow
 def test_a_longer_type_ii_strip_lowers_f_rms_of_the_papers_min_f_rms_design(case):
     """Table 5: the min-F_rms design takes x_l = 120 (the strip over all 12 m of the ERS). The
     force zone runs to the far edge of the ERS, so the whole strip counts: F_rms falls from

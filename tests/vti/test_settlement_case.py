@@ -27,6 +27,9 @@ from lccopt.vti.response import SETTLEMENT_OBJECTIVES
 from lccopt.vti.track import build_track
 from tests.conftest import CONFIGS
 
+# seconds a test: settlement predictions of whole cases
+pytestmark = pytest.mark.slow
+
 BOGIE = (CONFIGS / "vehicles" / "virm-bogie.yaml").as_posix()
 CHEAP = """simulation: {time_step: 1.0e-3, element_length: 0.1, far_element_length: 0.6,
              run_in: 2.0, run_out: 1.0}

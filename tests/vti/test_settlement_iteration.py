@@ -23,6 +23,9 @@ from lccopt.vti.track import build_track
 from lccopt.vti.unilateral import integrate_unilateral, sleeper_supports
 from tests.vti.test_voids import discrete_track
 
+# seconds a test: settlement predictions over many blocks of simulations
+pytestmark = pytest.mark.slow
+
 YEARS = 10.0
 PER_YEAR = 1.0e6          # passes of the one-wheel quarter car: 10^7 axle passes in 10 years
 

@@ -10,6 +10,9 @@ from benchmarks.legacy_newmark import REFERENCE_SETTINGS, evaluate_legacy, integ
 from lccopt.config import load_case
 from lccopt.problem import evaluate
 
+# seconds a test: full-length simulations
+pytestmark = pytest.mark.slow
+
 DESIGNS = {
     "reference": None,
     "paper MOO": [214e6, 155e6, 50e6, 5, 6, 7, 3, 0],

@@ -164,6 +164,7 @@ def cheap_case(tmp_path, base, direction="enter", extra=""):
 
 
 @pytest.mark.parametrize("base", ["reference.yaml", "vehicles/virm-half-car.yaml"])
+@pytest.mark.slow
 def test_leave_on_a_mirrored_track_is_the_mirrored_enter(tmp_path, monkeypatch, base):
     """Mirrored: the whole track (the designed entry side, the ERS, the exit side) about its
     far end, so that the vehicle comes out of the ERS onto the designed side running towards

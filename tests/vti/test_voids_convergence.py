@@ -2,11 +2,15 @@
 forces of a vehicle run converge as Δt halves (the contact switching does not spoil it)."""
 
 import numpy as np
+import pytest
 
 from lccopt.config import load_case
 from lccopt.vti.evaluate import build_vehicle
 from lccopt.vti.unilateral import integrate_unilateral, sleeper_supports
 from tests.vti.test_voids import discrete_track
+
+# seconds a test: a convergence study in the time step
+pytestmark = pytest.mark.slow
 
 
 def measures(dt):

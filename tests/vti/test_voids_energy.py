@@ -14,9 +14,13 @@ switch: it shrinks with Δt (halving Δt divides it by 2.8 here).
 """
 
 import numpy as np
+import pytest
 
 from lccopt.vti.unilateral import integrate_unilateral, sleeper_supports
 from tests.vti.test_voids import discrete_track
+
+# seconds a test: simulations at several time steps
+pytestmark = pytest.mark.slow
 
 
 def run_balance(dt, speed=20.0, load=100e3):

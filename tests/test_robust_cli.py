@@ -1,0 +1,68 @@
+"""configs/robust.yaml as a user runs it: check, simulate (the reference design's spread),
+optimise, status, resume to a larger budget, report (with fewer realisations and a coarser
+simulation set on the command line, recorded in the run as any --set)."""
+
+from __future__ import annotations
+
+import json
+
+import h5py
+import pytest
+
+from lccopt.store import read_realisations
+from tests.conftest import CONFIGS
+
+CHEAP = ["--set", "uncertainty.realisations=3", "--set", "simulation.time_step=1.0e-3",
+         "--set", "simulation.run_in=3.0", "--set", "simulation.run_out=1.0",
+         "--set", "simulation.far_element_length=0.1"]
+
+
+def test_check_prints_the_realisations_and_their_cost(run_cli):
+    r = run_cli("check", CONFIGS / "robust.yaml")
+    assert r.returncode == 0, r.stderr
+    assert "uncertainty: 8 realisations of the track (seed 1)" in r.stdout
+    assert "support_stiffness: lognormal, cov 0.25, correlation 3 m" in r.stdout
+    assert "pad_stiffness: uniform, cov 0.1, independent" in r.stdout
+    assert "budget 60: 540 tasks (9 x a deterministic run)" in r.stdout
+
+
+def test_simulate_shows_the_reference_design_on_every_track(run_cli, tmp_path):
+    r = run_cli("simulate", CONFIGS / "robust.yaml", "--out", tmp_path / "sim", *CHEAP)
+    assert r.returncode == 0, r.stderr
+    rows = {" ".join(line.split()[:2]): line for line in r.stdout.splitlines()}
+    for label in ("as drawn", "realisation 0", "realisation 2", "90% quantile", "lowest"):
+        assert any(k.startswith(label) for k in rows), (label, r.stdout)
+    fmax = [float(rows[f"realisation {i}"].split()[2]) for i in range(3)]
+    q90 = float(next(v for k, v in rows.items() if k.startswith("90%")).split()[2])
+    assert min(fmax) <= q90 <= max(fmax) and len(set(fmax)) == 3
+    assert (tmp_path / "sim" / "robust-spread.png").stat().st_size > 10_000
+    evs = read_realisations(tmp_path / "sim" / "simulation.h5")
+    assert [e.objectives["F_max"] / 1e3 for e in evs] == pytest.approx(fmax, rel=1e-4)
+
+
+def test_optimise_status_resume_and_report(run_cli, tmp_path):
+    runs = tmp_path / "runs"
+    r = run_cli("optimise", CONFIGS / "robust.yaml", "--runs", runs, "--workers", "2", *CHEAP,
+                "--set", "optimisation.budget=6", "--set", "optimisation.initial_points=5")
+    assert r.returncode == 0, r.stderr
+    assert "3 realisations and the drawn track per design" in r.stderr
+    run = runs / "robust"
+    r = run_cli("status", run)
+    assert r.returncode == 0 and "finished, 6/6 evaluations" in r.stdout, r.stdout
+    assert "q90(F_max)" in r.stdout
+    r = run_cli("resume", run, "--budget", "8")
+    assert r.returncode == 0, r.stderr
+    with h5py.File(run / "results.h5") as f:
+        assert f["realisations/F_max"].shape == (8, 3)
+        assert f["realisations"].attrs["count"] == 3
+        assert list(f["evaluations/q90(F_max)"][()]) != list(f["evaluations/F_max"][()])
+    r = run_cli("report", run)
+    assert r.returncode == 0, r.stderr
+    report = (run / "report" / "report.md").read_text()
+    assert "## Over the realisations of the track" in report
+    assert "beats the reference on" in report
+    assert (run / "report" / "robust-spread.png").stat().st_size > 10_000
+    summary = json.loads((run / "report" / "summary.json").read_text())
+    assert "reference" in summary["realisations"]
+    ref = summary["realisations"]["reference"]["F_max"]
+    assert ref["tracks"] == 3 and ref["drawn"] > 0

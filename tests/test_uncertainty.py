@@ -1,0 +1,275 @@
+"""The track as built rather than as drawn: random fields over the sleepers, the case's
+uncertainty: section, its realisations in the model and the robust statistics."""
+
+from __future__ import annotations
+
+import math
+import subprocess
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from lccopt.config import load_case
+from lccopt.config.uncertainty import fingerprint
+from lccopt.errors import CaseError
+from lccopt.problem import evaluate
+from lccopt.uncertainty import fields
+from lccopt.uncertainty import statistics as stats
+from lccopt.vti.evaluate import evaluate as simulate
+from lccopt.vti.specs import TrackVariation
+from lccopt.vti.track import build_track
+from tests.conftest import CHEAP_SIMULATION, REFERENCE, lccopt_command, subprocess_env
+
+
+def robust_case(tmp_path, section: str, objectives: str = "", name: str = "u") -> object:
+    text = (f"extends: {REFERENCE}\nname: {name}\n" + CHEAP_SIMULATION + "uncertainty:\n"
+            + section + (f"optimisation:\n  objectives: [{objectives}]\n  budget: 10\n"
+                         if objectives else ""))
+    path = tmp_path / f"{name}.yaml"
+    path.write_text(text)
+    return path
+
+
+# -- random fields ---------------------------------------------------------------------------
+
+def draws(x, ell, n=3000, stream=1):
+    return np.array([fields.gaussian_field(x, ell, fields.generator(7, stream, r))
+                     for r in range(n)])
+
+
+@pytest.mark.parametrize("distribution", ["lognormal", "uniform"])
+def test_factors_have_the_stated_mean_and_coefficient_of_variation(distribution):
+    z = draws(np.arange(0, 30, 0.6), 0.0)
+    f = fields.factors(z, distribution, 1.2, 0.3)
+    assert f.mean() == pytest.approx(1.2, rel=0.01)
+    assert f.std() / f.mean() == pytest.approx(0.3, rel=0.03)
+    assert f.min() > 0
+
+
+@pytest.mark.parametrize("ell", [0.0, 1.0, 3.0, 20.0])
+def test_the_field_is_standard_with_rose_s_gaussian_correlation(ell):
+    x = np.arange(0, 30, 0.6)
+    z = draws(x, ell)
+    assert z.var(axis=0).mean() == pytest.approx(1.0, abs=4 * math.sqrt(2 / len(z)))
+    for lag in (1, 3, 8):
+        rho = np.mean([np.corrcoef(z[:, i], z[:, i + lag])[0, 1] for i in range(0, 40, 5)])
+        expected = math.exp(-math.pi / 4 * (lag * 0.6 / ell) ** 2) if ell else 0.0
+        assert rho == pytest.approx(expected, abs=0.04), (ell, lag)
+
+
+def test_a_coefficient_of_variation_of_0_gives_factors_of_exactly_1():
+    z = draws(np.arange(0, 30, 0.6), 3.0, n=5)
+    for d in fields.DISTRIBUTIONS:
+        assert np.all(fields.factors(z, d, 1.0, 0.0) == 1.0)
+
+
+def test_a_fraction_p_of_the_sleepers_hang():
+    z = draws(np.arange(0, 30, 0.6), 2.0, n=2000)
+    assert fields.hanging(z, 0.15).mean() == pytest.approx(0.15, abs=0.01)
+    assert not fields.hanging(z, 0.0).any() and fields.hanging(z, 1.0).all()
+
+
+# -- the case section ------------------------------------------------------------------------
+
+SECTION = """\
+  realisations: 3
+  seed: 5
+  support_stiffness: {correlation_length: 3 m}
+  support_damping: {}
+  pad_stiffness: {cov: 0.1, mean: 1.1}
+  initial_void: {probability: 0.1, gap: 0.5 mm}
+"""
+
+
+def test_same_seed_same_realisations_another_seed_others_and_more_keep_the_first(tmp_path):
+    a, b = (load_case(robust_case(tmp_path, SECTION)) for _ in range(2))
+    assert a.realisations == 3 and fingerprint(a.variations) == fingerprint(b.variations)
+    for va, vb in zip(a.variations, b.variations):
+        for name in ("support_stiffness", "support_damping", "pad_stiffness", "void"):
+            for pa, pb in zip(getattr(va, name), getattr(vb, name)):
+                np.testing.assert_array_equal(pa, pb)
+    other = load_case(robust_case(tmp_path, SECTION.replace("seed: 5", "seed: 6"), name="o"))
+    assert fingerprint(other.variations) != fingerprint(a.variations)
+    more = load_case(robust_case(tmp_path, SECTION.replace("realisations: 3", "realisations: 5"),
+                                 name="m"))
+    assert fingerprint(more.variations[:3]) == fingerprint(a.variations)
+    v = a.variations[0]
+    # damping follows stiffness sleeper by sleeper (the same field, the same cov)
+    np.testing.assert_array_equal(v.support_damping[0], v.support_stiffness[0])
+    assert v.pad_stiffness[0].mean() == pytest.approx(1.1, rel=0.05)
+    # as many entry values as any design can have sleepers (the shortest spans give the
+    # most), one for every exit sleeper
+    x = a.lower.copy()
+    track = build_track(a.scenario(), a.track_design(x))
+    assert v.support_stiffness[0].size >= len(track.entry_sleeper_x)
+    assert v.support_stiffness[1].size == len(track.exit_sleeper_x)
+
+
+def test_the_seed_defaults_to_the_optimisation_seed(tmp_path):
+    base = SECTION.replace("  seed: 5\n", "")
+    a = load_case(robust_case(tmp_path, base, "F_max", name="a"))
+    text = robust_case(tmp_path, base, "F_max", name="b").read_text() + "  seed: 9\n"
+    (tmp_path / "b.yaml").write_text(text)
+    b = load_case(tmp_path / "b.yaml")
+    c = load_case(robust_case(tmp_path, SECTION.replace("seed: 5", "seed: 9"), name="c"))
+    assert fingerprint(b.variations) == fingerprint(c.variations)
+    assert fingerprint(a.variations) != fingerprint(b.variations)
+
+
+@pytest.mark.parametrize("section, objectives, key, words", [
+    ("  realisations: 3\n  support_stiffness: {cov: -0.1}\n", "",
+     "uncertainty.support_stiffness.cov", "must be >= 0"),
+    ("  realisations: 0\n  support_stiffness: {}\n", "", "uncertainty.realisations",
+     "must be >= 2"),
+    ("  realisations: 100000\n  support_stiffness: {}\n", "", "uncertainty.realisations",
+     "must be <= 500"),
+    ("  realisations: 3\n  support_stifness: {}\n", "", "uncertainty.support_stifness",
+     "did you mean 'support_stiffness'"),
+    ("  realisations: 3\n  support_stiffness: {distribution: uniform, cov: 0.55}\n", "",
+     "uncertainty.support_stiffness.cov", "too wide for a uniform factor"),
+    ("  realisations: 3\n  support_stiffness: {distribution: normal}\n", "",
+     "uncertainty.support_stiffness.distribution", "must be one of lognormal, uniform"),
+    ("  realisations: 3\n  pad_stiffness: {mean: 1.1}\n", "", "uncertainty.pad_stiffness",
+     "missing key 'cov'"),
+    ("  realisations: 3\n", "", "uncertainty", "no quantity varies"),
+    ("  realisations: 3\n  settlement_coefficient: {cov: 0.2}\n", "",
+     "uncertainty.settlement_coefficient", "needs a degradation: section"),
+    ("  realisations: 3\n  support_stiffness: {}\n", "q90(F_mx)", "optimisation.objectives",
+     "unknown name 'q90(F_mx)'"),
+    ("  realisations: 3\n  support_stiffness: {}\n", "q90(years_to_limit)",
+     "optimisation.objectives", "reported, not minimised"),
+    ("  realisations: 3\n  support_stiffness: {}\n", "mean(max_void)",
+     "optimisation.objectives", "needs a degradation: section"),
+])
+def test_bad_uncertainty_input_is_one_line_naming_file_line_and_key(tmp_path, section,
+                                                                    objectives, key, words):
+    path = robust_case(tmp_path, section, objectives)
+    with pytest.raises(CaseError) as e:
+        load_case(path)
+    msg = str(e.value)
+    assert "\n" not in msg and msg.startswith(f"{path}:"), msg
+    assert f": {key}: " in msg and words in msg, msg
+
+
+def test_a_robust_objective_without_the_section_and_check_exits_2(tmp_path):
+    path = tmp_path / "n.yaml"
+    path.write_text(f"extends: {REFERENCE}\nname: n\noptimisation:\n  objectives: [q90(F_max)]\n"
+                    f"  budget: 10\n")
+    r = subprocess.run(lccopt_command() + ["check", str(path)], capture_output=True, text=True,
+                       env=subprocess_env())
+    assert r.returncode == 2, r
+    line, = r.stderr.strip().splitlines()
+    assert line.startswith(f"lccopt: error: {path}:4: optimisation.objectives: q90(F_max)"), line
+    assert "needs an uncertainty: section" in line
+
+
+def test_too_many_realisations_for_a_design_are_refused_with_how_many_fit(tmp_path):
+    path = robust_case(tmp_path, "  realisations: 500\n  support_stiffness: {}\n")
+    # the paper's simulation at 1.5 us steps: 460,000 steps of 2,700 dofs, 501 times
+    path.write_text(path.read_text().replace(CHEAP_SIMULATION, "simulation: {time_step: 1.5e-6}\n"))
+    with pytest.raises(CaseError, match=r"uncertainty\.realisations: 500 realisations .* at "
+                                        r"most \d+ realisations here"):
+        load_case(path)
+
+
+def test_check_prints_the_realisations_and_what_they_cost(tmp_path):
+    path = robust_case(tmp_path, SECTION, "q90(F_max), E_max")
+    r = subprocess.run(lccopt_command() + ["check", str(path)], capture_output=True, text=True,
+                       env=subprocess_env())
+    assert r.returncode == 0, r.stderr
+    out = r.stdout
+    assert "uncertainty: 3 realisations of the track (seed 5)" in out
+    assert "support_stiffness: lognormal, cov 0.25, correlation 3 m" in out
+    assert "support_damping: lognormal, cov 0.25, support_stiffness's field" in out
+    assert "pad_stiffness: lognormal, mean 1.1, cov 0.1, independent" in out
+    assert "initial_void: 10% of the sleepers hang, gap 0.5 mm" in out
+    assert "per design: 4 tracks (the drawing and 3 realisations) = 4 tasks" in out
+    assert "budget 10: 40 tasks (4 x a deterministic run)" in out
+    assert max(len(line) for line in out.splitlines()[1:]) <= 80
+
+
+def test_a_realisation_reaches_the_settlement_prediction_s_sleepers(tmp_path):
+    path = tmp_path / "s.yaml"
+    path.write_text(f"extends: {REFERENCE.parent / 'settlement.yaml'}\nname: s\nuncertainty:\n"
+                    f"  realisations: 2\n  settlement_coefficient: {{cov: 0.2}}\n"
+                    f"  initial_void: {{probability: 0.3, gap: 1 mm}}\n")
+    case = load_case(path)
+    drawn = case.degradation_spec()
+    assert drawn.sleeper_gamma is None and drawn.initial_gap is None
+    n = drawn.settling_sleepers
+    for r, v in enumerate(case.variations):
+        spec = case.part_case(-1, r).degradation_spec()
+        assert spec.sleeper_gamma == tuple(v.settlement[0][:n])
+        assert spec.initial_gap == tuple(v.void[0][:n])
+        assert len(set(spec.sleeper_gamma)) == n and 0 < spec.initial_gap.count(0.0) < n
+        # the same track in the paper's passages of the prediction
+        assert spec.traffic[0].scenario.variation is v
+
+
+# -- realisations in the model ---------------------------------------------------------------
+
+def test_a_stiffer_support_everywhere_is_the_drawing_with_a_stiffer_support(tmp_path):
+    """A realisation's factors reach each sleeper's support: all at 1.3 is the same track as
+    one whose support (strengthened sleepers' too) is drawn 1.3 times stiffer."""
+    case = load_case(robust_case(tmp_path, "  realisations: 2\n  support_stiffness: {}\n"))
+    x = case.reference
+    ones = [np.full(p.size, 1.3) for p in case.variations[0].support_stiffness]
+    varied = replace(case.scenario(), variation=TrackVariation(support_stiffness=tuple(ones)))
+    sc = case.scenario()
+    track = replace(sc.track, support=replace(sc.track.support,
+                                              stiffness=1.3 * sc.track.support.stiffness),
+                    strengthened_sleeper=replace(
+                        sc.track.strengthened_sleeper,
+                        support_stiffness=1.3 * sc.track.strengthened_sleeper.support_stiffness))
+    a = simulate(varied, case.track_design(x)).objectives
+    b = simulate(replace(sc, track=track), case.track_design(x)).objectives
+    nominal = simulate(sc, case.track_design(x)).objectives
+    for k in a:
+        assert a[k] == pytest.approx(b[k], rel=1e-10), k
+    assert a["F_max"] != pytest.approx(nominal["F_max"], rel=1e-3)
+
+
+def test_a_sleeper_hanging_over_a_deep_void_dissipates_nothing(tmp_path):
+    case = load_case(robust_case(tmp_path, "  realisations: 2\n  support_stiffness: {}\n"))
+    design = case.track_design(case.reference)
+    entry, exit_ = (np.zeros(p.size) for p in case.variations[0].support_stiffness)
+    nominal = simulate(case.scenario(), design)
+    none = simulate(replace(case.scenario(), variation=TrackVariation(void=(entry, exit_))),
+                    design)
+    assert none.objectives == nominal.objectives       # no void: the linear model, bit for bit
+    entry[4] = 0.01                                     # 10 mm: the wheel never closes it
+    ev = simulate(replace(case.scenario(), variation=TrackVariation(void=(entry, exit_))),
+                  design)
+    energy = ev.histories["sleeper_energy"]
+    assert energy[4] == 0.0 and np.all(np.delete(energy, 4) > 0)
+    assert ev.info["void_sleepers"] == 1
+    assert ev.objectives["E_max"] > nominal.objectives["E_max"]
+
+
+def test_realisations_with_no_spread_are_the_drawing_bit_for_bit(tmp_path):
+    section = ("  realisations: 2\n  support_stiffness: {cov: 0}\n  support_damping: {cov: 0}\n"
+               "  pad_stiffness: {cov: 0}\n  initial_void: {probability: 0.5, gap: 0}\n")
+    case = load_case(robust_case(tmp_path, section))
+    drawn = evaluate(case, case.reference).objectives
+    for r in range(case.realisations):
+        assert evaluate(case.part_case(-1, r), case.reference).objectives == drawn
+
+
+# -- robust statistics -----------------------------------------------------------------------
+
+def test_statistic_names_parse_and_their_values():
+    assert stats.parse("q90(F_max)") == ("quantile", "F_max", 0.9)
+    assert stats.parse("mean(E_max@fast)") == ("mean", "E_max@fast", None)
+    assert stats.parse("p_worse(F_max)") == ("p_worse", "F_max", None)
+    assert stats.parse("F_max") is None and stats.parse("q100(F_max)") is None
+    assert stats.at_condition("q90(F_max)", "fast") == "q90(F_max@fast)"
+    o = {f"F_max#{r}": v for r, v in enumerate([3.0, 1.0, 2.0, 4.0])}
+    ref = {f"F_max#{r}": v for r, v in enumerate([2.0, 2.0, 2.0, 2.0])}
+    assert stats.statistic("mean(F_max)", o, 4) == 2.5
+    assert stats.statistic("q50(F_max)", o, 4) == 2.5
+    assert stats.statistic("q90(F_max)", o, 4) == pytest.approx(3.7)
+    assert stats.statistic("p_worse(F_max)", o, 4, ref) == 0.75      # ties are not better
+    assert stats.statistic("p_worse(F_max)", ref, 4, ref) == 1.0
+    same = {f"F_max#{r}": 0.1 + 0.2 for r in range(7)}
+    assert stats.statistic("mean(F_max)", same, 7) == 0.1 + 0.2       # exact, not 0.30000000004
