@@ -259,10 +259,15 @@ def test_a_damaged_journal_or_results_file_is_one_line_naming_it(tmp_path, finis
     state = json.loads((run / "state.json").read_text())
     state["strategy"] = {"history": "nonsense", "rng": [1, 2]}
     (run / "state.json").write_text(json.dumps(state))
+    # an evaluation file whose design claims 10^11 values: damaged, simulated again
+    with h5py.File(run / "evals" / "000002.h5", "a") as f:
+        del f["design"]
+        f.create_dataset("design", shape=(10 ** 11,), dtype="f8", chunks=(1000,))
     r = subprocess.run(lccopt_command() + ["resume", str(run), "--budget", "12", "--workers",
                                            "1"], capture_output=True, text=True, timeout=120,
                        env=subprocess_env(**ENV))
     assert r.returncode == 0, r.stderr
+    assert "lost or damaged, simulating them again: #2" in r.stderr, r.stderr
     assert len(read_table(run)["id"]) == 12
 
 
