@@ -215,6 +215,8 @@ def test_robust_runs_print_their_tasks_per_design(tmp_path):
                 env={"LCCOPT_EVALUATOR": FAKE})
     assert r.returncode == 0, r.stderr
     assert "4 realisations and the drawn track per design" in r.stderr
+    line = next(ln for ln in r.stdout.splitlines() if "beats the reference design" in ln)
+    assert "on the same tracks: F_max on" in line and "of 4 realisations" in line
 
 
 @pytest.mark.slow
