@@ -495,6 +495,22 @@ class Engine:
                 rel = ("" if not r else " (unchanged: the reference design's)" if v == r else
                        f" ({(v - r) / r:+.1%} vs reference design {objective_value(k, r)})")
                 lines.append(f"  {objective_text(k, v)}{rel}")
+        if best is not None and pb.realisations and ref:
+            lines += wrap_items(realisation_wins(pb, best["objectives"], ref),
+                                "  beats the reference design on the same tracks: ")
         lines.append(f"results: {self.rd.results_path}")
         sys.stdout.write(printable_lines("\n".join(lines)) + "\n")
         sys.stdout.flush()
+
+
+def realisation_wins(problem: Problem, objectives: dict, reference: dict) -> list[str]:
+    """``F_max on 7 of 8``: on how many realisations a design's value of each objective the
+    case measures is below the reference design's."""
+    from ..uncertainty import statistics as robust
+
+    out = []
+    for base in dict.fromkeys(robust.objective_of(k) for k in problem.objectives):
+        a = robust.values(objectives, base, problem.realisations)
+        b = robust.values(reference, base, problem.realisations)
+        out.append(f"{base} on {int((a < b).sum())} of {problem.realisations} realisations")
+    return out
