@@ -86,6 +86,8 @@ def evaluation_problem(src, i: int, x, run: str | None = None) -> str | None:
         with h5_open_owned(src) as f:
             if "objectives" not in f or "histories" not in f or "design" not in f:
                 return "incomplete"
+            if getattr(f["design"], "shape", None) != np.shape(x):  # read only a design's size
+                return "holds another design"
             design = h5_read(f["design"])
             info = f["info"].attrs if "info" in f else {}
             stored = info.get("id")

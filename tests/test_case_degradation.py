@@ -7,6 +7,7 @@ not pass whole, objectives that need a prediction."""
 from __future__ import annotations
 
 import re
+from pathlib import Path
 
 import pytest
 import yaml
@@ -42,7 +43,7 @@ def test_configs_settlement_is_the_paper_crossing_under_ten_years_of_virm_bogies
     spec = case.degradation_spec()
     assert spec.horizon_years == 10.0 and spec.settling_sleepers == 20
     (t,) = spec.traffic
-    assert t.passages_per_year == 5.0e5 and t.scenario.vehicle.type == "bogie"
+    assert t.passages_per_year == 170 * 4 * 2 * 365 and t.scenario.vehicle.type == "bogie"
     assert spec.law.name == "varandas"
     assert dict(spec.law.parameters) == {"alpha": 0.6, "beta": 0.82, "gamma": 0.01, "f0": 50e3,
                                          "n0": 1e6}
@@ -253,7 +254,71 @@ def test_check_prints_the_prediction_in_80_columns(run_cli):
     assert all(len(line) <= 80 for line in out), [line for line in out if len(line) > 80]
     text = r.stdout
     assert "settlement: varandas law: alpha 0.6, beta 0.82, gamma 10 mm," in text
-    assert "1e+06 axle passes, about 17.8 million gross tonnes a year" in text
-    assert "horizon 10 years = 1e+07 axle passes; 20 settling sleepers" in text
+    assert "traffic vehicle: 170 trains a day x 8 bogie passages," in text
+    assert "= 4.96e+05 a year (2 axles each), axle load 174 kN" in text
+    assert "170 trains a day, 9.93e+05 axle passes," in text
+    assert "about 17.7 million gross tonnes a year" in text
+    assert "horizon 10 years = 9.93e+06 axle passes; 20 settling sleepers" in text
     assert "limit: level_d1_max 2 mm" in text
     assert "at most 30 simulations x 1 condition(s), tolerance 2 kN" in text
+
+
+def _docs_traffic_example() -> str:
+    """The traffic example of docs/settlement.md (after its marker), as a user copies it."""
+    text = (Path(__file__).parents[1] / "docs" / "settlement.md").read_text(encoding="utf-8")
+    block = text.split("<!-- traffic-example -->", 1)[1].split("```yaml\n", 1)[1]
+    return block.split("```", 1)[0]
+
+
+def test_trains_a_day_written_from_the_docs_are_the_equivalent_bogie_count(tmp_path):
+    """docs/settlement.md's example, copied as it stands, gives the same traffic as the
+    passages and the axle passes its comments say: the same prediction's input."""
+    example = _docs_traffic_example()
+    trains = load_case(case_file(tmp_path, example, name="trains"))
+    bogies = load_case(case_file(tmp_path, "degradation: {passages_per_year: 131400}\n",
+                                 name="bogies"))
+    axle_passes = load_case(case_file(tmp_path, "degradation: {axle_passes_per_year: 262800}\n",
+                                      name="axles"))
+    got = [c.degradation_spec().traffic[0].passages_per_year
+           for c in (trains, bogies, axle_passes)]
+    assert got == [30 * 6 * 2 * 365] * 3
+    assert [c.degradation_spec().horizon_years for c in (trains, bogies)] == [10.0, 10.0]
+
+
+def test_trains_of_conditions_become_passages_of_each_vehicle(tmp_path):
+    """A bogie condition passes twice per car, a half-car condition once; a bare number stays
+    passages a year."""
+    body = """vehicle: {type: bogie, wheelbase: 2.5, bogie_pitch_inertia: 1400}
+conditions:
+  - {name: a, vehicle: case, irregularity: none}
+  - {name: b, vehicle: virm, irregularity: none}
+  - {name: c, vehicle: case, irregularity: none}
+degradation:
+  traffic:
+    a: {trains_per_day: 10, vehicles_per_train: 4}
+    b: {trains_per_day: 10, bogies_per_train: 8}
+    c: 1000
+"""
+    case = load_case(case_file(tmp_path, body, TRAFFIC))
+    p = [t.passages_per_year for t in case.degradation_spec().traffic]
+    assert p == [10 * 8 * 365, 10 * 4 * 365, 1000.0]
+
+
+@pytest.mark.parametrize("body, key, words", [
+    ("degradation: {trains_per_day: 30}\n", "degradation.trains_per_day",
+     "trains without their length: give vehicles_per_train"),
+    ("degradation: {vehicles_per_train: 4}\n", "degradation",
+     "missing key 'passages_per_year'"),
+    ("degradation: {passages_per_year: 5.0e5, vehicles_per_train: 4}\n",
+     "degradation.vehicles_per_train", "needs trains_per_day"),
+    ("degradation: {trains_per_day: 30, vehicles_per_train: 4, bogies_per_train: 8}\n",
+     "degradation.bogies_per_train", "not both"),
+    ("degradation: {trains_per_day: 30, vehicles_per_train: 4, passages_per_year: 1e5}\n",
+     "degradation.trains_per_day", "give the traffic once"),
+    ("degradation: {trains_per_day: 30, vehicles_per_train: 0}\n",
+     "degradation.vehicles_per_train", "must be >= 1"),
+    ("degradation: {trains_per_day: 30, vehicles_per_train: 2.5}\n",
+     "degradation.vehicles_per_train", "whole number"),
+])
+def test_trains_without_their_length_are_refused(tmp_path, body, key, words):
+    refused(tmp_path, body, key, words)

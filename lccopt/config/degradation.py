@@ -12,6 +12,8 @@ reach the rail's pinned end, and a prediction beyond what one design may cost.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 from ..degradation.specs import (
     DegradationSpec,
     LawSpec,
@@ -118,19 +120,108 @@ def _check_vehicles(data: dict, conditions: tuple, err) -> None:
             raise err(at, f"the paper's three-dof vehicle{under} {_THREE_DOF}")
 
 
+TRAIN_KEYS = ("trains_per_day", "vehicles_per_train", "bogies_per_train", "axle_passes_per_year")
+FORMS = ("passages_per_year", "trains_per_day", "axle_passes_per_year")
+
+
+@dataclass(frozen=True)
+class TrafficOf:
+    """One condition's traffic resolved: passages of its modelled vehicle a year, its axle
+    passes a year, and (when given in trains) trains a day and passages per train."""
+    passages: float
+    axle_passes: float
+    trains_per_day: float | None = None
+    per_train: float | None = None
+
+
+def _passages_per_train(vehicle: dict, entry: dict, at: tuple, err) -> float:
+    """Passages of the modelled vehicle per train: a bogie passes twice per vehicle (two
+    bogies), a half car once, a one-wheel model once per axle (4 per vehicle, 2 per bogie)."""
+    kind = vehicle.get("type") or "three-dof"
+    vehicles, bogies = entry.get("vehicles_per_train"), entry.get("bogies_per_train")
+    if kind == "bogie":
+        return float(bogies if bogies is not None else 2 * vehicles)
+    if kind == "half-car":
+        if bogies is not None and bogies % 2:
+            raise err(at + ("bogies_per_train",),
+                      f"{bogies:g} bogies: the modelled half car is a vehicle on two bogies, "
+                      f"so give an even number (or vehicles_per_train)")
+        return float(vehicles if vehicles is not None else bogies / 2)
+    return float(2 * bogies if bogies is not None else 4 * vehicles)
+
+
+def traffic_of(entry, vehicle: dict, at: tuple, err) -> TrafficOf:
+    """A traffic written in any of its forms, checked and resolved.
+
+    Parameters
+    ----------
+    entry
+        passages a year (a number), or a mapping with one of ``passages_per_year``,
+        ``trains_per_day`` (with ``vehicles_per_train`` or ``bogies_per_train``) or
+        ``axle_passes_per_year``.
+    vehicle
+        the condition's validated vehicle section (what one passage is).
+    at
+        the key path of the entry, for the messages.
+    err
+        ``err(key_path, message)`` -> the case error to raise.
+
+    Returns
+    -------
+    TrafficOf
+    """
+    if not isinstance(entry, dict):
+        entry = {"passages_per_year": entry}
+    given = [k for k in FORMS if entry.get(k) is not None]
+    n = axles(vehicle)
+    if not given:
+        raise err(at, "missing key 'passages_per_year' (passages of the vehicle a year), or "
+                      "trains_per_day with vehicles_per_train, or axle_passes_per_year")
+    if len(given) > 1:
+        raise err(at + (given[1],), f"give the traffic once: {given[0]} or {given[1]}")
+    per = [k for k in ("vehicles_per_train", "bogies_per_train") if entry.get(k) is not None]
+    if given[0] == "trains_per_day":
+        if not per:
+            raise err(at + ("trains_per_day",),
+                      "trains without their length: give vehicles_per_train (cars, each on "
+                      "two bogies) or bogies_per_train")
+        if len(per) > 1:
+            raise err(at + ("bogies_per_train",),
+                      "give vehicles_per_train or bogies_per_train, not both")
+        per_train = _passages_per_train(vehicle, entry, at, err)
+        passages = entry["trains_per_day"] * 365.0 * per_train
+        return TrafficOf(passages, passages * n, float(entry["trains_per_day"]), per_train)
+    if per:
+        raise err(at + (per[0],), f"{per[0]} describes trains: it needs trains_per_day")
+    if given[0] == "axle_passes_per_year":
+        return TrafficOf(entry["axle_passes_per_year"] / n, float(entry["axle_passes_per_year"]))
+    return TrafficOf(float(entry["passages_per_year"]), entry["passages_per_year"] * n)
+
+
+def resolved_traffic(data: dict, conditions: tuple, err=None) -> dict:
+    """{condition name: TrafficOf} of a case (one condition, ``vehicle``, without
+    ``conditions:``), checked when ``err`` is given (else the case is a checked one)."""
+    deg = data["degradation"]
+    err = err or (lambda at, msg: ValueError(f"{'.'.join(map(str, at))}: {msg}"))
+    if not conditions:
+        entry = {k: deg.get(k) for k in ("passages_per_year", *TRAIN_KEYS)}
+        return {SINGLE_CONDITION: traffic_of(entry, data["vehicle"], ("degradation",), err)}
+    return {c.name: traffic_of(deg["traffic"][c.name], c.data["vehicle"],
+                               ("degradation", "traffic", c.name), err) for c in conditions}
+
+
 def _check_traffic(data: dict, deg: dict, conditions: tuple, err) -> dict:
     """{condition: axle passes a year} of the traffic, checked."""
     at = ("degradation",)
     if not conditions:
         if deg.get("traffic") is not None:
             raise err(at + ("traffic",), "the case has no conditions: list; give its vehicle's "
-                                          "passages_per_year instead")
-        if deg.get("passages_per_year") is None:
-            raise err(at, "missing key 'passages_per_year' (passages of the vehicle a year)")
-        return {SINGLE_CONDITION: deg["passages_per_year"] * axles(data["vehicle"])}
-    if deg.get("passages_per_year") is not None:
-        raise err(at + ("passages_per_year",),
-                  "the case has conditions: give each one's passages a year under traffic:")
+                                          "passages_per_year (or trains_per_day) instead")
+        return {k: t.axle_passes for k, t in resolved_traffic(data, (), err).items()}
+    for k in ("passages_per_year", *TRAIN_KEYS):
+        if deg.get(k) is not None:
+            raise err(at + (k,), "the case has conditions: give each one's traffic under "
+                                 "traffic:")
     traffic = deg.get("traffic")
     names = [c.name for c in conditions]
     if traffic is None:
@@ -143,7 +234,7 @@ def _check_traffic(data: dict, deg: dict, conditions: tuple, err) -> dict:
         if n not in traffic:
             raise err(at + ("traffic",), f"condition '{n}' has no passages a year (0 if it "
                                           f"counts for the paper's objectives only)")
-    rates = {c.name: traffic[c.name] * axles(c.data["vehicle"]) for c in conditions}
+    rates = {k: t.axle_passes for k, t in resolved_traffic(data, conditions, err).items()}
     if sum(rates.values()) <= 0:
         raise err(at + ("traffic",), "no condition has passages: nothing loads the ballast")
     return rates
@@ -264,12 +355,13 @@ def degradation_spec(data: dict, conditions: tuple, variation=None) -> Degradati
     lccopt.degradation.specs.DegradationSpec
     """
     deg = data["degradation"]
+    resolved = resolved_traffic(data, conditions)
     if conditions:
         traffic = tuple(Traffic(c.name, build.scenario(c.data, variation),
-                                deg["traffic"][c.name], c.weight) for c in conditions)
+                                resolved[c.name].passages, c.weight) for c in conditions)
     else:
         traffic = (Traffic(SINGLE_CONDITION, build.scenario(data, variation),
-                           deg["passages_per_year"]),)
+                           resolved[SINGLE_CONDITION].passages),)
     law = deg["law"]
     params = tuple((arg, float(law[key])) for key, (arg, _) in LAW_PARAMETERS[law["name"]].items())
     mode = (data.get("optimisation") or {}).get("conditions") or "worst"

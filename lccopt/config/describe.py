@@ -15,7 +15,7 @@ from ..vti import pads
 from ..vti.vehicle import build_vehicle
 from .build import vehicle_spec
 from .checks import simulation_size
-from .degradation import SINGLE_CONDITION, axles, bearing_areas
+from .degradation import SINGLE_CONDITION, axles, bearing_areas, resolved_traffic
 from .uncertainty import uncertainty_lines
 from .zones import force_zone_end, interfaces, zone_end_x
 
@@ -238,6 +238,46 @@ def law_items(law: dict) -> list[str]:
             for k, v in law.items() if k != "name"]
 
 
+def traffic_lines(case) -> tuple[list[str], float]:
+    """The traffic as ``lccopt check`` prints it: each condition's trains (when given so),
+    passages of its modelled vehicle and axle passes, then the trains, axle passes and gross
+    tonnes of all together; and the axle passes a year.
+
+    Parameters
+    ----------
+    case
+        a loaded case with a ``degradation:`` section.
+
+    Returns
+    -------
+    (list of str, float)
+        lines of at most 80 columns, and the axle passes a year.
+    """
+    vehicles = ({c.name: c.data["vehicle"] for c in case.traffic}
+                or {SINGLE_CONDITION: case.vehicle})
+    lines, axle_passes, tonnes, trains = [], 0.0, 0.0, 0.0
+    for name, t in resolved_traffic(case.data, case.traffic).items():
+        v = vehicles[name]
+        n, load = axles(v), vehicle_facts(v)[2]                 # kN per wheel
+        what = {"bogie": "bogie", "half-car": "half-car"}.get(v.get("type") or "", "wheel")
+        head = f"    traffic {name}: "
+        if t.trains_per_day is not None:
+            trains += t.trains_per_day
+            items = [f"{t.trains_per_day:g} trains a day x {t.per_train:g} {what} passages",
+                     f"= {t.passages:.3g} a year ({n} axles each)"]
+        else:
+            items = [f"{t.passages:.3g} {what} passages a year ({n} axles each)"]
+        items.append(f"axle load {2 * load:.3g} kN")
+        lines += wrap_items(items, head)
+        axle_passes += t.axle_passes
+        tonnes += t.axle_passes * 2 * load * 1e3 / 9.81 / 1e3            # t
+    total = [f"{axle_passes:.3g} axle passes", f"about {tonnes / 1e6:.3g} million gross tonnes "
+                                               f"a year"]
+    if trains:
+        total.insert(0, f"{trains:g} trains a day")
+    return lines + wrap_items(total, "    "), axle_passes
+
+
 def degradation_lines(case) -> list[str]:
     """The settlement prediction as ``lccopt check`` prints it: law,
     traffic (axle passes and gross tonnage a year), horizon, limit and cost cap.
@@ -253,23 +293,13 @@ def degradation_lines(case) -> list[str]:
         lines of at most 80 columns, indented by two.
     """
     deg = case.degradation
-    rows = [(c.name, deg["traffic"][c.name], c.data["vehicle"]) for c in case.traffic] or [
-        (SINGLE_CONDITION, deg["passages_per_year"], case.vehicle)]
-    per_year = tonnes = 0.0
-    items = []
-    for name, passages, vehicle in rows:
-        n = axles(vehicle)
-        per_year += passages * n
-        tonnes += passages * n * 2 * vehicle_facts(vehicle)[2] * 1e3 / 9.81 / 1e3   # t
-        items.append(f"{name} {passages:.3g}/year ({n} axles)")
-    horizon = deg["horizon_years"]
-    limit = deg["limit"]
-    simulated = sum(p > 0 for _, p, _ in rows)
     lines = wrap_items(law_items(deg["law"]), f"  settlement: {deg['law']['name']} law: ")
     lines += _pressure_lines(case)
-    lines += wrap_items(items, "    traffic: ")
-    lines.append(f"    {per_year:.3g} axle passes, about {tonnes / 1e6:.3g} million gross tonnes "
-                 f"a year")
+    traffic, per_year = traffic_lines(case)
+    lines += traffic
+    simulated = sum(t.passages > 0 for t in resolved_traffic(case.data, case.traffic).values())
+    horizon = deg["horizon_years"]
+    limit = deg["limit"]
     lines.append(f"    horizon {horizon:.4g} year{'' if horizon == 1 else 's'} = "
                  f"{horizon * per_year:.3g} axle passes; "
                  f"{deg['settling_sleepers']} settling sleepers")

@@ -19,6 +19,7 @@ from .schema import (
     Named,
     Num,
     NumList,
+    NumOrSection,
     Rows,
     Section,
     Str,
@@ -119,6 +120,9 @@ def _rows(spec, path: str) -> list[str]:
         for key, sub in spec.fields.items():
             out += _rows(sub, f"{path}.{key}" if path else key)
         return out
+    if isinstance(spec, Named) and isinstance(spec.item, NumOrSection):
+        return _rows(replace(spec.item, doc=f"{spec.doc}: {spec.item.doc}", required=False),
+                     f"{path}.<name>")
     if isinstance(spec, Named) and not isinstance(spec.item, Section):   # names -> values
         return [_row(f"{path}.<name>", replace(spec.item, doc=f"{spec.doc}: {spec.item.doc}",
                                                 required=False))]
@@ -127,6 +131,12 @@ def _rows(spec, path: str) -> list[str]:
             r for k, s in spec.item.fields.items() for r in _rows(s, f"{path}.<name>.{k}")]
     if isinstance(spec, Items):
         return [_row(f"{path}[]", spec)] + _rows(spec.item, f"{path}[]")
+    if isinstance(spec, NumOrSection):
+        out = [_row(path, replace(spec.number, doc=f"{spec.doc}. A number: "
+                                                   f"{spec.number.doc}", required=False))]
+        out += [f"| *{path} as a section:* | | | | | | |"]
+        return out + [r for k, s in spec.section.fields.items()
+                      for r in _rows(s, f"{path}.{k}")]
     if isinstance(spec, TextOrSection):
         out = [_row(path, spec, " Text: a file name, or none.")]
         for key, sub in spec.sections.items():

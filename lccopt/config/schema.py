@@ -13,6 +13,8 @@ wrong unit, and the message proposes the unit that fits.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 from ..degradation.specs import LAW_NAMES, LIMIT_MEASURES, READINGS, SOILS
 from ..uncertainty.fields import DISTRIBUTIONS
 from ..uncertainty.statistics import ObjectiveNames
@@ -20,7 +22,18 @@ from ..vti.irregularity import SPECTRA
 from ..vti.pads import NAMED_PADS
 from ..vti.response import PAPER_OBJECTIVES, REPORTED_ONLY, SETTLEMENT_OBJECTIVES
 from ..vti.specs import VEHICLE_TYPES, ZONE_POINTS
-from .spec import Items, Named, Num, NumList, Rows, Section, Str, StrList, TextOrSection  # noqa: F401
+from .spec import (  # noqa: F401
+    Items,
+    Named,
+    Num,
+    NumList,
+    NumOrSection,
+    Rows,
+    Section,
+    Str,
+    StrList,
+    TextOrSection,
+)
 from .validate import MAX_MAGNITUDE, SAFE_NAME, check  # noqa: F401  (the schema's validator)
 
 # years_to_limit is listed so that asking to minimise it gets its own message (checks)
@@ -392,6 +405,24 @@ _LAW = Section({
 }, "the settlement law, driven by the peak ballast force of each axle passing each sleeper",
    required=False)
 _PASSAGES = dict(unit="1/year", le=1e8, why="a busy line carries some 10^5-10^6 passages a year")
+# Traffic as people count it: trains a day and what each train is, or axle passes a year
+# (lccopt/config/degradation.py turns them into passages of the modelled vehicle).
+_TRAINS = {
+    "trains_per_day": Num("trains a day on the modelled track, each of vehicles_per_train or "
+                          "bogies_per_train (instead of passages_per_year)", gt=0, le=5000.0,
+                          why="a busy track carries some 50-500 trains a day", required=False,
+                          keep_absent=True),
+    "vehicles_per_train": Num("vehicles (cars) of each train, each on two bogies of two axles "
+                              "like the modelled one (a four-car VIRM: 4)", integer=True, ge=1,
+                              le=100, required=False, keep_absent=True),
+    "bogies_per_train": Num("bogies of each train (instead of vehicles_per_train: articulated "
+                            "trains, locomotives and wagons mixed)", integer=True, ge=1, le=400,
+                            required=False, keep_absent=True),
+    "axle_passes_per_year": Num("axle passes a year, every axle of the modelled vehicle's load "
+                                "(instead of trains or passages)", gt=0, le=1e9,
+                                why="a busy line carries some 10^5-10^7 axle passes a year",
+                                required=False, keep_absent=True),
+}
 _DEGRADATION = Section({
     "horizon_years": Num("the horizon: the settlement objectives are the track's state after "
                          "this many years of the traffic. Default 10 years (when "
@@ -402,12 +433,19 @@ _DEGRADATION = Section({
                                required=False, keep_absent=True),
     "passages_per_year": Num("a case without conditions: passages of its vehicle a year (a "
                              "bogie: one bogie, 2 axles; a half car: one car, 4 axles; "
-                             "three-dof: one wheelset)", gt=0, required=False, keep_absent=True,
-                             **_PASSAGES),
-    "traffic": Named(Num("passages of the condition's vehicle a year (0: it counts for the "
-                         "paper's objectives only)", ge=0, **_PASSAGES),
-                     "a case with conditions: passages a year of each condition's vehicle, "
-                     "every condition named", keep_absent=True),
+                             "three-dof: one wheelset). Or trains_per_day with "
+                             "vehicles_per_train or bogies_per_train, or axle_passes_per_year",
+                             gt=0, required=False, keep_absent=True, **_PASSAGES),
+    **{k: replace(v, doc="a case without conditions: " + v.doc) for k, v in _TRAINS.items()},
+    "traffic": Named(NumOrSection(
+        "passages of the condition's vehicle a year (0: it counts for the paper's objectives "
+        "only), or its trains",
+        Num("passages a year", ge=0, **_PASSAGES),
+        Section({"passages_per_year": Num("passages of the condition's vehicle a year", ge=0,
+                                          required=False, keep_absent=True, **_PASSAGES),
+                 **_TRAINS})),
+        "a case with conditions: the traffic of each condition, every condition named",
+        keep_absent=True),
     "law": _LAW,
     "rail_seats": Num("the law's force = rail_seats x the modelled support force (one rail "
                       "seat); 1 as ROSE applies the Varandas defaults", gt=0, le=10.0,

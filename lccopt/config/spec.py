@@ -106,6 +106,17 @@ class TextOrSection:
 
 
 @dataclass(frozen=True)
+class NumOrSection:
+    """A number (checked against ``number``) or a mapping checked against ``section``."""
+    doc: str
+    number: Num
+    section: Section
+    default: Any = None
+    required: bool = True
+    keep_absent: bool = False
+
+
+@dataclass(frozen=True)
 class Rows:
     """The rows of a rail profile: text, one ``position, dip`` per line, or a list of
     [position, dip] pairs (lccopt.config.profiles); checked and kept as canonical text."""

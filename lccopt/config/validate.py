@@ -24,6 +24,7 @@ from .spec import (
     Named,
     Num,
     NumList,
+    NumOrSection,
     Rows,
     Section,
     Str,
@@ -63,6 +64,10 @@ def check(value: Any, spec: Any, path: tuple, lines: dict, file: str) -> Any:
         if not isinstance(value, str):
             raise fail(f"expected a file name or a mapping, got {value!r:.60}")
         return value
+    if isinstance(spec, NumOrSection):
+        if isinstance(value, dict):
+            return check(value, spec.section, path, lines, file)
+        return check(value, spec.number, path, lines, file)
     if isinstance(spec, Rows):
         return _rows(value, fail)
     if isinstance(spec, Num):

@@ -600,10 +600,13 @@ def _settlement_section(doc: Doc, run: RunData, designs: list, limit, figs: dict
     what = (f"over {horizon:g} year{'' if horizon == 1 else 's'}" if horizon
             else "over its horizon")
     if deg is not None:
+        from ..config.degradation import resolved_traffic
         from ..config.describe import law_items
 
-        traffic = (", ".join(f"{k} {v:.3g} passages a year" for k, v in deg["traffic"].items())
-                   if deg.get("traffic") else f"{deg['passages_per_year']:.3g} passages a year")
+        traffic = ", ".join(
+            (f"{k}: {t.trains_per_day:g} trains a day, " if t.trains_per_day else f"{k}: ")
+            + f"{t.axle_passes:.3g} axle passes a year"
+            for k, t in resolved_traffic(run.case.data, run.case.traffic).items())
         what += (f" of the traffic ({traffic}), by the {deg['law']['name']} law "
                  f"({', '.join(law_items(deg['law']))}), {deg['settling_sleepers']} settling "
                  f"sleepers next to the slab")
