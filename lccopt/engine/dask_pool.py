@@ -58,6 +58,7 @@ CONNECT_TIMEOUT = 10         # [s] to reach the scheduler (distributed retries m
 WORKERS_TIMEOUT = 600        # [s] for a worker to join a scheduler that has none
 RECONNECT_TIMEOUT = 300      # [s] for a lost scheduler to come back before the run stops
 PROBE_TIMEOUT = 10           # [s] for the scheduler to answer a question (is it frozen?)
+_RESUME = "--scheduler ADDRESS"   # what a resume on a cluster that works needs
 MAX_CANCELLED = 3            # times an evaluation may be cancelled by Dask before the run stops
 _SCHEMES = ("tcp", "tls", "ws", "wss", "ucx")
 
@@ -320,7 +321,7 @@ class DaskExecutor:
         self._cancelled[key] = self._cancelled.get(key, 0) + 1
         if self._cancelled[key] > MAX_CANCELLED:
             raise ExecutorLost(f"the Dask scheduler at {self.address} cancelled evaluation "
-                               f"#{task.id} {MAX_CANCELLED + 1} times ({why[:200]})")
+                               f"#{task.id} {MAX_CANCELLED + 1} times ({why[:200]})", _RESUME)
         self._orphans.append(task)
         if not self._connected():
             self._lose(why)
@@ -369,7 +370,7 @@ class DaskExecutor:
         if awake.now() - since > RECONNECT_TIMEOUT:
             raise ExecutorLost(f"lost the connection to the Dask scheduler at {self.address} "
                                f"({_short(why)}) and it did not come back within "
-                               f"{_span(RECONNECT_TIMEOUT)}")
+                               f"{_span(RECONNECT_TIMEOUT)}", _RESUME)
         time.sleep(timeout)
 
     def _run_orphans(self) -> None:
@@ -394,7 +395,7 @@ class DaskExecutor:
                       f"pending)")
         elif now - self._idle_since > WORKERS_TIMEOUT:
             raise ExecutorLost(f"the Dask scheduler at {self.address} has had no workers for "
-                               f"{_span(WORKERS_TIMEOUT)}")
+                               f"{_span(WORKERS_TIMEOUT)}", _RESUME)
 
     def _update_stall(self) -> None:
         """While the cluster is away (scheduler lost, no workers) the evaluations' deadlines

@@ -44,8 +44,13 @@ class ExecutorError(Exception):
 
 class ExecutorLost(ExecutorError):
     """The workers went away during a run (a Dask scheduler gone, frozen, or without workers
-    for too long): an environment fault, never a failed design; what was in flight stays
-    pending."""
+    for too long; local workers that cannot start an evaluation process): an environment
+    fault, never a failed design; what was in flight stays pending. ``resume``: the options a
+    resume then needs (``--scheduler ADDRESS``)."""
+
+    def __init__(self, message: str, resume: str = ""):
+        super().__init__(message)
+        self.resume = resume
 
 
 # What one local worker costs: its interpreter with numpy, scipy and h5py loaded (~55 MB
@@ -301,6 +306,9 @@ class LocalPool:
                     if s.task is not None and outcome.id == s.task.id:
                         out.append(outcome)
                         s.task = None
+                elif msg[0] == "fault":  # the worker cannot start evaluations (no memory or
+                    # processes left): the run stops, what was in flight stays pending
+                    raise ExecutorLost(msg[1])
                 elif msg[0] == "crashed":  # the evaluation's (forked) process died
                     if s.task is not None:
                         self._lost(s, msg[1], msg[2] if len(msg) > 2 else False, out)

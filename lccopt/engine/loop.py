@@ -153,10 +153,11 @@ class Engine:
     def run(self) -> None:
         try:
             self._run()
-        except ExecutorLost as exc:  # the cluster went away: the evaluations stay pending
+        except ExecutorLost as exc:  # the workers went away: the evaluations stay pending
+            how = f"'lccopt resume {self.rd.path}{' ' + exc.resume if exc.resume else ''}'"
             raise EnvironmentFault(f"{exc}; the run stopped with nothing lost (the evaluations "
-                                   f"in flight stay pending): when the cluster is back, "
-                                   f"'lccopt resume {self.rd.path} --scheduler ADDRESS'") from None
+                                   f"in flight stay pending): when the workers are back, "
+                                   f"{how}") from None
         except (OSError, RuntimeError) as exc:  # h5py reports a full disk as either
             if environment_errno(exc) is None:
                 raise

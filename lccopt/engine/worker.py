@@ -256,7 +256,14 @@ def local_worker_main(fd: int, parent_pid: int, slot: int) -> None:
     while True:
         if fork:
             me = os.getpid()
-            pid = os.fork()
+            try:
+                pid = os.fork()
+            except OSError as exc:  # no memory or processes left: the machine's fault, not
+                # the design's (the run stops with the evaluation pending)
+                with contextlib.suppress(OSError):
+                    conn.send(("fault", f"cannot start an evaluation process: "
+                                        f"{exc.strerror or exc}"))
+                return
             if pid == 0:  # the child takes one task from the pipe and answers it
                 code = 1
                 try:

@@ -407,3 +407,29 @@ def test_a_driver_stopped_longer_than_the_timeout_charges_nothing_to_the_designs
     assert r.returncode == 0, r.stderr
     assert "FAILED" not in r.stderr, r.stderr
     assert_same_evaluations(reference, read_table(run))
+
+
+def test_workers_that_cannot_start_an_evaluation_stop_the_run_with_nothing_failed(tmp_path):
+    """A local worker whose fork fails (no memory or process slots left) is the machine's
+    fault: exit 2 with one line, the evaluation in flight stays pending (it was recorded as
+    failed, 'worker process died'), and a resume ends the run as an uninterrupted one."""
+    from .conftest import journal_events
+
+    case = write_case(tmp_path, "nofork", budget=8, initial=4, seed=2)
+    reference = read_table(optimise(case, workers=1, runs=tmp_path / "whole", evaluator=FAKE,
+                                    progress=False))
+    runs = tmp_path / "runs"
+    r = subprocess.run(lccopt_command() + ["optimise", str(case), "--workers", "1", "--runs",
+                                           str(runs)], capture_output=True, text=True,
+                       timeout=120,
+                       env=subprocess_env(LCCOPT_EVALUATOR="tests.engine.forkless:evaluate"))
+    got = _error_line(r)
+    assert "cannot start an evaluation process: Resource temporarily unavailable" in got, got
+    assert f"'lccopt resume {runs / 'nofork'}'" in got, got
+    events = journal_events(runs / "nofork")
+    assert sum(e["event"] == "evaluated" for e in events) == 3
+    assert not [e for e in events if e["event"] == "failed"]
+    r = subprocess.run(lccopt_command() + ["resume", str(runs / "nofork"), "--workers", "1"],
+                       capture_output=True, text=True, timeout=120, env=subprocess_env(**ENV))
+    assert r.returncode == 0, r.stderr
+    assert_same_evaluations(reference, read_table(runs / "nofork"))
