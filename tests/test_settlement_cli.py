@@ -156,9 +156,30 @@ def test_status_and_report_speak_settlement(run):
     assert "The track is tamped whenever the limit is reached" in md
     assert re.search(r"tamped \d+ times over the horizon \(after ", md), md
     assert "the law's values, not a forecast" in md
+    # the best design re-predicted under the law's uncertainty, said and tabled
+    assert "### Rankings and the law's uncertainty" in md
+    assert re.search(r"the best design beats the reference design in level_d1_max and "
+                     r"interventions in \d of 8", md), md
+    assert ("within the model's uncertainty" in md) == s_within(rep)
+    t0 = time.monotonic()                     # a second report reads the kept predictions
+    again = cli("report", base / "runs" / "s", cwd=base)
+    assert again.returncode == 0 and "predicting the best" not in again.stderr, again.stderr
+    assert time.monotonic() - t0 < 60
+    for label in ("alpha -30 %", "1 - beta +30 %", "gamma +30 %", "passage reading",
+                  "logarithmic law (matched)"):
+        assert f"| {label} |" in md, label
     s = json.loads((rep / "summary.json").read_text())
     assert set(SETTLEMENT) <= set(s["best"]["objectives"])
     assert s["figures"]["settlement-profile"] == "settlement-profile.png"
+
+
+def s_within(rep: Path) -> bool:
+    """Whether summary.json's law check says "within the model's uncertainty" (checked to
+    be: the best beats the reference in at most half of the 8 variants)."""
+    check = json.loads((rep / "summary.json").read_text())["law_check"]
+    assert check["n"] == 8 and 0 <= check["beats"] <= 8
+    assert check["within_uncertainty"] == (check["beats"] <= 4)
+    return check["within_uncertainty"]
 
 
 def _n_done(run: Path) -> int:
