@@ -126,7 +126,7 @@ def _info(vehicle, track, h, n_steps: int, dt: float, leave: bool) -> dict:
         "contact_loss_steps": int(loss.any(axis=1).sum()),
         "contact_loss_first_position": (float(h.wheel_position[loss][0]) if loss.any()
                                         else float("nan")),
-        "vehicle_type": getattr(vehicle, "type", "three-dof"),
+        "vehicle_type": vehicle.type,
         "n_wheels": int(h.wheel_position.shape[1]),
         "direction": "leave" if leave else "enter",
         "n_dofs": track.n_dofs,

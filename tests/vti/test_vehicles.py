@@ -13,8 +13,9 @@ from lccopt.config import load_case
 from lccopt.problem import evaluate
 from lccopt.vti import evaluate as vti_evaluate
 from lccopt.vti.newmark import integrate
+from lccopt.vti.specs import VehicleSpec
 from lccopt.vti.track import WinklerBeam, build_track
-from lccopt.vti.vehicle import MultiAxleVehicle, build_vehicle
+from lccopt.vti.vehicle import VEHICLE_TYPES, build_vehicle, vehicle_length, vehicle_type
 from lccopt.vti.wheels import contact_vector
 from tests.conftest import CHEAP_SIMULATION, CONFIGS
 
@@ -27,9 +28,10 @@ PER_WHEEL = dict(carbody_mass=7047.25, bogie_mass=943.0, wheelset_mass=1819.0,
 
 def vehicle(kind, **over):
     args = dict(PER_WHEEL, wheelbase=2.5, bogie_pitch_inertia=1400.0, carbody_pitch_inertia=1.685e6,
-                bogie_distance=19.0, speed=38.9, gravity=9.8)
+                bogie_distance=19.0, speed=38.9, gravity=9.8, hertz_constant=5.13e-8,
+                hertz_load=100e3)
     args.update(over)
-    return MultiAxleVehicle.build(kind, **args)
+    return build_vehicle(VehicleSpec(type=kind, **args))
 
 
 @pytest.mark.parametrize("kind", ["bogie", "half-car"])
@@ -54,6 +56,29 @@ def test_multi_axle_vehicle_at_rest_carries_its_static_shares(kind):
     h = integrate(beam, 5e-4, 0.0, 1.5, 100, vehicle=veh)
     assert h.wheel_position[0, -1] < 0.0 and np.all(h.wheel_rail_displacement[:, -1] == 0.0)
     assert np.max(np.abs(h.wheel_force - share)) < 1e-9 * share
+
+
+@pytest.mark.parametrize("kind", list(VEHICLE_TYPES))
+def test_each_registered_type_builds_the_vehicle_its_entry_describes(kind):
+    """The registry's facts of a type (wheels, the wheels' offsets, the spec keys it needs)
+    are those of the vehicle it builds: the config layer counts load cycles and sizes the run
+    from the entry, the simulation runs the vehicle."""
+    entry = vehicle_type(kind)
+    spec = VehicleSpec(type=kind, **PER_WHEEL, wheelbase=2.5, bogie_pitch_inertia=1400.0,
+                       carbody_pitch_inertia=1.685e6, bogie_distance=19.0, speed=38.9,
+                       hertz_constant=5.13e-8, hertz_load=100e3)
+    veh = build_vehicle(spec)
+    assert veh.type == kind and veh.n_wheels == entry.wheels
+    assert np.array_equal(veh.wheel_offsets, entry.offsets(spec))
+    assert entry.length(spec) == vehicle_length(spec) == veh.length
+    assert veh.M.shape == veh.K.shape == veh.C.shape == (len(veh.weight_load),) * 2
+    # a spec without one of the keys the type needs cannot be built
+    for key in entry.keys:
+        with pytest.raises(ValueError, match=f"vehicle type {kind} needs {key}"):
+            build_vehicle(dataclasses.replace(spec, **{key: None}))
+    assert vehicle_type(None) is vehicle_type("three-dof")
+    with pytest.raises(ValueError, match="unknown vehicle type 'tram'"):
+        vehicle_type("tram")
 
 
 def direct_newmark(track, veh, dt, speed, x_start, steps, r_of):
