@@ -48,6 +48,8 @@ from ..errors import (
 )
 from ..problem import Problem
 from ..terminal import PipeGuard, wrap_items
+from . import awake
+from .executors import ExecutorLost
 from .journal import Journal, line_mark
 from .progress import Progress, fmt, hms, objective_text, objective_value, reference_objectives
 from .rundir import (
@@ -129,6 +131,10 @@ class Engine:
         # is never reported as killed by them
         for sig in STOP_SIGNALS:
             self._old_handlers[sig] = signal.signal(sig, self._on_signal)
+        # SIGCONT after SIGSTOP or Ctrl-Z: the pause was this process's (awake.py)
+        old = awake.install()
+        if old is not None:
+            self._old_handlers[signal.SIGCONT] = old
 
     def _restore_signals(self) -> None:
         for sig, h in self._old_handlers.items():
@@ -146,6 +152,10 @@ class Engine:
     def run(self) -> None:
         try:
             self._run()
+        except ExecutorLost as exc:  # the cluster went away: the evaluations stay pending
+            raise EnvironmentFault(f"{exc}; the run stopped with nothing lost (the evaluations "
+                                   f"in flight stay pending): when the cluster is back, "
+                                   f"'lccopt resume {self.rd.path} --scheduler ADDRESS'") from None
         except (OSError, RuntimeError) as exc:  # h5py reports a full disk as either
             if environment_errno(exc) is None:
                 raise
