@@ -75,6 +75,14 @@ def _simulate(task):
     return r, evaluate(_CASE.part_case(-1, r), np.asarray(x, float)).objectives
 
 
+def finished(run: Path) -> bool:
+    try:
+        with h5py.File(run / "results.h5") as f:
+            return bool(f.attrs["finished"])
+    except (OSError, KeyError):
+        return False
+
+
 def best_of(run: Path) -> tuple[np.ndarray, int]:
     with h5py.File(run / "results.h5") as f:
         return f["best/x"][()], int(f["best"].attrs["id"])
@@ -120,9 +128,10 @@ def main() -> None:
             path = out / f"{name}.yaml"
             path.write_text(case_text(name, what, objective, a.budget, seed, var))
             run = out / "runs" / name
-            if not (run / "results.h5").is_file():
-                lccopt.optimise(path, workers=a.workers, runs=out / "runs", force=True,
-                                progress=False)
+            if not run.is_dir():
+                lccopt.optimise(path, workers=a.workers, runs=out / "runs", progress=False)
+            elif not finished(run):          # interrupted: carried on where it stopped
+                lccopt.resume(run, workers=a.workers, progress=False)
             x, i = best_of(run)
             designs[f"{kind} s{seed}"] = x
             cost[f"{kind} s{seed}"] = (i, a.budget * (1 if kind == "nominal" else
