@@ -55,6 +55,8 @@ def evaluation_problem(path: str | Path, i: int, x) -> str | None:
         with h5_open_owned(path) as f:
             if "objectives" not in f or "histories" not in f or "design" not in f:
                 return "incomplete"
+            if getattr(f["design"], "shape", None) != np.shape(x):  # read only a design's size
+                return "holds another design"
             design = f["design"][()]
             stored = f["info"].attrs.get("id") if "info" in f else None
     except FileNotFoundError:

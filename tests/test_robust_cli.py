@@ -12,6 +12,8 @@ import pytest
 from lccopt.store import read_realisations
 from tests.conftest import CONFIGS
 
+pytestmark = pytest.mark.slow
+
 CHEAP = ["--set", "uncertainty.realisations=3", "--set", "simulation.time_step=1.0e-3",
          "--set", "simulation.run_in=3.0", "--set", "simulation.run_out=1.0",
          "--set", "simulation.far_element_length=0.1"]

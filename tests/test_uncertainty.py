@@ -209,6 +209,7 @@ def test_a_realisation_reaches_the_settlement_prediction_s_sleepers(tmp_path):
 
 # -- realisations in the model ---------------------------------------------------------------
 
+@pytest.mark.slow
 def test_a_stiffer_support_everywhere_is_the_drawing_with_a_stiffer_support(tmp_path):
     """A realisation's factors reach each sleeper's support: all at 1.3 is the same track as
     one whose support (strengthened sleepers' too) is drawn 1.3 times stiffer."""
@@ -230,6 +231,7 @@ def test_a_stiffer_support_everywhere_is_the_drawing_with_a_stiffer_support(tmp_
     assert a["F_max"] != pytest.approx(nominal["F_max"], rel=1e-3)
 
 
+@pytest.mark.slow
 def test_a_sleeper_hanging_over_a_deep_void_dissipates_nothing(tmp_path):
     case = load_case(robust_case(tmp_path, "  realisations: 2\n  support_stiffness: {}\n"))
     design = case.track_design(case.reference)
@@ -247,6 +249,7 @@ def test_a_sleeper_hanging_over_a_deep_void_dissipates_nothing(tmp_path):
     assert ev.objectives["E_max"] > nominal.objectives["E_max"]
 
 
+@pytest.mark.slow
 def test_realisations_with_no_spread_are_the_drawing_bit_for_bit(tmp_path):
     section = ("  realisations: 2\n  support_stiffness: {cov: 0}\n  support_damping: {cov: 0}\n"
                "  pad_stiffness: {cov: 0}\n  initial_void: {probability: 0.5, gap: 0}\n")

@@ -3,7 +3,9 @@
 
 A task past the timeout is cancelled and recorded as failed (Dask cannot kill a running
 Python thread: the worker thread stays busy until the simulation returns); a worker that
-dies is handled by Dask (the task is retried elsewhere, then reported as failed). A worker
+dies is handled by Dask (the task is retried elsewhere, then reported as failed). A scheduler
+that goes away (dies, disconnects, freezes, loses all its workers) fails nothing: what was in
+flight runs again when it is back (``DaskExecutor``). A worker
 that sees the run directory (the same machine, or a shared file system: it finds there the
 probe file this process wrote, with its random content) writes the evaluation file itself,
 as a local worker does; any other returns the whole evaluation and this process writes it.
@@ -18,7 +20,8 @@ import time
 import uuid
 from pathlib import Path
 
-from .executors import ExecutorError
+from . import awake
+from .executors import ExecutorError, ExecutorLost
 from .worker import Outcome, Task, load_evaluator, run_task
 
 _DASK_EVALUATORS: dict = {}
@@ -61,13 +64,17 @@ def dask_task(case, task: Task, spec, probe=None) -> Outcome:
 
 
 CONNECT_TIMEOUT = 10         # [s] to reach the scheduler (distributed retries meanwhile)
-WORKERS_TIMEOUT = 600        # [s] for the first worker to join a scheduler that has none
+WORKERS_TIMEOUT = 600        # [s] for a worker to join a scheduler that has none
+RECONNECT_TIMEOUT = 300      # [s] for a lost scheduler to come back before the run stops
+PROBE_TIMEOUT = 10           # [s] for the scheduler to answer a question (is it frozen?)
+MAX_CANCELLED = 3            # times an evaluation may be cancelled by Dask before the run stops
 _SCHEMES = ("tcp", "tls", "ws", "wss", "ucx")
 
 
 def _check_scheduler_address(address: str) -> None:
-    """Refuse an address distributed cannot parse before a Client is made: a Client that fails
-    on one hangs for 40 s in its finaliser and prints a traceback."""
+    """Refuse an address distributed cannot use before a Client is made: an unknown scheme, a
+    malformed location, a transport that is not installed (ucx) or TLS without certificates
+    in Dask's configuration (lccopt has no options of its own for them)."""
     from distributed.comm.addressing import parse_address, parse_host_port
 
     try:
@@ -79,9 +86,58 @@ def _check_scheduler_address(address: str) -> None:
     except (ValueError, TypeError) as exc:
         raise ExecutorError(f"--scheduler {address[:60]!r}: {exc}; expected e.g. "
                             f"tcp://head-node:8786") from None
+    try:
+        from distributed.comm.registry import get_backend
+
+        get_backend(scheme).get_connector()
+    except Exception as exc:  # noqa: BLE001 - ucx without distributed-ucxx warns and raises
+        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        need = " (it needs the package distributed-ucxx)" if scheme == "ucx" else ""
+        raise ExecutorError(f"--scheduler {address[:60]!r}: the {scheme}:// transport cannot "
+                            f"be used here{need}: {first[:160]}; use tcp://") from None
+    if scheme in ("tls", "wss"):
+        import dask
+
+        tls = dask.config.get("distributed.comm.tls", {}) or {}
+        client = tls.get("client") or {}
+        if not (tls.get("ca-file") and client.get("cert")):
+            raise ExecutorError(f"--scheduler {address[:60]!r}: {scheme}:// needs the client's "
+                                f"certificates in Dask's configuration (distributed.comm.tls: "
+                                f"ca-file, client.cert, client.key; "
+                                f"https://docs.dask.org/en/stable/configuration.html), and "
+                                f"none are set")
+
+
+def _client(*args, **kwargs):
+    """A dask.distributed Client whose finaliser, for a Client that never connected, neither
+    waits 20 s for a scheduler that is not there nor prints a traceback at exit."""
+    from distributed import Client
+
+    class QuietClient(Client):
+        def __del__(self):
+            if getattr(self, "_Client__loop", None) is None:
+                return
+            with contextlib.suppress(BaseException):
+                self.close(timeout=2)
+            with contextlib.suppress(BaseException):
+                self._loop_runner.stop()
+
+    return QuietClient(*args, **kwargs)
 
 
 class DaskExecutor:
+    """The executor interface (executors.py) on a Dask scheduler.
+
+    A lost scheduler or connection is an environment fault, never a design's failure: the
+    evaluations in flight (cancelled by distributed, or whose results can no longer be
+    fetched) are kept, the executor waits for the scheduler to come back (distributed
+    reconnects, else a new Client every few seconds), saying so, for RECONNECT_TIMEOUT, then
+    runs them again; if it does not come back, :class:`ExecutorLost` stops the run with the
+    evaluations still pending. A scheduler that does not answer when a task reaches its
+    timeout is taken for lost likewise (a frozen scheduler must not time designs out), and so
+    is a scheduler whose workers have all gone (waited for up to WORKERS_TIMEOUT). The time
+    the executor waits for the cluster is not counted against the evaluations' timeout."""
+
     kind = "dask"
 
     def __init__(self, case, spec, address, timeout: float):
@@ -93,33 +149,43 @@ class DaskExecutor:
         self.case, self.spec, self.timeout = case, spec, float(timeout)
         self.address = address
         self.client = None
-        self._futures: dict = {}  # future -> (task, submitted at)
+        self._futures: dict = {}  # future -> (task, submitted at on the driver's clock)
         self._done: queue.SimpleQueue = queue.SimpleQueue()  # futures as they finish
+        self._orphans: list[Task] = []   # in flight when the cluster went away: to run again
+        self._cancelled: dict[tuple, int] = {}   # (id, condition) -> times Dask cancelled it
+        self._lost: tuple[float, str] | None = None   # (since, why) while the scheduler is gone
+        self._idle_since: float | None = None   # while the scheduler has no worker
+        self._stalled_at: float | None = None   # the cluster is away: deadlines stand still
+        self._retry_at = 0.0
+        self._log = None
         self._probe: tuple[str, str] | None = None  # (path, content) of the run directory's probe
         self._slots_cache = (0.0, 0)
         self.description = f"Dask scheduler {address if isinstance(address, str) else 'in-process'}"
 
+    # -- lifecycle ---------------------------------------------------------------------------
     def start(self, log=None) -> None:
         """Connect; wait (saying so through ``log``) for the first worker to join."""
-        from distributed import Client
+        import logging
 
+        self._log = log
+        # this executor says in one line what a lost scheduler means for the run; distributed's
+        # own reports of it (reconnecting, giving up) would only repeat it, with a timestamp
+        logger = logging.getLogger("distributed.client")
+        self._log_level = logger.level
+        logger.setLevel(logging.CRITICAL)
         if isinstance(self.address, str):
             _check_scheduler_address(self.address)
         try:
-            if isinstance(self.address, str):
-                self.client = Client(self.address, timeout=f"{CONNECT_TIMEOUT}s",
-                                     set_as_default=False)
-            else:  # a Cluster object (tests, notebooks)
-                self.client = Client(self.address, set_as_default=False)
+            self.client = self._connect(CONNECT_TIMEOUT)
         except Exception as exc:  # noqa: BLE001
             reason = f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__
-            raise ExecutorError(f"cannot connect to the Dask scheduler at {self.address}: {reason} "
-                                f"(is it running?)") from None
+            raise ExecutorError(f"cannot connect to the Dask scheduler at {self.address}: "
+                                f"{reason} (is it running?)") from None
         n = self._n_threads(force=True)
         if n == 0:
-            if log is not None:
-                log(f"the Dask scheduler has no workers yet; waiting up to {WORKERS_TIMEOUT // 60} "
-                    f"min for one (dask worker {self.client.scheduler.address} --nthreads 1)")
+            self._say(f"the Dask scheduler has no workers yet; waiting up to "
+                      f"{WORKERS_TIMEOUT // 60} min for one (dask worker "
+                      f"{self.client.scheduler.address} --nthreads 1)")
             try:
                 self.client.wait_for_workers(1, timeout=WORKERS_TIMEOUT)
             except Exception:  # noqa: BLE001 - distributed raises its own TimeoutError
@@ -130,11 +196,40 @@ class DaskExecutor:
             n = self._n_threads(force=True)
         self.description = f"Dask scheduler {self.client.scheduler.address} ({n} worker threads)"
 
+    def _connect(self, timeout: float):
+        if isinstance(self.address, str):
+            return _client(self.address, timeout=f"{timeout}s", set_as_default=False)
+        return _client(self.address, set_as_default=False)  # a Cluster object (tests, notebooks)
+
+    def _say(self, message: str) -> None:
+        if self._log is not None:
+            self._log(message)
+
+    def close(self) -> None:
+        if self.client is not None:
+            self.kill_running()
+            client, self.client = self.client, None
+            with contextlib.suppress(BaseException):
+                client.close(timeout=5)
+        if getattr(self, "_log_level", None) is not None:
+            import logging
+
+            logging.getLogger("distributed.client").setLevel(self._log_level)
+            self._log_level = None
+        if self._probe is not None:
+            with contextlib.suppress(OSError):
+                os.unlink(self._probe[0])
+            self._probe = None
+
+    # -- the interface -------------------------------------------------------------------------
+    def _connected(self) -> bool:
+        return self.client is not None and self.client.status == "running"
+
     def _n_threads(self, force: bool = False) -> int:
         t, n = self._slots_cache
-        if force or time.monotonic() - t > 5.0:
-            try:
-                n = int(sum(self.client.nthreads().values()))
+        if self._connected() and (force or time.monotonic() - t > 5.0):
+            try:   # never without a time limit: a frozen scheduler would hang the run
+                n = int(sum(self.client.nthreads(callback_timeout=PROBE_TIMEOUT).values()))
             except Exception:  # noqa: BLE001
                 pass
             self._slots_cache = (time.monotonic(), n)
@@ -146,26 +241,41 @@ class DaskExecutor:
 
     @property
     def running(self) -> int:
-        return len(self._futures)
+        return len(self._futures) + len(self._orphans)
 
     def free(self) -> int:
+        if self._lost is not None or self._orphans:
+            return 0
         return max(0, self._n_threads() - len(self._futures))
 
     def submit(self, task: Task) -> None:
         if task.out_path is not None and self._probe is None:
             self._probe = _write_probe(Path(task.out_path).parent)
-        fut = self.client.submit(dask_task, self.case, task, self.spec, self._probe, pure=False,
-                                 key=f"lccopt-eval-{task.id}-{uuid.uuid4().hex[:8]}")
-        self._futures[fut] = (task, time.monotonic())
+        try:
+            if not self._connected():
+                raise ConnectionError("not connected")
+            fut = self.client.submit(dask_task, self.case, task, self.spec, self._probe,
+                                     pure=False,
+                                     key=f"lccopt-eval-{task.id}-{uuid.uuid4().hex[:8]}")
+        except Exception as exc:  # noqa: BLE001 - the connection went: the task waits for it
+            self._orphans.append(task)
+            self._lose(f"{type(exc).__name__}: {exc}")
+            return
+        self._futures[fut] = (task, awake.now())
         fut.add_done_callback(self._done.put)  # no scan of every future in flight per wait
 
     def wait(self, timeout: float) -> list[Outcome]:
+        if self._lost is not None:
+            self._reconnect(timeout)
+            return []
+        if self._orphans:
+            self._run_orphans()
         if not self._futures:
             time.sleep(timeout)
             return []
-        now = time.monotonic()
-        limit = min([timeout] + [max(0.0, t0 + self.timeout - now)
-                                 for _, t0 in self._futures.values()])
+        now = awake.now()   # the driver's own clock: its pauses are not the designs' (awake.py)
+        limit = timeout if self._stalled_at is not None else min(
+            [timeout] + [max(0.0, t0 + self.timeout - now) for _, t0 in self._futures.values()])
         finished = []
         try:
             finished.append(self._done.get(timeout=max(0.01, limit)))
@@ -174,43 +284,175 @@ class DaskExecutor:
         except queue.Empty:
             pass
         out: list[Outcome] = []
-        now = time.monotonic()
+        now = awake.now()
         for fut in finished:
-            if fut in self._futures:
-                task, t0 = self._futures.pop(fut)
-                if fut.status == "finished":
-                    out.append(fut.result())
-                else:
-                    try:
-                        exc = fut.exception()
-                        reason = f"{type(exc).__name__}: {exc}"
-                    except Exception as e:  # noqa: BLE001 - cancelled
-                        reason = f"{type(e).__name__}: {e}"
-                    out.append(Outcome.of(task, error=f"Dask task failed: {reason}"[:500],
-                                       wall_time=now - t0, worker="dask"))
-        for fut in [f for f, (_, t0) in self._futures.items() if now - t0 > self.timeout]:
+            if fut not in self._futures:
+                continue
             task, t0 = self._futures.pop(fut)
-            fut.cancel()
+            outcome = self._outcome(fut, task, now - t0)
+            if outcome is not None:
+                out.append(outcome)
+        if self._lost is None:
+            self._check_workers(now)
+        if self._lost is None and self._stalled_at is None:
+            out += self._timeouts(now)
+        return out
+
+    def _outcome(self, fut, task: Task, elapsed: float) -> Outcome | None:
+        """The outcome of a finished future; None (the task kept to run again) when the cluster,
+        not the design, ended it: cancelled or lost by distributed, or a result that cannot be
+        fetched any more."""
+        if fut.status == "finished":
+            try:
+                return fut.result(timeout=PROBE_TIMEOUT)
+            except Exception as exc:  # noqa: BLE001 - the result is on a worker out of reach
+                return self._keep(task, f"the result of evaluation #{task.id} could not be "
+                                        f"fetched ({type(exc).__name__}: {exc})")
+        if not self._connected():
+            return self._keep(task, "the connection to it was lost")
+        if fut.status in ("cancelled", "lost"):
+            return self._keep(task, f"it reported evaluation #{task.id} {fut.status}")
+        try:
+            exc = fut.exception(timeout=0)
+            reason = f"{type(exc).__name__}: {exc}"
+        except Exception as e:  # noqa: BLE001
+            reason = f"{type(e).__name__}: {e}"
+        return Outcome.of(task, error=f"Dask task failed: {reason}"[:500], wall_time=elapsed,
+                          worker="dask")
+
+    def _keep(self, task: Task, why: str) -> None:
+        key = (task.id, task.condition)
+        self._cancelled[key] = self._cancelled.get(key, 0) + 1
+        if self._cancelled[key] > MAX_CANCELLED:
+            raise ExecutorLost(f"the Dask scheduler at {self.address} cancelled evaluation "
+                               f"#{task.id} {MAX_CANCELLED + 1} times ({why[:200]})")
+        self._orphans.append(task)
+        if not self._connected():
+            self._lose(why)
+        return None
+
+    def _lose(self, why: str) -> None:
+        """The scheduler went away: keep what was in flight, wait for it to come back."""
+        if self._lost is not None:
+            return
+        self._lost = (awake.now(), why)
+        self._update_stall()
+        for fut, (task, _) in list(self._futures.items()):
+            self._orphans.append(task)
+            with contextlib.suppress(Exception):
+                fut.release()
+        self._futures.clear()
+        self._say(f"lost the connection to the Dask scheduler at {self.address} "
+                  f"({_short(why)}); waiting up to {_span(RECONNECT_TIMEOUT)} for it to come "
+                  f"back; the {len(self._orphans)} evaluation(s) in flight will run again")
+
+    def _reconnect(self, timeout: float) -> None:
+        since, why = self._lost
+        if not self._connected() and awake.now() >= self._retry_at and (
+                self.client is None or self.client.status in ("closed", "closing", "failed")):
+            # distributed gave up reconnecting: a new Client, a short attempt each time (the
+            # run's loop must go on answering Ctrl-C and SIGTERM)
+            self._retry_at = awake.now() + 2.0
+            old, self.client = self.client, None
+            if old is not None:
+                with contextlib.suppress(BaseException):
+                    old.close(timeout=1)
+            try:
+                self.client = self._connect(1.0)
+            except Exception:  # noqa: BLE001 - not back yet
+                self.client = None
+        if self._connected():
+            self._lost = None
+            self._update_stall()
+            self._slots_cache = (0.0, 0)
+            n = self._n_threads(force=True)
+            self._say(f"the Dask scheduler at {self.address} is back ({n} worker threads); "
+                      f"running again the {len(self._orphans)} evaluation(s) that were in "
+                      f"flight")
+            self._run_orphans()
+            return
+        if awake.now() - since > RECONNECT_TIMEOUT:
+            raise ExecutorLost(f"lost the connection to the Dask scheduler at {self.address} "
+                               f"({_short(why)}) and it did not come back within "
+                               f"{_span(RECONNECT_TIMEOUT)}")
+        time.sleep(timeout)
+
+    def _run_orphans(self) -> None:
+        orphans, self._orphans = self._orphans, []
+        for task in orphans:
+            self.submit(task)
+
+    def _check_workers(self, now: float) -> None:
+        """A scheduler whose workers have all gone: the evaluations in flight wait for one (not
+        counted against their timeout) for up to WORKERS_TIMEOUT, then the run stops."""
+        if self._n_threads() > 0:
+            if self._idle_since is not None:
+                self._idle_since = None
+                self._update_stall()
+                self._say(f"a Dask worker joined the scheduler at {self.address}; carrying on")
+            return
+        if self._idle_since is None:
+            self._idle_since = now
+            self._update_stall()
+            self._say(f"the Dask scheduler at {self.address} has no workers left; waiting up "
+                      f"to {_span(WORKERS_TIMEOUT)} for one (the evaluations in flight stay "
+                      f"pending)")
+        elif now - self._idle_since > WORKERS_TIMEOUT:
+            raise ExecutorLost(f"the Dask scheduler at {self.address} has had no workers for "
+                               f"{_span(WORKERS_TIMEOUT)}")
+
+    def _update_stall(self) -> None:
+        """While the cluster is away (scheduler lost, no workers) the evaluations' deadlines
+        stand still: they move on by the time it was away."""
+        now = awake.now()
+        away = self._lost is not None or self._idle_since is not None
+        if away and self._stalled_at is None:
+            self._stalled_at = now
+        elif not away and self._stalled_at is not None:
+            shift = now - self._stalled_at
+            self._stalled_at = None
+            for fut, (task, t0) in list(self._futures.items()):
+                self._futures[fut] = (task, t0 + shift)
+
+    def _timeouts(self, now: float) -> list[Outcome]:
+        late = [f for f, (_, t0) in self._futures.items() if now - t0 > self.timeout]
+        if not late:
+            return []
+        if not self._answers():   # a frozen scheduler, not slow designs
+            self._lose(f"it did not answer within {PROBE_TIMEOUT} s")
+            return []
+        out = []
+        for fut in late:
+            task, t0 = self._futures.pop(fut)
+            with contextlib.suppress(Exception):
+                fut.cancel()
             out.append(Outcome.of(task, wall_time=now - t0, worker="dask",
                                   error=f"timed out after {self.timeout:g} s "
                                         f"(Dask task cancelled)"))
         return out
 
+    def _answers(self) -> bool:
+        try:
+            self.client.sync(self.client.scheduler.identity, callback_timeout=PROBE_TIMEOUT)
+            return True
+        except Exception:  # noqa: BLE001
+            return False
+
     def kill_running(self) -> None:
         for fut in list(self._futures):
-            fut.cancel()
-        self._futures.clear()
-
-    def close(self) -> None:
-        if self.client is not None:
             with contextlib.suppress(Exception):
-                self.kill_running()
-                self.client.close()
-            self.client = None
-        if self._probe is not None:
-            with contextlib.suppress(OSError):
-                os.unlink(self._probe[0])
-            self._probe = None
+                fut.cancel()
+        self._futures.clear()
+        self._orphans.clear()
+
+
+def _span(seconds: float) -> str:
+    return f"{seconds / 60:g} min" if seconds >= 60 else f"{seconds:g} s"
+
+
+def _short(why: str) -> str:
+    first = why.strip().splitlines()[0] if why.strip() else "no reason given"
+    return first[:160]
 
 
 def _write_probe(directory: Path) -> tuple[str, str]:

@@ -34,11 +34,18 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import STOP_SIGNALS
+from . import awake
 from .worker import SINGLE_THREAD_ENV, Outcome, Task, _death_reason
 
 
 class ExecutorError(Exception):
     """The executor cannot run at all (bad evaluator, no Dask, scheduler unreachable)."""
+
+
+class ExecutorLost(ExecutorError):
+    """The workers went away during a run (a Dask scheduler gone, frozen, or without workers
+    for too long): an environment fault, never a failed design; what was in flight stays
+    pending."""
 
 
 # What one local worker costs: its interpreter with numpy, scipy and h5py loaded (~55 MB
@@ -207,7 +214,7 @@ class LocalPool:
         raise RuntimeError("submit() without a free worker")
 
     def _give(self, s: _Slot, task: Task) -> None:
-        s.task, s.started = task, time.monotonic()
+        s.task, s.started = task, awake.now()
         try:
             s.conn.send(task)
         except OSError:
@@ -225,7 +232,7 @@ class LocalPool:
             return
         if killed:
             reason = f"{reason}, {self._deaths[key]} times"
-        out.append(Outcome.of(task, error=reason, wall_time=time.monotonic() - s.started,
+        out.append(Outcome.of(task, error=reason, wall_time=awake.now() - s.started,
                               worker=f"local-{s.index}"))
 
     def kill_running(self) -> None:
@@ -253,7 +260,9 @@ class LocalPool:
             s.pidfd = None
 
     def wait(self, timeout: float) -> list[Outcome]:
-        now = time.monotonic()
+        # timeouts on the driver's own clock: a pause of this process (SIGSTOP, Ctrl-Z) is
+        # never charged to the designs in flight (awake.py)
+        now = awake.now()
         limit = timeout
         for s in self._slots:
             if s.task is not None:
@@ -267,7 +276,7 @@ class LocalPool:
             if (s.conn in ready or (s.pidfd is not None and s.pidfd in ready)
                     or s.proc.poll() is not None):
                 self._drain(s, out)
-        now = time.monotonic()
+        now = awake.now()
         for s in self._slots:
             if s.task is not None and now - s.started > self.timeout:
                 task = s.task

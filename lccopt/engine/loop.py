@@ -48,6 +48,8 @@ from ..errors import (
 )
 from ..problem import Problem
 from ..terminal import PipeGuard, wrap_items
+from . import awake
+from .executors import ExecutorLost
 from .journal import Journal, line_mark
 from .progress import Progress, fmt, hms, objective_text, objective_value, reference_objectives
 from .rundir import (
@@ -129,6 +131,10 @@ class Engine:
         # is never reported as killed by them
         for sig in STOP_SIGNALS:
             self._old_handlers[sig] = signal.signal(sig, self._on_signal)
+        # SIGCONT after SIGSTOP or Ctrl-Z: the pause was this process's (awake.py)
+        old = awake.install()
+        if old is not None:
+            self._old_handlers[signal.SIGCONT] = old
 
     def _restore_signals(self) -> None:
         for sig, h in self._old_handlers.items():
@@ -146,6 +152,10 @@ class Engine:
     def run(self) -> None:
         try:
             self._run()
+        except ExecutorLost as exc:  # the cluster went away: the evaluations stay pending
+            raise EnvironmentFault(f"{exc}; the run stopped with nothing lost (the evaluations "
+                                   f"in flight stay pending): when the cluster is back, "
+                                   f"'lccopt resume {self.rd.path} --scheduler ADDRESS'") from None
         except (OSError, RuntimeError) as exc:  # h5py reports a full disk as either
             if environment_errno(exc) is None:
                 raise
@@ -485,6 +495,22 @@ class Engine:
                 rel = ("" if not r else " (unchanged: the reference design's)" if v == r else
                        f" ({(v - r) / r:+.1%} vs reference design {objective_value(k, r)})")
                 lines.append(f"  {objective_text(k, v)}{rel}")
+        if best is not None and pb.realisations and ref:
+            lines += wrap_items(realisation_wins(pb, best["objectives"], ref),
+                                "  beats the reference design on the same tracks: ")
         lines.append(f"results: {self.rd.results_path}")
         sys.stdout.write(printable_lines("\n".join(lines)) + "\n")
         sys.stdout.flush()
+
+
+def realisation_wins(problem: Problem, objectives: dict, reference: dict) -> list[str]:
+    """``F_max on 7 of 8``: on how many realisations a design's value of each objective the
+    case measures is below the reference design's."""
+    from ..uncertainty import statistics as robust
+
+    out = []
+    for base in dict.fromkeys(robust.objective_of(k) for k in problem.objectives):
+        a = robust.values(objectives, base, problem.realisations)
+        b = robust.values(reference, base, problem.realisations)
+        out.append(f"{base} on {int((a < b).sum())} of {problem.realisations} realisations")
+    return out

@@ -5,9 +5,9 @@ with the track as drawn marked.
 ``fig_spread`` draws, for each objective, one column per design: a dot per realisation, the
 band between the 10 % and 90 % quantiles, the mean, and the drawing's value (a diamond). The
 realisations are the same tracks for every design (common random numbers), so a thin line
-joins each track's values from the first design (the reference) to each other one: solid
-where the design beats the reference on that track, dotted where it does not, with the count
-above the column. A track engineer reads at a glance how wide the spread is against the
+joins each track's values from one design to the next: solid where it falls, dotted where it
+does not; above each design, on how many tracks it beats the reference (the first design)
+and the design left of it. A track engineer reads at a glance how wide the spread is against the
 design's gain, and on how many of the tracks the design wins.
 """
 
@@ -59,7 +59,7 @@ def fig_spread(designs: list[Spread], keys: list[str], out: Path, title: str,
     keys = [k for k in keys if all(k in d.tracks for d in designs)]
     n_cols = len(designs)
     width = max(1, len(keys)) * (1.3 + 1.25 * n_cols) + 0.6
-    fig, axes = plt.subplots(1, max(1, len(keys)), figsize=(max(5.5, width), 4.8),
+    fig, axes = plt.subplots(1, max(1, len(keys)), figsize=(max(7.0, width), 5.2),
                              squeeze=False)
     n = len(designs[0].tracks[keys[0]]) if keys else 0
     for ax, key in zip(axes[0], keys):
@@ -67,12 +67,14 @@ def fig_spread(designs: list[Spread], keys: list[str], out: Path, title: str,
         ref = designs[0]
         for j, d in enumerate(designs):
             v = d.tracks[key] * scale
-            if j > 0:   # each track from the reference to this design
-                r = ref.tracks[key] * scale
-                for a, b in zip(r, v):
+            if j > 0:   # each track from the design left of this one to this one
+                left = designs[j - 1].tracks[key] * scale
+                thin = v.size > 30
+                for a, b in zip(left, v):
                     better = b < a
-                    ax.plot([0, j], [a, b], color=OKABE_ITO["green"] if better else "0.55",
-                            lw=0.8, ls="-" if better else ":", alpha=0.7, zorder=1)
+                    ax.plot([j - 1, j], [a, b], color=OKABE_ITO["green"] if better else "0.55",
+                            lw=0.5 if thin else 0.8, ls="-" if better else ":",
+                            alpha=0.35 if thin else 0.7, zorder=1)
             lo, hi = np.nanquantile(v, LOW), np.nanquantile(v, HIGH)
             ax.add_patch(plt.Rectangle((j - 0.17, lo), 0.34, hi - lo, color=d.color, alpha=0.25,
                                        lw=0, zorder=2))
@@ -84,9 +86,12 @@ def fig_spread(designs: list[Spread], keys: list[str], out: Path, title: str,
                            edgecolor=d.color, lw=1.4, zorder=5)
             if j > 0:
                 w, m = wins(d, ref, key)
-                ax.annotate(f"beats the reference\non {w} of {m} tracks", (j, 1.0),
-                            xycoords=("data", "axes fraction"), ha="center", va="bottom",
-                            fontsize=7.5, xytext=(0, 2), textcoords="offset points")
+                text = f"beats the reference\non {w} of {m} tracks"
+                if j > 1:
+                    w2, m2 = wins(d, designs[j - 1], key)
+                    text += f";\nthe design left of it\non {w2} of {m2}"
+                ax.annotate(text, (j, 1.0), xycoords=("data", "axes fraction"), ha="center",
+                            va="bottom", fontsize=7.5, xytext=(0, 2), textcoords="offset points")
         ax.set_xticks(range(n_cols), [d.label for d in designs], fontsize=8)
         ax.set_xlim(-0.5, n_cols - 0.4)
         ax.set_ylabel(f"{key} [{unit}]" if unit else key)
@@ -103,12 +108,12 @@ def fig_spread(designs: list[Spread], keys: list[str], out: Path, title: str,
     ]
     if n_cols > 1:
         handles += [plt.Line2D([], [], color=OKABE_ITO["green"], lw=0.8,
-                               label="same track: better than the reference"),
+                               label="same track: lower than the design to its left"),
                     plt.Line2D([], [], color="0.55", lw=0.8, ls=":",
-                               label="same track: not better")]
-    fig.legend(handles=handles, loc="lower center", ncol=3, fontsize=7.5, frameon=False)
+                               label="same track: not lower")]
+    fig.legend(handles=handles, loc="lower center", ncol=2, fontsize=7.5, frameon=False)
     fig.suptitle(title, fontsize=10)
-    fig.tight_layout(rect=(0, 0.13 if n_cols > 1 else 0.09, 1, 0.9))
+    fig.tight_layout(rect=(0, 0.16 if n_cols > 1 else 0.11, 1, 0.86 if n_cols > 2 else 0.9))
     return save_figure(fig, Path(out) / name)
 
 
@@ -233,7 +238,7 @@ def robust_section(doc, run: RunData, designs: list[Spread], figs: dict) -> dict
     if "robust-spread" in figs:
         doc.fig(figs["robust-spread"],
                 f"Each objective over the {n} realisations (dots), {LOW:.0%}-{HIGH:.0%} band, "
-                "mean (bar) and the track as drawn (diamond), for the reference design and the "
-                "optimum; a line joins each track's values, solid where the design beats the "
-                "reference on that track.")
+                "mean (bar) and the track as drawn (diamond), for the reference design, the "
+                "run's nominal optimum (where it differs) and the optimum; a line joins each "
+                "track's values from one design to the next, solid where it falls.")
     return out

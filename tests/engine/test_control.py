@@ -259,10 +259,15 @@ def test_a_damaged_journal_or_results_file_is_one_line_naming_it(tmp_path, finis
     state = json.loads((run / "state.json").read_text())
     state["strategy"] = {"history": "nonsense", "rng": [1, 2]}
     (run / "state.json").write_text(json.dumps(state))
+    # an evaluation file whose design claims 10^11 values: damaged, simulated again
+    with h5py.File(run / "evals" / "000002.h5", "a") as f:
+        del f["design"]
+        f.create_dataset("design", shape=(10 ** 11,), dtype="f8", chunks=(1000,))
     r = subprocess.run(lccopt_command() + ["resume", str(run), "--budget", "12", "--workers",
                                            "1"], capture_output=True, text=True, timeout=120,
                        env=subprocess_env(**ENV))
     assert r.returncode == 0, r.stderr
+    assert "lost or damaged, simulating them again: #2" in r.stderr, r.stderr
     assert len(read_table(run)["id"]) == 12
 
 
@@ -374,3 +379,31 @@ def test_a_reference_design_at_zero_names_the_default_worst_and_resumes_once_set
                        capture_output=True, text=True, timeout=120, env=subprocess_env(**env))
     assert r.returncode == 0, r.stderr
     assert len(read_table(run)["id"]) == 8
+
+
+# ------------------------------------------------------------------------ a stopped driver
+
+def test_a_driver_stopped_longer_than_the_timeout_charges_nothing_to_the_designs(tmp_path):
+    """Ctrl-Z (SIGSTOP to the process group: driver and workers) for twice the timeout, then
+    SIGCONT: the evaluations in flight finish as if nothing happened (they were recorded as
+    timed out), and the table is the uninterrupted run's."""
+    from .conftest import n_done
+
+    case = write_case(tmp_path, "paused", budget=8, initial=4, seed=4, timeout=2.0)
+    reference = read_table(optimise(case, workers=2, runs=tmp_path / "whole", evaluator=FAKE,
+                                    progress=False))
+    p = _lccopt("optimise", case, "--workers", "2", "--runs", tmp_path / "runs",
+                env={**ENV, "LCCOPT_FAKE_DELAY": "1.0"})
+    run = tmp_path / "runs" / "paused"
+    deadline = time.monotonic() + 120
+    while n_done(run) < 2:
+        assert time.monotonic() < deadline and p.poll() is None
+        time.sleep(0.05)
+    time.sleep(0.3)              # evaluations in flight
+    os.killpg(p.pid, signal.SIGSTOP)
+    time.sleep(4.5)
+    os.killpg(p.pid, signal.SIGCONT)
+    r = _done(p)
+    assert r.returncode == 0, r.stderr
+    assert "FAILED" not in r.stderr, r.stderr
+    assert_same_evaluations(reference, read_table(run))

@@ -141,3 +141,143 @@ def test_a_real_scheduler_with_eight_worker_processes_runs_an_optimisation(tmp_p
                                 progress=False))
     assert_same_evaluations(local, table)
     assert np.isfinite(table["value"]).all()
+
+
+# ------------------------------------------------------------------------ a cluster that dies
+
+class _Cluster:
+    """`dask scheduler` on 127.0.0.1 at a free port and `dask worker --nworkers 2 --nthreads 1`,
+    as processes of their own (what a cluster's operator starts, and kills)."""
+
+    def __init__(self, env: dict, cwd):
+        import socket
+
+        with socket.socket() as s:
+            s.bind(("127.0.0.1", 0))
+            self.port = s.getsockname()[1]
+        self.address = f"tcp://127.0.0.1:{self.port}"
+        self.env, self.cwd = env, cwd
+        self.scheduler = self.workers = None
+
+    def _popen(self, module: str, *args):
+        import subprocess
+        import sys
+
+        return subprocess.Popen([sys.executable, "-m", module, *args], env=self.env, cwd=self.cwd,
+                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+
+    def start(self) -> "_Cluster":
+        import distributed
+
+        self.scheduler = self._popen("distributed.cli.dask_scheduler", "--host", "127.0.0.1",
+                                     "--port", str(self.port), "--no-dashboard")
+        self.workers = self._popen("distributed.cli.dask_worker", self.address, "--nworkers", "2",
+                                   "--nthreads", "1", "--no-dashboard", "--memory-limit", "0")
+        with distributed.Client(self.address, timeout="60s") as client:
+            client.wait_for_workers(2, timeout=120)
+        return self
+
+    def kill_scheduler(self) -> None:
+        self.scheduler.kill()
+        self.scheduler.wait()
+
+    def stop(self) -> None:
+        import subprocess
+
+        for p in (self.workers, self.scheduler):
+            if p is not None and p.poll() is None:
+                p.terminate()
+                try:
+                    p.wait(30)
+                except subprocess.TimeoutExpired:
+                    p.kill()
+                    p.wait()
+
+
+def test_a_scheduler_killed_mid_run_is_an_environment_fault_never_a_failed_design(
+        tmp_path, monkeypatch):
+    """kill -9 of the Dask scheduler while evaluations run: nothing in flight fails and no
+    budget is spent. Brought back (scheduler and workers restarted), the run carries on by
+    itself; never back, the run stops with exit 2 and one line after its wait, and a resume on
+    a new cluster ends it. Both tables are the uninterrupted run's (the local pool with as
+    many workers)."""
+    import os
+    import threading
+    import time
+
+    pytest.importorskip("distributed")
+    from lccopt.engine import dask_pool
+    from lccopt.errors import UsageError
+
+    from .conftest import REPO, cli, cli_run, journal_events, n_done, wait_for
+
+    case = write_case(tmp_path, "lost", budget=12, initial=4, seed=6)
+    reference = read_table(optimise(case, workers=2, runs=tmp_path / "local", evaluator=FAKE,
+                                    progress=False))
+    env = {**os.environ, "PYTHONPATH": str(REPO), "LCCOPT_EVALUATOR": FAKE,
+           "LCCOPT_FAKE_DELAY": "0.3"}
+    cluster = _Cluster(env, tmp_path).start()
+    try:
+        # brought back: the run waits, saying so, and carries on
+        p = cli("optimise", case, "--scheduler", cluster.address, "--runs", tmp_path / "back",
+                env={"LCCOPT_EVALUATOR": FAKE})
+        run = tmp_path / "back" / "lost"
+        wait_for(lambda: n_done(run) >= 4)
+        cluster.kill_scheduler()
+        cluster.stop()
+        time.sleep(1.0)
+        cluster.start()
+        out, err = p.communicate(timeout=300)
+        assert p.returncode == 0, err
+        assert "lost the connection to the Dask scheduler" in err and "FAILED" not in err, err
+        assert "Traceback" not in err and " ERROR " not in err, err
+        assert_same_evaluations(reference, read_table(run))
+
+        # never back: exit 2 after the wait (shortened here), nothing failed, then a resume
+        monkeypatch.setattr(dask_pool, "RECONNECT_TIMEOUT", 3.0)
+        gone = tmp_path / "gone" / "lost"
+        monkeypatch.setenv("LCCOPT_FAKE_DELAY", "0.3")
+
+        def kill_when_going():
+            wait_for(lambda: n_done(gone) >= 4)
+            cluster.kill_scheduler()
+
+        killer = threading.Thread(target=kill_when_going, daemon=True)
+        killer.start()
+        with pytest.raises(UsageError, match="did not come back within 3 s; the run stopped "
+                                             "with nothing lost"):
+            optimise(case, scheduler=cluster.address, runs=tmp_path / "gone", evaluator=FAKE,
+                     progress=False)
+        killer.join(60)
+        assert not [e for e in journal_events(gone) if e["event"] == "failed"]
+        cluster.stop()
+        cluster.start()
+        r = cli_run("resume", gone, "--scheduler", cluster.address,
+                    env={"LCCOPT_EVALUATOR": FAKE}, timeout=300)
+        assert r.returncode == 0, r.stderr
+        assert_same_evaluations(reference, read_table(gone))
+    finally:
+        cluster.stop()
+
+
+def test_scheduler_addresses_lccopt_cannot_use_are_one_line_with_no_finaliser_later(tmp_path):
+    """TLS without certificates in Dask's configuration, UCX without its package, a host that
+    does not resolve: exit 2 with one line, and no Client.__del__ traceback (20 s) after it."""
+    import time
+
+    pytest.importorskip("distributed")
+    from .conftest import cli_run
+
+    case = write_case(tmp_path, "addr", budget=6, initial=4)
+    host = "a" * 60 + "." + "b" * 60 + ".example.invalid"
+    for address, text in (("tls://127.0.0.1:8786", "needs the client's certificates"),
+                          ("ucx://127.0.0.1:8786", "ucx:// transport cannot be used here"),
+                          (f"tcp://{host}:8786", "cannot connect to the Dask scheduler")):
+        t0 = time.monotonic()
+        r = cli_run("optimise", case, "--scheduler", address, "--runs", tmp_path / "runs",
+                    env={"LCCOPT_EVALUATOR": FAKE}, timeout=120)
+        assert time.monotonic() - t0 < 19, address
+        assert r.returncode == 2 and "Traceback" not in r.stderr, r.stderr
+        lines = r.stderr.strip().splitlines()
+        assert len(lines) == 1 and text in lines[0], r.stderr
+    assert not (tmp_path / "runs").exists()

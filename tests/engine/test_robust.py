@@ -25,11 +25,13 @@ from tests.engine.conftest import (
     cli,
     cli_run,
     n_done,
+    optimise_on_local_dask,
     read_table,
     wait_for,
     write_case,
 )
 
+# whole runs with worker processes (the statistics' and units' tests below are quick)
 SECTION = """uncertainty:
   realisations: 4
   support_stiffness: {correlation_length: 3 m}
@@ -49,6 +51,7 @@ def realisation_table(run: Path) -> dict:
         return {"attrs": dict(g.attrs), **{k: g[k][()] for k in g}}
 
 
+@pytest.mark.slow
 def test_same_seed_same_realisations_and_same_table_another_seed_other_tracks(tmp_path):
     path = robust_case(tmp_path)
     a = optimise(path, workers=2, runs=tmp_path / "a", evaluator=FAKE, progress=False)
@@ -86,6 +89,7 @@ def test_same_seed_same_realisations_and_same_table_another_seed_other_tracks(tm
     assert "sleeper_energy" in evs[0].histories and "contact_force" not in evs[0].histories
 
 
+@pytest.mark.slow
 def test_kill_9_mid_design_keeps_the_finished_tracks_and_resumes_to_the_same_end(tmp_path):
     path = robust_case(tmp_path, budget=10)
     env = {"LCCOPT_EVALUATOR": FAKE, "LCCOPT_FAKE_DELAY": "0.05",
@@ -111,6 +115,7 @@ def test_kill_9_mid_design_keeps_the_finished_tracks_and_resumes_to_the_same_end
                                   realisation_table(again)["E_max"])
 
 
+@pytest.mark.slow
 def test_a_resume_refuses_realisations_other_than_the_runs(tmp_path):
     path = robust_case(tmp_path, budget=6)
     run = optimise(path, workers=1, runs=tmp_path / "runs", evaluator=FAKE, progress=False)
@@ -123,6 +128,7 @@ def test_a_resume_refuses_realisations_other_than_the_runs(tmp_path):
         in r.stderr
 
 
+@pytest.mark.slow
 def test_p_worse_waits_for_the_reference_design_and_counts_the_tracks_it_loses(tmp_path):
     path = robust_case(tmp_path, objectives=("p_worse(F_max)",), budget=8)
     run = optimise(path, workers=2, runs=tmp_path / "runs", evaluator=FAKE, progress=False)
@@ -134,6 +140,7 @@ def test_p_worse_waits_for_the_reference_design_and_counts_the_tracks_it_loses(t
     assert min(t["value"]) < 1.0
 
 
+@pytest.mark.slow
 def test_conditions_on_each_track_run_as_tasks_and_combine_per_track(tmp_path):
     conds = ("conditions:\n  - {name: v140, speed: 38.88888888888889}\n"
              "  - {name: v160, speed: 44.44444444444444, direction: leave}\n")
@@ -171,6 +178,7 @@ def test_each_condition_gets_its_own_robust_objective(tmp_path):
                                                 "F_max@b#0": 2.0}
 
 
+@pytest.mark.slow
 def test_no_spread_gives_exactly_the_deterministic_objectives(tmp_path):
     """With a coefficient of variation of 0 every realisation is the drawing: the robust run's
     statistics equal the deterministic run's objectives bit for bit, so it proposes the same
@@ -200,9 +208,26 @@ def test_a_statistic_has_its_objectives_unit(name):
     assert stats.is_statistic(name)
 
 
+@pytest.mark.slow
 def test_robust_runs_print_their_tasks_per_design(tmp_path):
     path = robust_case(tmp_path, budget=5)
     r = cli_run("optimise", path, "--workers", "2", "--runs", tmp_path / "runs",
                 env={"LCCOPT_EVALUATOR": FAKE})
     assert r.returncode == 0, r.stderr
     assert "4 realisations and the drawn track per design" in r.stderr
+    line = next(ln for ln in r.stdout.splitlines() if "beats the reference design" in ln)
+    assert "on the same tracks: F_max on" in line and "of 4 realisations" in line
+
+
+@pytest.mark.slow
+def test_realisations_on_dask_give_the_process_pools_evaluations_and_files(tmp_path):
+    pytest.importorskip("distributed")
+    path = robust_case(tmp_path, budget=6)
+    local = optimise(path, workers=2, runs=tmp_path / "local", evaluator=FAKE, progress=False)
+    run = optimise_on_local_dask(path, tmp_path / "dask", FAKE, n_workers=2)
+    a, b = read_table(local), read_table(run)
+    assert_same_evaluations(a, b, ("id", "x", "F_max", "q90(F_max)", "mean(E_max)", "value"))
+    np.testing.assert_array_equal(realisation_table(local)["F_max"],
+                                  realisation_table(run)["F_max"])
+    evs = read_realisations(run / b["file"][0])     # written by the parent from the evaluations
+    assert [e.objectives["F_max"] for e in evs] == list(realisation_table(run)["F_max"][0])
