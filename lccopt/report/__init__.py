@@ -216,7 +216,8 @@ def _settlement_figures(data, histories, bi: int, out: Path, figs: dict):
     if not designs:
         return None
     limit = limit_of(designs[-1].info)
-    title = f"Settlement of '{data.name}' under its traffic"
+    title = (f"Settlement of '{data.name}' under its traffic (the law's values, not a "
+             f"forecast)")
     figs["settlement-history"] = fig_settlement_history(designs, out, title, limit)
     figs["settlement-profile"] = fig_settlement_profile(designs, out, title)
     return designs, limit, law_check(data, bi, data.ref_index(), out)

@@ -605,13 +605,9 @@ def _settlement_section(doc: Doc, run: RunData, designs: list, limit, check, fig
     what = (f"over {horizon:g} year{'' if horizon == 1 else 's'}" if horizon
             else "over its horizon")
     if deg is not None:
-        from ..config.degradation import resolved_traffic
-        from ..config.describe import law_items
+        from ..config.describe import law_items, traffic_sentence
 
-        traffic = ", ".join(
-            (f"{k}: {t.trains_per_day:g} trains a day, " if t.trains_per_day else f"{k}: ")
-            + f"{t.axle_passes:.3g} axle passes a year"
-            for k, t in resolved_traffic(run.case.data, run.case.traffic).items())
+        traffic = traffic_sentence(run.case)
         what += (f" of the traffic ({traffic}), by the {deg['law']['name']} law "
                  f"({', '.join(law_items(deg['law']))}), {deg['settling_sleepers']} settling "
                  f"sleepers next to the slab")
