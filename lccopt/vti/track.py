@@ -31,6 +31,7 @@ import scipy.sparse as sp
 
 from .assembly import Assembler, beam_stiffness, hermite_gram
 from .specs import ELEMENT_UNIT, Scenario, TrackDesign
+from .vehicle import vehicle_length
 
 # dof kinds, in their order at one position
 RAIL_W, RAIL_TH, SLEEPER, SLAB_W, SLAB_TH = range(5)
@@ -101,7 +102,7 @@ def wheel_window(scenario: Scenario, entry_x: np.ndarray) -> tuple[float, float,
     zones, sim, layout = scenario.zones, scenario.settings, scenario.track.layout
     zone_start = float(entry_x[zones.sleepers - 1])
     zone_end = scenario.track.position(zones.force_zone_end)
-    length = scenario.vehicle.length
+    length = vehicle_length(scenario.vehicle)
     if sim.direction == "leave":
         x_b = layout.entry_length + float(sum(scenario.track.ers.slab_lengths))
         return (max(zone_end, x_b) + sim.run_in, zone_start, zone_end,
@@ -112,7 +113,7 @@ def wheel_window(scenario: Scenario, entry_x: np.ndarray) -> tuple[float, float,
 def wheels_span(scenario: Scenario, window: tuple) -> tuple[float, float]:
     """(lowest, highest) position of any wheel during the run [m]."""
     x_start, _, _, x_end = window
-    length = scenario.vehicle.length
+    length = vehicle_length(scenario.vehicle)
     back = -length if x_end >= x_start else length     # the other wheels trail the leading one
     ends = (x_start, x_end, x_start + back, x_end + back)
     return min(ends), max(ends)
