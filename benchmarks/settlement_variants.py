@@ -105,6 +105,36 @@ def tables(path: Path) -> None:
                       f"{len(firsts) - 1} variants, the same best in {top}")
 
 
+def summary(path: Path) -> None:
+    """Each design against the reference, measure by measure: the change under the case's law
+    and in how many of the eight variants the design stays on the same side of the reference
+    (a ranking that holds: 8/8)."""
+    done = json.loads(path.read_text())
+    labels = list(dict.fromkeys(k.split(" | ")[1] for k in done))
+    names = [n for n in DESIGNS if n != "reference"]
+    print("\n### each design against the reference: change under the case's law (variants "
+          "keeping its side)\n")
+    print("| measure | " + " | ".join(names) + " |")
+    print("|---" * (len(names) + 1) + "|")
+    for mode, keys in (("untamped", UNTAMPED), ("tamped", TAMPED)):
+        for k in keys:
+            cells = []
+            for n in names:
+                try:
+                    pairs = [(done[f"{mode} | {lab} | {n}"][k],
+                              done[f"{mode} | {lab} | reference"][k]) for lab in labels]
+                except KeyError:
+                    cells.append("-")
+                    continue
+                (v0, r0), rest = pairs[0], pairs[1:]
+                side = np.sign(v0 - r0)
+                held = sum(np.sign(v - r) == side for v, r in rest)
+                change = (f"{100 * (v0 - r0) / r0:+.0f} %" if r0 and k != "interventions"
+                          else f"{v0 - r0:+.3g}")
+                cells.append(f"{change} ({held}/{len(rest)})")
+            print(f"| {mode}: {k} | " + " | ".join(cells) + " |")
+
+
 def main(argv=None) -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--out", type=Path)
@@ -113,8 +143,10 @@ def main(argv=None) -> None:
     if a.out:
         run(a.out)
         tables(a.out)
+        summary(a.out)
     elif a.tables:
         tables(a.tables)
+        summary(a.tables)
     else:
         p.error("--out or --tables")
 
