@@ -484,10 +484,9 @@ def law_check(run, bi: int, ri: int | None, out: Path) -> dict | None:
 
     import typer
 
-    from ..atomic import atomic_write_text
     from ..degradation.evaluate import predict, settlement_objectives
     from ..degradation.variants import law_variants
-    from ..safeio import is_regular_file, read_owned
+    from ..safeio import read_owned
     from ..version import __version__
 
     case = run.case
@@ -499,14 +498,15 @@ def law_check(run, bi: int, ri: int | None, out: Path) -> dict | None:
     xb, xr = (np.asarray(run.x[i], float) for i in (bi, ri))
     key = hashlib.sha256(json.dumps([case.resolved, xb.tolist(), xr.tolist(), __version__,
                                      [v[0] for v in variants]]).encode()).hexdigest()
-    path = out / CHECK_FILE
-    if is_regular_file(path):
-        try:
-            kept = json.loads(read_owned(path, 10_000_000))
-            if kept.get("key") == key:
-                return _verdict(kept, keys)
-        except (OSError, ValueError):
-            pass
+    place = out / CHECK_FILE            # staged: written whole with the rest of the report
+    path = place.shown                  # where the last report of this folder kept it
+    try:
+        kept = json.loads(read_owned(path, 10_000_000))
+        if kept.get("key") == key:
+            place.write_bytes((json.dumps(kept, indent=1) + "\n").encode())
+            return _verdict(kept, keys)
+    except (OSError, ValueError):       # none kept, or not a regular file of its own
+        pass
     typer.echo(f"predicting the best and the reference design under {len(variants)} variants "
                f"of the law ({2 * len(variants)} predictions, kept in {path})...", err=True)
     rows = []
@@ -519,7 +519,7 @@ def law_check(run, bi: int, ri: int | None, out: Path) -> dict | None:
     kept = {"key": key, "variants": rows,
             "nominal": {"best": {k: float(run.obj[k][bi]) for k in keys if k in run.obj},
                         "reference": {k: float(run.obj[k][ri]) for k in keys if k in run.obj}}}
-    atomic_write_text(path, json.dumps(kept, indent=1) + "\n")
+    place.write_bytes((json.dumps(kept, indent=1) + "\n").encode())
     return _verdict(kept, keys)
 
 
