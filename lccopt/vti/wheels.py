@@ -206,7 +206,8 @@ class Wheels:
     def __init__(self, track: TrackLike, dt: float, speed: float, x_start: float, n_steps: int,
                  *, vehicle=None, load: float = 0.0,
                  irregularity: Callable[[float], float] | None = None):
-        self.steps, self.dt = steps, dt = n_steps + 1, dt
+        self.steps = steps = n_steps + 1
+        self.dt = dt
         self.time = dt * np.arange(steps)
         self.lead = x_start + speed * self.time
         _check_on_rail(track, self.lead)
@@ -272,7 +273,7 @@ class Wheels:
         self.prev = [-10] * k
         self.on = list(range(k))
         self._eye = np.eye(k)
-        if k == 1:
+        if k == 1:                       # the same step, written out on scalars
             self.step = self._step_one
 
     def _enter(self, s: int) -> None:
