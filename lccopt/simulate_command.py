@@ -163,6 +163,7 @@ def _simulate_settlement(case, case_path: Path, x, out: Path, plots: bool, evalu
     typer.echo(f"settlement after {horizon:g} year{'' if horizon == 1 else 's'}: "
                f"{info.get('settlement_simulations', '?')} simulations, "
                f"{info.get('settlement_blocks', '?')} blocks, {wall:.1f} s")
+    typer.echo("  (the law's values, not a forecast: not calibrated to a measured crossing)")
     _echo_objectives(o, [k for k in (*SETTLEMENT_OBJECTIVES, "years_to_limit") if k in o])
     if not info.get("settlement_limit_reached", True):
         typer.echo(f"  (the limit, {info['settlement_limit_measure']} "
@@ -198,7 +199,8 @@ def _simulate_settlement(case, case_path: Path, x, out: Path, plots: bool, evalu
 
         paths = simulation_figures(ev, case.name, out)
         design = Design("design", h, info)
-        title = f"Settlement of '{case.name}' under its traffic"
+        title = (f"Settlement of '{case.name}' under its traffic (the law's values, not a "
+                 f"forecast)")
         paths.append(fig_settlement_history([design], out, title, limit_of(info)))
         paths.append(fig_settlement_profile([design], out, title))
         for p in paths:

@@ -74,7 +74,7 @@ def test_check_and_simulate_say_what_the_prediction_does(tmp_path):
     case = write_settlement_case(tmp_path)
     r = cli("check", case, cwd=tmp_path)
     assert r.returncode == 0, r.stderr
-    assert "horizon 0.2 years = 2e+05 axle passes; 8 settling sleepers" in r.stdout
+    assert "horizon 0.2 years = 200,000 axle passes; 8 settling sleepers" in r.stdout
     r = cli("simulate", case, cwd=tmp_path)
     assert r.returncode == 0, r.stderr
     out = r.stdout
@@ -82,6 +82,7 @@ def test_check_and_simulate_say_what_the_prediction_does(tmp_path):
     for k in SETTLEMENT:
         assert f"\n  {k} " in out, k
     assert "settlement after 0.2 years" in out and " mm " in out
+    assert "(the law's values, not a forecast: not calibrated to a measured crossing)" in out
     assert re.search(r"\n  tamped [1-9]\d* time\(s\): after 0\.05", out), out
     sim = tmp_path / "runs" / "s-simulate"
     for png in ("contact_force", "sleeper_energy", "displacement", "settlement-history",
@@ -156,9 +157,33 @@ def test_status_and_report_speak_settlement(run):
     assert "The track is tamped whenever the limit is reached" in md
     assert re.search(r"tamped \d+ times over the horizon \(after ", md), md
     assert "the law's values, not a forecast" in md
+    # the traffic in the words check uses, not a condition's name and a rate
+    assert ("of the traffic (500,000 bogie passages a year (2 axles each), axle load 174 kN; "
+            "1 million axle passes, about 17.8 million gross tonnes a year)") in md, md
+    # the best design re-predicted under the law's uncertainty, said and tabled
+    assert "### Rankings and the law's uncertainty" in md
+    assert re.search(r"the best design beats the reference design in level_d1_max and "
+                     r"interventions in \d of 8", md), md
+    assert ("within the model's uncertainty" in md) == s_within(rep)
+    t0 = time.monotonic()                     # a second report reads the kept predictions
+    again = cli("report", base / "runs" / "s", cwd=base)
+    assert again.returncode == 0 and "predicting the best" not in again.stderr, again.stderr
+    assert time.monotonic() - t0 < 60
+    for label in ("alpha -30 %", "1 - beta +30 %", "gamma +30 %", "passage reading",
+                  "logarithmic law (matched)"):
+        assert f"| {label} |" in md, label
     s = json.loads((rep / "summary.json").read_text())
     assert set(SETTLEMENT) <= set(s["best"]["objectives"])
     assert s["figures"]["settlement-profile"] == "settlement-profile.png"
+
+
+def s_within(rep: Path) -> bool:
+    """Whether summary.json's law check says "within the model's uncertainty" (checked to
+    be: the best beats the reference in at most half of the 8 variants)."""
+    check = json.loads((rep / "summary.json").read_text())["law_check"]
+    assert check["n"] == 8 and 0 <= check["beats"] <= 8
+    assert check["within_uncertainty"] == (check["beats"] <= 4)
+    return check["within_uncertainty"]
 
 
 def _n_done(run: Path) -> int:

@@ -20,6 +20,8 @@ Writes into ``RUN/report/`` (or ``--out DIR``):
     settlement-history.png settlement per sleeper against axle passes, best and reference (a
                            case with degradation:; lccopt/report/settlement.py)
     settlement-profile.png the settlement along the zone at chosen times, and the voids
+    law-variants.json      the best and the reference design re-predicted under eight variants
+                           of the settlement law (kept for the next report)
     robust-spread.png      each objective over the realisations of the track, reference, nominal
                            and robust optimum side by side (a case with uncertainty:;
                            lccopt/report/robust.py)
@@ -50,10 +52,12 @@ from .robust import fig_spread, run_spreads, spread_keys
 from .search import fig_objective_space, fig_search_history
 from .sensitivity import fig_sensitivity, sensitivity_of
 from .settlement import (
+    CHECK_FILE,
     Design,
     fig_settlement_history,
     fig_settlement_profile,
     has_settlement,
+    law_check,
     limit_of,
 )
 from .summary import build_summary, history_facts
@@ -61,7 +65,7 @@ from .summary import build_summary, history_facts
 __all__ = ["write_report"]
 
 
-REPORT_FILES = ("report.md", "report.html", "summary.json")
+REPORT_FILES = ("report.md", "report.html", "summary.json", CHECK_FILE)
 
 
 def write_report(run: Path, format: str = "both", out: Path | None = None,
@@ -212,8 +216,9 @@ def _settlement_figures(data, histories, bi: int, out: Path, figs: dict):
     if not designs:
         return None
     limit = limit_of(designs[-1].info)
-    title = f"Settlement of '{data.name}' under its traffic"
+    title = (f"Settlement of '{data.name}' under its traffic (the law's values, not a "
+             f"forecast)")
     figs["settlement-history"] = fig_settlement_history(designs, out, title, limit)
     figs["settlement-profile"] = fig_settlement_profile(designs, out, title)
-    return designs, limit
+    return designs, limit, law_check(data, bi, data.ref_index(), out)
 
