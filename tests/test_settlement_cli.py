@@ -292,21 +292,26 @@ def test_settlement_history_keeps_its_labels_clear_of_the_legend_and_the_limit(r
     assert not any(a.overlaps(b) for i, a in enumerate(boxes) for b in boxes[i + 1:]), texts
 
 
-@pytest.mark.parametrize("degradation, key", [
-    ("{trains_per_day: 30}", "degradation.trains_per_day"),
-    ("{trains_per_day: 30, vehicles_per_train: 4, tamping: {unreachable_sleepers: 25}}",
+@pytest.mark.parametrize("body, line, key", [
+    ("degradation: {trains_per_day: 30}\n", 3, "degradation.trains_per_day"),
+    ("degradation: {trains_per_day: 30, vehicles_per_train: 4,\n"
+     "              tamping: {unreachable_sleepers: 25}}\n", 4,
      "degradation.tamping.unreachable_sleepers"),
-    ("{trains_per_day: 30, vehicles_per_train: 4, subgrade: {depth: 0}}",
+    ("degradation: {trains_per_day: 30, vehicles_per_train: 4,\n"
+     "              tamping: {min_interval: 0 year}}\n", 4, "degradation.tamping.min_interval"),
+    ("degradation: {trains_per_day: 30, vehicles_per_train: 4, subgrade: {depth: 0}}\n", 3,
      "degradation.subgrade.depth"),
+    ("degradation: {trains_per_day: 30, vehicles_per_train: 4}\n"
+     "track: {sleeper: {bearing_area: 0 m^2}}\n", 4, "track.sleeper.bearing_area"),
 ])
-def test_bad_traffic_tamping_and_subgrade_are_one_line_exit_2(tmp_path, degradation, key):
+def test_bad_traffic_tamping_and_subgrade_are_one_line_exit_2(tmp_path, body, line, key):
     """What a user gets wrong most (a train without its length, a tamping that reaches no
-    sleeper, a subgrade at no depth): exit 2, one line naming the file, line and key."""
+    sleeper or comes at no interval, a subgrade at no depth, a sleeper on no area): exit 2,
+    one line naming the file, line and key."""
     case = tmp_path / "bad.yaml"
-    case.write_text(f"extends: {BOGIE}\nname: bad\ndegradation: {degradation}\n",
-                    encoding="utf-8")
+    case.write_text(f"extends: {BOGIE}\nname: bad\n{body}", encoding="utf-8")
     r = cli("check", case, cwd=tmp_path)
     assert r.returncode == 2, r.stdout + r.stderr
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and "Traceback" not in r.stderr, r.stderr
-    assert re.search(rf"{re.escape(str(case))}:3: {re.escape(key)}: ", lines[0]), lines[0]
+    assert re.search(rf"{re.escape(str(case))}:{line}: {re.escape(key)}: ", lines[0]), lines[0]
