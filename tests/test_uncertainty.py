@@ -148,8 +148,38 @@ def test_bad_uncertainty_input_is_one_line_naming_file_line_and_key(tmp_path, se
     with pytest.raises(CaseError) as e:
         load_case(path)
     msg = str(e.value)
-    assert "\n" not in msg and msg.startswith(f"{path}:"), msg
-    assert f": {key}: " in msg and words in msg, msg
+    assert "\n" not in msg and msg.startswith(f"{path}:{key_line(path, key)}: {key}: "), msg
+    assert words in msg, msg
+
+
+def key_line(path, key: str) -> int:
+    """The line of the file where the key's last part is written."""
+    last = key.split(".")[-1]
+    return next(i for i, line in enumerate(path.read_text().splitlines(), 1)
+                if f"{last}:" in line)
+
+
+@pytest.mark.parametrize("section, key", [
+    ("  realisations: 3\n  support_stiffness:\n    correlation_length: 3 m\n    cov: -0.1\n",
+     "uncertainty.support_stiffness.cov"),
+    ("  realisations: 0\n  support_stiffness: {}\n", "uncertainty.realisations"),
+    ("  realisations: 100000\n  support_stiffness: {}\n", "uncertainty.realisations"),
+    ("  realisations: 3\n  ballast_stiffness: {}\n", "uncertainty.ballast_stiffness"),
+    ("  realisations: 400\n  support_stiffness: {}\n", "uncertainty.realisations"),
+])
+def test_check_refuses_bad_uncertainty_in_one_line_and_exits_2(tmp_path, section, key):
+    """As a user meets it: a negative spread, 0 or absurdly many realisations, an unknown
+    quantity, more realisations than the cost cap allows (the paper's 1.5 us steps)."""
+    path = robust_case(tmp_path, section)
+    if "400" in section:
+        path.write_text(path.read_text().replace(CHEAP_SIMULATION,
+                                                 "simulation: {time_step: 1.5e-6}\n"))
+    r = subprocess.run(lccopt_command() + ["check", str(path)], capture_output=True, text=True,
+                       env=subprocess_env())
+    assert r.returncode == 2, r
+    line, = r.stderr.strip().splitlines()
+    assert line.startswith(f"lccopt: error: {path}:{key_line(path, key)}: {key}: "), line
+    assert r.stdout == ""
 
 
 def test_a_robust_objective_without_the_section_and_check_exits_2(tmp_path):
