@@ -4,6 +4,7 @@ uncertainty: section, its realisations in the model and the robust statistics.""
 from __future__ import annotations
 
 import math
+import re
 import subprocess
 from dataclasses import replace
 
@@ -11,7 +12,7 @@ import numpy as np
 import pytest
 
 from lccopt.config import load_case
-from lccopt.config.uncertainty import fingerprint
+from lccopt.config.uncertainty import fingerprint, uncertainty_lines
 from lccopt.errors import CaseError
 from lccopt.problem import evaluate
 from lccopt.uncertainty import fields
@@ -199,7 +200,17 @@ def test_too_many_realisations_for_a_design_are_refused_with_how_many_fit(tmp_pa
     # the paper's simulation at 1.5 us steps: 460,000 steps of 2,700 dofs, 501 times
     path.write_text(path.read_text().replace(CHEAP_SIMULATION, "simulation: {time_step: 1.5e-6}\n"))
     with pytest.raises(CaseError, match=r"uncertainty\.realisations: 500 realisations .* at "
-                                        r"most \d+ realisations here"):
+                                        r"most \d+ realisations here") as e:
+        load_case(path)
+    most = int(re.search(r"at most (\d+) realisations here", str(e.value)).group(1))
+    assert 2 <= most < 500
+    # the cap check prints is the one it enforces: `most` loads, one more does not
+    path.write_text(path.read_text().replace("realisations: 500", f"realisations: {most}"))
+    assert (f"    at most {most} realisations: the cost cap, about 6 hours of one core a "
+            f"design") in uncertainty_lines(load_case(path))
+    path.write_text(path.read_text().replace(f"realisations: {most}",
+                                             f"realisations: {most + 1}"))
+    with pytest.raises(CaseError, match=f"at most {most} realisations here"):
         load_case(path)
 
 
@@ -216,6 +227,7 @@ def test_check_prints_the_realisations_and_what_they_cost(tmp_path):
     assert "initial_void: 10% of the sleepers hang, gap 0.5 mm" in out
     assert "per design: 4 tracks (the drawing and 3 realisations) = 4 tasks" in out
     assert "budget 10: 40 tasks (4 x a deterministic run)" in out
+    assert "at most 500 realisations: the section's limit" in out
     assert max(len(line) for line in out.splitlines()[1:]) <= 80
 
 
