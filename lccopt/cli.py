@@ -123,8 +123,8 @@ def example(
                                "bundled ones"),
 ) -> None:
     """Write a bundled case (and the cases it extends) into the current folder, or list them."""
+    from .commands.example import list_lines, write_examples
     from .config.bundled import example_names
-    from .example_command import list_lines, write_examples
 
     if list_ or not (names or all_):
         typer.echo("\n".join(list_lines()))
@@ -151,7 +151,7 @@ def simulate(
     set_: Optional[List[str]] = _set_option(),
 ) -> None:
     """Simulate one design: print F_rms, F_max (kN), E_rms, E_max (J); write HDF5 and plots."""
-    from .simulate_command import run_simulate
+    from .commands.simulate import run_simulate
 
     run_simulate(case, design, out, not no_plots, force, set_ or ())
 
@@ -231,9 +231,9 @@ def report(
     force: bool = typer.Option(False, "--force", help="replace a report already in --out"),
 ) -> None:
     """Write figures and a summary of a run into RUN/report/ (or --out)."""
-    from .report import write_report
+    from .commands.report import run_report
 
-    write_report(_run_dir(run), format.value, out, force)
+    run_report(_run_dir(run), format.value, out, force)
 
 
 def main(argv: list[str] | None = None) -> int:
