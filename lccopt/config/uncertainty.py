@@ -28,6 +28,7 @@ from ..uncertainty import statistics as stats
 from ..vti.response import REPORTED_ONLY, SETTLEMENT_OBJECTIVES
 from ..vti.specs import TrackVariation
 from .checks import MAX_DESIGN_STEP_DOFS, simulation_size
+from .schema import MAX_REALISATIONS
 
 # the quantities of the section, in the order check prints them
 QUANTITIES = ("support_stiffness", "support_damping", "pad_stiffness", "settlement_coefficient",
@@ -206,11 +207,18 @@ def check_uncertainty(data: dict, conditions: tuple, err) -> None:
     per_design = design_work(data, conditions)
     n = int(unc["realisations"])
     if (n + 1) * per_design > MAX_ROBUST_DESIGN_WORK:
-        most = max(1, int(MAX_ROBUST_DESIGN_WORK // per_design) - 1)
         raise err(("uncertainty", "realisations"),
                   f"{n} realisations and the track as drawn take {(n + 1) * per_design:.2g} "
                   f"steps x track dofs per design; at most {MAX_ROBUST_DESIGN_WORK:.0e} (about "
-                  f"6 hours of one core per design): at most {most} realisations here")
+                  f"6 hours of one core per design): at most "
+                  f"{most_realisations(data, conditions)} realisations here")
+
+
+def most_realisations(data: dict, conditions: tuple) -> int:
+    """The most realisations a design of this case may have: its simulations on them and on
+    the drawing within ``MAX_ROBUST_DESIGN_WORK``, and no more than the section allows."""
+    fit = int(MAX_ROBUST_DESIGN_WORK // design_work(data, conditions)) - 1
+    return max(1, min(fit, MAX_REALISATIONS))
 
 
 def design_work(data: dict, conditions: tuple) -> float:
@@ -285,6 +293,10 @@ def uncertainty_lines(case) -> list[str]:
     if sims != tasks:
         head += f", up to {sims:,} simulations"
     lines.append(head)
+    most = most_realisations(data, case.traffic)
+    lines.append(f"    at most {most} realisations: " + (
+        "the section's limit" if most == MAX_REALISATIONS else
+        "the cost cap, about 6 hours of one core a design"))
     if budget:
         lines.append(f"    budget {budget}: {budget * tasks:,} tasks" +
                      (f", up to {budget * sims:,} simulations" if sims != tasks else "") +

@@ -454,7 +454,7 @@ def limit_of(info: dict) -> tuple[str, float] | None:
 CHECK_FILE = "law-variants.json"
 
 
-def law_check(run, bi: int, ri: int | None, out: Path) -> dict | None:
+def law_check(run, bi: int, ri: int | None, out: Path, echo=None) -> dict | None:
     """The best design and the reference re-predicted under the law's uncertainty (the eight
     variants of :func:`lccopt.degradation.variants.law_variants`): in how many the best design
     beats the reference on the run's settlement objectives.
@@ -470,6 +470,9 @@ def law_check(run, bi: int, ri: int | None, out: Path) -> dict | None:
         the best and the reference design's rows.
     out
         the report's folder.
+    echo
+        ``echo(text, err=False)``, how to say that the predictions run (default
+        :func:`lccopt.terminal.echo`).
 
     Returns
     -------
@@ -481,8 +484,6 @@ def law_check(run, bi: int, ri: int | None, out: Path) -> dict | None:
     """
     import hashlib
     import json
-
-    import typer
 
     from ..degradation.evaluate import predict, settlement_objectives
     from ..degradation.variants import law_variants
@@ -507,8 +508,11 @@ def law_check(run, bi: int, ri: int | None, out: Path) -> dict | None:
             return _verdict(kept, keys)
     except (OSError, ValueError):       # none kept, or not a regular file of its own
         pass
-    typer.echo(f"predicting the best and the reference design under {len(variants)} variants "
-               f"of the law ({2 * len(variants)} predictions, kept in {path})...", err=True)
+    from ..terminal import echo as default_echo
+
+    say = echo or default_echo
+    say(f"predicting the best and the reference design under {len(variants)} variants "
+        f"of the law ({2 * len(variants)} predictions, kept in {path})...", err=True)
     rows = []
     for label, v in variants:
         row = {"label": label}
