@@ -267,6 +267,10 @@ def test_check_prints_the_prediction_in_80_columns(run_cli):
     assert "horizon 10 years = 9.93 million axle passes; 20 settling sleepers" in text
     assert "limit: level_d1_max 2 mm" in text
     assert "at most 30 simulations x 1 condition(s), tolerance 2 kN" in text
+    # where a user first reads the law: its millimetres are not checked against a crossing
+    assert ("the millimetres will be the law's values, not a forecast: the law is not\n"
+            "    calibrated to a measured crossing (docs/settlement.md, Validation)") in text
+    assert "subgrade (Li & Selig): soil CL, strength 150 kPa," in text
 
 
 def _docs_traffic_example() -> str:

@@ -259,7 +259,7 @@ def _simulate_realisations(case, case_path: Path, x, out: Path, plots: bool,
     else:
         typer.echo(f"vehicle: {vehicle_line(case.vehicle)}")
     typer.echo(zone_line(case))
-    typer.echo("\n".join(line[2:] for line in uncertainty_lines(case)[:-1]))
+    typer.echo("\n".join(line[2:] for line in uncertainty_lines(case, budget=False)))
     head = "".join(f"{k[:13]:>14}" for k in keys)
     units = "".join(f"{'[' + (objective_display(k)[1] or '-') + ']':>14}" for k in keys)
     typer.echo(f"{'track':<16}{head}{'time':>7}")

@@ -363,6 +363,9 @@ def degradation_lines(case) -> list[str]:
                      f"sleeper(s) by the slab; at most every {tamping['min_interval']:g} yr")
     lines.append(f"    per design: at most {deg['max_simulations']} simulations x {simulated} "
                  f"condition(s), tolerance {deg['tolerance'] / 1e3:g} kN")
+    # the law's parameters come from other tracks: nothing here is a forecast
+    lines += ["    the millimetres will be the law's values, not a forecast: the law is not",
+              "    calibrated to a measured crossing (docs/settlement.md, Validation)"]
     return lines
 
 
@@ -380,10 +383,14 @@ def _pressure_lines(case) -> list[str]:
         return lines + ["    subgrade: none (the ballast law alone: a softer support settles "
                         "less)"]
     k = case.data["track"]["support"]["stiffness"]
-    here = sub["strength"] * k / sub["reference_stiffness"]
+    k0 = sub["reference_stiffness"]
+    here = sub["strength"] * k / k0
+    strength = [f"strength {here / 1e3:.3g} kPa"]
+    if k != k0:        # the strength follows the support: say from what
+        strength += [f"scaled from {sub['strength'] / 1e3:g} kPa on {k0 / 1e6:g} MN/m "
+                     f"to this {k / 1e6:g} MN/m support"]
     return lines + wrap_items(
-        [f"soil {sub['soil']}", f"strength {here / 1e3:.3g} kPa on this {k / 1e6:g} MN/m support",
-         f"{sub['strength'] / 1e3:g} kPa on {sub['reference_stiffness'] / 1e6:g} MN/m",
+        [f"soil {sub['soil']}", *strength,
          f"{sub['depth']:g}-{sub['depth'] + sub['thickness']:g} m below the sleepers"],
         "    subgrade (Li & Selig): ")
 

@@ -253,14 +253,18 @@ def _field_text(q: dict, name: str, unc: dict) -> str:
     return where
 
 
-def uncertainty_lines(case) -> list[str]:
+def uncertainty_lines(case, *, cost: bool = True, budget: bool = True) -> list[str]:
     """The ``uncertainty:`` section as ``lccopt check`` prints it: the quantities, the seed,
-    and the cost per design and for the budget.
+    and the cost per design, the realisations the cost cap allows and the budget's cost.
 
     Parameters
     ----------
     case
         a loaded case with an ``uncertainty:`` section.
+    cost
+        False: the head line and the quantities only.
+    budget
+        False: without the budget's cost (a single design's command).
 
     Returns
     -------
@@ -285,9 +289,11 @@ def uncertainty_lines(case) -> list[str]:
             text = (f"{q['distribution']}, {mean}cov {q['cov']:g}, "
                     f"{_field_text(q, name, unc)}")
         lines.append(f"    {name}: {text}")
+    if not cost:
+        return lines
     tasks, sims = simulations_per_design(case)
     each = (f" x {len(case.conditions)} conditions" if case.conditions else "")
-    budget = (case.optimisation or {}).get("budget")
+    designs = (case.optimisation or {}).get("budget") if budget else None
     head = (f"    per design: {n + 1} tracks (the drawing and {n} realisations){each} = "
             f"{tasks} tasks")
     if sims != tasks:
@@ -297,9 +303,9 @@ def uncertainty_lines(case) -> list[str]:
     lines.append(f"    at most {most} realisations: " + (
         "the section's limit" if most == MAX_REALISATIONS else
         "the cost cap, about 6 hours of one core a design"))
-    if budget:
-        lines.append(f"    budget {budget}: {budget * tasks:,} tasks" +
-                     (f", up to {budget * sims:,} simulations" if sims != tasks else "") +
+    if designs:
+        lines.append(f"    budget {designs}: {designs * tasks:,} tasks" +
+                     (f", up to {designs * sims:,} simulations" if sims != tasks else "") +
                      f" ({n + 1} x a deterministic run)")
     return lines
 

@@ -203,7 +203,7 @@ def robust_section(doc, run: RunData, designs: list[Spread], figs: dict) -> dict
     if run.case is not None and run.case.realisations:
         from ..config.uncertainty import uncertainty_lines
 
-        what = "; ".join(line.strip() for line in uncertainty_lines(run.case)[1:-2])
+        what = "; ".join(line.strip() for line in uncertainty_lines(run.case, cost=False)[1:])
     doc.p(f"Every design was simulated on the track as drawn and on the same {n} realisations "
           f"of it (common random numbers: seed {rec.get('seed', '?')}, fingerprint "
           f"`{rec.get('fingerprint', '?')}`; docs/robust.md)" + (f": {what}." if what else ".")
