@@ -167,11 +167,9 @@ def optimise(
     set_: Optional[List[str]] = _set_option(),
 ) -> None:
     """Run the surrogate optimisation of a case into runs/<case name>/."""
-    from .config import load_case
-    from .engine.runner import optimise as run_optimise
+    from .commands.run import run_optimise
 
-    run_optimise(load_case(case, set_) if set_ else case, workers=workers, scheduler=scheduler,
-                 runs=runs, force=force)
+    run_optimise(case, set_, workers, scheduler, runs, force)
 
 
 def _run_dir(run: Path) -> Path:
@@ -201,11 +199,10 @@ def resume(
                                              "journal (the whole journal is kept beside it)"),
 ) -> None:
     """Carry on an interrupted run where it stopped, or a finished one to a larger budget."""
-    from .engine.runner import resume as run_resume
+    from .commands.run import run_resume
 
-    run_resume(_run_dir(run), workers=workers, scheduler=scheduler, case=case,
-               allow_changed_case=allow_changed_case, budget=budget,
-               repair_journal=repair_journal)
+    run_resume(_run_dir(run), workers, scheduler, case, allow_changed_case, budget,
+               repair_journal)
 
 
 @app.command()
