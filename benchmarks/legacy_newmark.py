@@ -23,10 +23,11 @@ from scipy.linalg import lapack
 from scipy.sparse.linalg import spsolve
 
 from lccopt.vti.assembly import to_upper_banded
-from lccopt.vti.newmark import History, TrackLike, contact_vector, contact_vectors, inverse_columns
+from lccopt.vti.newmark import History
 from lccopt.vti.response import Evaluation, objectives_from
 from lccopt.vti.track import build_track
 from lccopt.vti.vehicle import build_vehicle
+from lccopt.vti.wheels import TrackLike, contact_vector, contact_vectors
 
 FLUSH_EVERY = 200         # steps between flushes of tiny values
 FLUSH_BELOW = 1e-150      # |value| below this is set to 0 (displacements are ~1e-3 m)
@@ -34,6 +35,15 @@ FLUSH_BELOW = 1e-150      # |value| below this is set to 0 (displacements are ~1
 # the simulation settings of configs/reference.yaml before issue 11
 REFERENCE_SETTINGS = dict(time_step=2.0e-4, element_length=0.05, far_element_length=0.3,
                           run_in=10.0, run_out=3.0)
+
+
+def inverse_columns(chol: np.ndarray, dofs: np.ndarray) -> np.ndarray:
+    """Rows A⁻¹e_j (shape (len(dofs), n)) of a matrix factorised by ``dpbtrf``."""
+    n = chol.shape[1]
+    unit = np.zeros((n, len(dofs)), order="F")
+    unit[dofs, np.arange(len(dofs))] = 1.0
+    sol, info = lapack.dpbtrs(chol, unit, lower=0, overwrite_b=1)
+    return sol.T
 
 
 def evaluate_legacy(case, x) -> Evaluation:
@@ -228,4 +238,5 @@ def integrate_reference(track: TrackLike, dt: float, speed: float, x_start: floa
         if on_step is not None:
             on_step(k, X[0], X[1], X[2], z, zd, zdd, idx, vals, force[k])
 
-    return History(time, position, force, rail_disp, veh, rec_u, rec_v)
+    return History(time, position, force, rail_disp, veh, rec_u, rec_v, position[:, None],
+                   force[:, None], rail_disp[:, None])

@@ -75,23 +75,55 @@ def _simulate(task):
     return r, evaluate(_CASE.part_case(-1, r), np.asarray(x, float)).objectives
 
 
+def finished(run: Path) -> bool:
+    try:
+        with h5py.File(run / "results.h5") as f:
+            return bool(f.attrs["finished"])
+    except (OSError, KeyError):
+        return False
+
+
 def best_of(run: Path) -> tuple[np.ndarray, int]:
     with h5py.File(run / "results.h5") as f:
         return f["best/x"][()], int(f["best"].attrs["id"])
 
 
-def judge(path: Path, designs: dict, n: int, workers: int, objective: str) -> dict:
-    """Every design's objective on the drawn track and on each of the n fresh realisations."""
-    out = {k: {"drawn": np.nan, "tracks": np.full(n, np.nan)} for k in designs}
-    tasks = [(k, r, x) for k, x in designs.items() for r in range(-1, n)]
-    with ProcessPoolExecutor(workers, initializer=_init, initargs=(str(path),)) as pool:
-        for (k, r, _), (_, obj) in zip(tasks, pool.map(_simulate, [(r, list(x))
-                                                                    for _, r, x in tasks])):
-            if r < 0:
-                out[k]["drawn"] = obj[objective]
-            else:
-                out[k]["tracks"][r] = obj[objective]
-    return out
+def judge(path: Path, designs: dict, n: int, workers: int, objective: str,
+          cache: Path) -> dict:
+    """Every design's objective on the drawn track and on each of the n fresh realisations.
+    Each design's values are kept in ``cache`` (a JSON file per design, with its x and the
+    judging case): a study run again, or interrupted while judging, simulates only the designs
+    it has not judged yet, and redraws the figure from the kept values."""
+    cache.mkdir(parents=True, exist_ok=True)
+    case_text_ = path.read_text()
+    out, todo = {}, {}
+    for k, x in designs.items():
+        f = cache / f"{k.replace(' ', '-')}.json"
+        kept = json.loads(f.read_text()) if f.is_file() else None
+        if (kept and kept["x"] == [float(v) for v in x] and kept["case"] == case_text_
+                and kept["objective"] == objective and len(kept["tracks"]) == n):
+            out[k] = {"drawn": kept["drawn"], "tracks": np.asarray(kept["tracks"], float)}
+        else:
+            todo[k] = x
+    if todo:
+        tasks = [(k, r, x) for k, x in todo.items() for r in range(-1, n)]
+        got = {k: {"drawn": np.nan, "tracks": np.full(n, np.nan)} for k in todo}
+        with ProcessPoolExecutor(workers, initializer=_init, initargs=(str(path),)) as pool:
+            results = pool.map(_simulate, [(r, list(x)) for _, r, x in tasks])
+            for (k, r, _), (_, obj) in zip(tasks, results):
+                if r < 0:
+                    got[k]["drawn"] = obj[objective]
+                else:
+                    got[k]["tracks"][r] = obj[objective]
+                if r == n - 1:      # the design's last track: kept at once, whole or not
+                    f = cache / f"{k.replace(' ', '-')}.json"
+                    f.with_suffix(".tmp").write_text(json.dumps(
+                        {"x": [float(v) for v in todo[k]], "case": case_text_,
+                         "objective": objective, "drawn": float(got[k]["drawn"]),
+                         "tracks": [float(v) for v in got[k]["tracks"]]}))
+                    f.with_suffix(".tmp").replace(f)
+        out.update(got)
+    return {k: out[k] for k in designs}
 
 
 def main() -> None:
@@ -120,9 +152,10 @@ def main() -> None:
             path = out / f"{name}.yaml"
             path.write_text(case_text(name, what, objective, a.budget, seed, var))
             run = out / "runs" / name
-            if not (run / "results.h5").is_file():
-                lccopt.optimise(path, workers=a.workers, runs=out / "runs", force=True,
-                                progress=False)
+            if not run.is_dir():
+                lccopt.optimise(path, workers=a.workers, runs=out / "runs", progress=False)
+            elif not finished(run):          # interrupted: carried on where it stopped
+                lccopt.resume(run, workers=a.workers, progress=False)
             x, i = best_of(run)
             designs[f"{kind} s{seed}"] = x
             cost[f"{kind} s{seed}"] = (i, a.budget * (1 if kind == "nominal" else
@@ -133,7 +166,7 @@ def main() -> None:
     judge_path.write_text(case_text(f"{a.case}-fresh", what, robust_obj, a.budget, 0, fresh))
     case = load_case(judge_path)
     designs = {"reference": case.reference, **designs}
-    values = judge(judge_path, designs, a.fresh, a.workers, obj)
+    values = judge(judge_path, designs, a.fresh, a.workers, obj, out / "fresh")
     ref = values["reference"]["tracks"]
     scale = 1e-3 if obj.startswith("F") else 1e3
     unit = "kN" if obj.startswith("F") else "mm"
@@ -144,7 +177,8 @@ def main() -> None:
         beats = int(np.count_nonzero(t < ref))
         summary[k] = {"drawn": v["drawn"], "mean": m, "q90": q, "beats_reference": beats,
                       "best_id": cost.get(k, (None, 0))[0], "simulations": cost.get(k, (0, 0))[1],
-                      "x": [float(xi) for xi in designs[k]]}
+                      "x": [float(xi) for xi in designs[k]],
+                      "tracks": [float(ti) for ti in t]}
         rows.append(f"| {k} | {v['drawn'] * scale:.4g} | {m * scale:.4g} | {q * scale:.4g} | "
                     f"{'–' if k == 'reference' else f'{beats} of {a.fresh}'} | "
                     f"{cost.get(k, (0, 0))[1] or '–'} |")

@@ -40,9 +40,11 @@ import legacy_newmark  # noqa: E402
 from lccopt.config import load_case  # noqa: E402
 from lccopt.problem import evaluate  # noqa: E402
 from lccopt.vti.assembly import to_upper_banded  # noqa: E402
-from lccopt.vti.newmark import contact_vector, forward_columns, integrate  # noqa: E402
+from lccopt.vti.banded import forward_columns  # noqa: E402
+from lccopt.vti.newmark import integrate  # noqa: E402
 from lccopt.vti.track import build_track  # noqa: E402
 from lccopt.vti.vehicle import build_vehicle  # noqa: E402
+from lccopt.vti.wheels import contact_vector  # noqa: E402
 from legacy_newmark import REFERENCE_SETTINGS, evaluate_legacy  # noqa: E402
 
 

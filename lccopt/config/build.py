@@ -27,6 +27,7 @@ from ..vti.specs import (
     TrackVariation,
     VehicleSpec,
 )
+from ..vti.vehicle import DEFAULT_TYPE
 from .profiles import profile_array
 from .zones import force_zone_end
 
@@ -41,7 +42,7 @@ def vehicle_spec(vehicle: dict) -> VehicleSpec:
     values = {k: vehicle.get(k) for k in _VEHICLE_KEYS}
     if values["gravity"] is None:
         del values["gravity"]
-    return VehicleSpec(type=vehicle.get("type") or "three-dof",
+    return VehicleSpec(type=vehicle.get("type") or DEFAULT_TYPE,
                        model=vehicle.get("model") or "paper", **values)
 
 

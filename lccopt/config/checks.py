@@ -12,6 +12,7 @@ import numpy as np
 
 from ..vti.irregularity import ELEMENTS_PER_SHORTEST_WAVE, STEPS_PER_SHORTEST_WAVE, band_bins
 from ..vti.specs import ELEMENT_UNIT
+from ..vti.vehicle import vehicle_length, vehicle_type
 from .build import spectrum_profile, track_length, vehicle_spec
 from .profiles import MAX_DIP, cover_problem, profile_array
 from .schema import DEFAULT_INITIAL_POINTS
@@ -21,10 +22,6 @@ STEPS_PER_CONTACT_PERIOD = 5  # Newmark (average acceleration) shortens nothing,
 # period by (w dt)^2/12: 13 % at 5 steps per period of the stiffest mode that carries the
 # contact force (the wheel on its Hertz spring); coarser steps alias it (time_step 0.05 gave
 # E_max 2.90 J instead of 0.368 J).
-VEHICLE_KEYS = {  # keys a vehicle type needs beyond the three-dof ones
-    "bogie": ("wheelbase", "bogie_pitch_inertia"),
-    "half-car": ("wheelbase", "bogie_pitch_inertia", "carbody_pitch_inertia", "bogie_distance"),
-}
 RAIL_END_MARGIN = 1.0  # [m] the leading wheel stays this far from the pinned rail ends
 
 # What one simulation can do. Measured on this machine's reference case and VIRM half car
@@ -144,16 +141,15 @@ def check_vehicle_fits(data: dict, err) -> None:
     whole run in either direction, whatever the design (lccopt.vti.track.wheel_window; a
     trailing wheel beyond a rail end rests on a rigid continuation of the rail)."""
     v, sim = data["vehicle"], data["simulation"]
-    kind = v.get("type") or "three-dof"
-    for key in VEHICLE_KEYS.get(kind, ()):
+    kind = vehicle_type(v.get("type"))
+    for key in kind.keys:
         if v.get(key) is None:
-            raise err(("vehicle", key), f"missing key '{key}' (vehicle type {kind} needs it)")
-    if kind == "half-car" and v["bogie_distance"] <= v["wheelbase"]:
-        raise err(("vehicle", "bogie_distance"),
-                  f"{v['bogie_distance']:g} m must exceed the wheelbase ({v['wheelbase']:g} m): "
-                  f"the bogies would overlap")
+            raise err(("vehicle", key), f"missing key '{key}' (vehicle type {kind.name} needs it)")
+    problem = kind.check(vehicle_spec(v))
+    if problem is not None:
+        raise err(("vehicle", problem[0]), problem[1])
     lowest, highest, zone_start = run_extent(data)
-    length = vehicle_spec(v).length
+    length = vehicle_length(vehicle_spec(v))
     layout = data["track"]["layout"]
     total = layout["entry_length"] + sum(data["track"]["ers"]["slab_lengths"]) \
         + layout["exit_length"]
@@ -175,7 +171,7 @@ def run_extent(data: dict) -> tuple[float, float, float]:
     evaluation zone [m], for the design whose zone reaches farthest (upper bounds of the
     spans), so that every design's run lies within."""
     v, sim = data["vehicle"], data["simulation"]
-    length = vehicle_spec(v).length
+    length = vehicle_length(vehicle_spec(v))
     layout = data["track"]["layout"]
     zone_end = zone_end_x(data)
     spans = data["design"]["sleeper_spans"]
@@ -199,7 +195,7 @@ def simulation_size(data: dict) -> tuple[int, int]:
     steps = int(np.ceil(run / (data["vehicle"]["speed"] * sim["time_step"])))
     ers = float(sum(data["track"]["ers"]["slab_lengths"]))
     total = layout["entry_length"] + ers + layout["exit_length"]
-    fine = min(total, run + vehicle_spec(data["vehicle"]).length + 4.0)
+    fine = min(total, run + vehicle_length(vehicle_spec(data["vehicle"])) + 4.0)
     sleepers = (layout["entry_length"] + layout["exit_length"]) / layout["sleeper_spacing"]
     supports = sleepers + len(data["track"]["ers"]["slab_lengths"]) + 1
     rail_nodes = fine / sim["element_length"] + (total - fine) / sim["far_element_length"] \
@@ -212,8 +208,8 @@ def simulation_memory(data: dict, steps: int, dofs: int) -> tuple[float, int]:
     """(bytes, cached rows): about what one simulation of ``steps`` and ``dofs`` holds."""
     vehicle = vehicle_spec(data["vehicle"])
     rows = 0
-    if vehicle.type != "three-dof":     # two rows per element the wheels span, and the ends
-        rows = int(2 * (vehicle.length / data["simulation"]["element_length"] + 4))
+    if vehicle_type(vehicle.type).wheels > 1:   # two rows per element the wheels span, the ends
+        rows = int(2 * (vehicle_length(vehicle) / data["simulation"]["element_length"] + 4))
     return steps * BYTES_PER_STEP + dofs * (BYTES_PER_DOF + 8 * rows), rows
 
 

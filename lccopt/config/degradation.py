@@ -24,6 +24,7 @@ from ..degradation.specs import (
 )
 from ..vti.response import REPORTED_ONLY, SETTLEMENT_OBJECTIVES
 from ..vti.specs import ELEMENT_UNIT
+from ..vti.vehicle import vehicle_type
 from . import build
 from .checks import MAX_DESIGN_STEP_DOFS, simulation_size
 from .validate import _did_you_mean
@@ -57,7 +58,7 @@ def axles(vehicle: dict) -> int:
     int
         1 (three-dof), 2 (bogie) or 4 (half-car).
     """
-    return {"bogie": 2, "half-car": 4}.get(vehicle.get("type") or "three-dof", 1)
+    return vehicle_type(vehicle.get("type")).wheels
 
 
 def check_degradation(data: dict, conditions: tuple, err) -> None:

@@ -12,7 +12,7 @@ import math
 
 from ..terminal import WIDTH, wrap_items, wrap_message
 from ..vti import pads
-from ..vti.vehicle import build_vehicle
+from ..vti.vehicle import build_vehicle, vehicle_type
 from .build import vehicle_spec
 from .checks import simulation_size
 from .degradation import SINGLE_CONDITION, axles, bearing_areas, resolved_traffic
@@ -23,7 +23,7 @@ from .zones import force_zone_end, interfaces, zone_end_x
 def vehicle_facts(vehicle: dict) -> tuple[str, float, float]:
     """(type, speed [km/h], static wheel load [kN]) of a vehicle section."""
     v = vehicle_spec(vehicle)
-    kind = v.type + (f" ({v.model})" if v.type == "three-dof" else "")
+    kind = v.type + (f" ({v.model})" if vehicle_type(v.type).models else "")
     return kind, v.speed * 3.6, build_vehicle(v).static_wheel_load / 1e3
 
 
@@ -259,7 +259,7 @@ def traffic_lines(case) -> tuple[list[str], float]:
     for name, t in resolved_traffic(case.data, case.traffic).items():
         v = vehicles[name]
         n, load = axles(v), vehicle_facts(v)[2]                 # kN per wheel
-        what = {"bogie": "bogie", "half-car": "half-car"}.get(v.get("type") or "", "wheel")
+        what = vehicle_type(v.get("type")).passage
         head = f"    traffic {name}: "
         if t.trains_per_day is not None:
             trains += t.trains_per_day

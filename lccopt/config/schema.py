@@ -21,7 +21,8 @@ from ..uncertainty.statistics import ObjectiveNames
 from ..vti.irregularity import SPECTRA
 from ..vti.pads import NAMED_PADS
 from ..vti.response import PAPER_OBJECTIVES, REPORTED_ONLY, SETTLEMENT_OBJECTIVES
-from ..vti.specs import VEHICLE_TYPES, ZONE_POINTS
+from ..vti.specs import ZONE_POINTS
+from ..vti.vehicle import DEFAULT_TYPE, VEHICLE_TYPES
 from .spec import (  # noqa: F401
     Items,
     Named,
@@ -94,16 +95,14 @@ def _pad_group() -> Section:
     return Section(fields, group.doc)
 
 
-_VEHICLE_TYPE = ("three-dof: the paper's carbody-bogie-wheelset model (one wheel); bogie: one "
-                 "bogie side with both wheelsets on the modelled rail (bounce and pitch) under "
-                 "its carbody share; half-car: the carbody (bounce and pitch) on two such bogies "
-                 "(lccopt/vti/vehicle.py)")
+_VEHICLE_TYPE = "; ".join(f"{t.name}: {t.doc}" for t in VEHICLE_TYPES.values()) \
+    + " (lccopt/vti/vehicle.py)"
 _VEHICLE = Section({
-    "type": Str(_VEHICLE_TYPE, VEHICLE_TYPES, default="three-dof", required=False),
+    "type": Str(_VEHICLE_TYPE, tuple(VEHICLE_TYPES), default=DEFAULT_TYPE, required=False),
     "model": Str("three-dof only. paper: Eq. (A.3) as printed (bogie on two primary "
                  "suspensions, the second wheelset a fixed point); quarter-car: one primary "
-                 "suspension per wheel", ("paper", "quarter-car"), default="paper",
-                 required=False),
+                 "suspension per wheel", tuple(m for t in VEHICLE_TYPES.values() for m in t.models),
+                 default="paper", required=False),
     "speed": Num("running speed; a bare number is in m/s (write 140 km/h for km/h)", **_SPEED),
     "carbody_mass": Num("carbody mass carried by one wheel (a 4-axle car: 1/8 of the carbody)",
                         "kg", ge=10, why=_MASS_WHY),

@@ -16,8 +16,8 @@ from typing import Callable
 
 import numpy as np
 
-from ..vti.newmark import History
-from ..vti.unilateral import SleeperSupports, integrate_unilateral, sleeper_supports
+from ..vti.newmark import History, integrate
+from ..vti.unilateral import SleeperSupports, sleeper_supports
 
 
 @dataclass(frozen=True)
@@ -69,8 +69,8 @@ def vti_condition(name: str, passes_per_year: float, track, vehicle, *, dt: floa
     """A :class:`Condition`: ``vehicle`` running over ``track`` (the arguments of
     :func:`~lccopt.vti.newmark.integrate`) ``passes_per_year`` times a year."""
     def simulate(supports: SleeperSupports) -> Loading:
-        h = integrate_unilateral(track, dt, speed, x_start, n_steps, vehicle=vehicle,
-                                 supports=supports, irregularity=irregularity)
+        h = integrate(track, dt, speed, x_start, n_steps, vehicle=vehicle,
+                      supports=supports, irregularity=irregularity)
         return Loading(axle_peaks(h, supports.x), float(np.max(h.wheel_force)))
     axles = Axles(np.asarray(vehicle.wheel_offsets, dtype=float),
                   np.asarray(vehicle.static_wheel_loads, dtype=float),

@@ -28,8 +28,8 @@ import numpy as np
 from scipy.linalg import lapack
 
 from ..vti.assembly import to_upper_banded
-from ..vti.newmark import contact_vectors
 from ..vti.unilateral import SleeperSupports
+from ..vti.wheels import contact_vectors
 
 
 @dataclass(frozen=True)

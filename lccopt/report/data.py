@@ -440,6 +440,8 @@ def _check_table(f, e) -> None:
         raise ValueError(f"/evaluations/id has shape {rows}, not one row per evaluation "
                          f"(at most {MAX_ROWS})")
     groups = [e] + [g for g in f.get("conditions", {}).values() if isinstance(g, h5py.Group)]
+    if isinstance(f.get("realisations"), h5py.Group):   # (evaluations, realisations) tables
+        groups.append(f["realisations"])
     for g in groups:
         for name, d in g.items():
             if isinstance(d, h5py.Dataset) and (

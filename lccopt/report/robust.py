@@ -6,9 +6,9 @@ with the track as drawn marked.
 band between the 10 % and 90 % quantiles, the mean, and the drawing's value (a diamond). The
 realisations are the same tracks for every design (common random numbers), so a thin line
 joins each track's values from one design to the next: solid where it falls, dotted where it
-does not; above each design, on how many tracks it beats the reference (the first design)
-and the design left of it. A track engineer reads at a glance how wide the spread is against the
-design's gain, and on how many of the tracks the design wins.
+does not; under each design's name, on how many tracks it beats the reference (the first
+design) and the design left of it. A track engineer reads at a glance how wide the spread is
+against the design's gain, and on how many of the tracks the design wins.
 """
 
 from __future__ import annotations
@@ -84,15 +84,17 @@ def fig_spread(designs: list[Spread], keys: list[str], out: Path, title: str,
             if key in d.drawn:
                 ax.scatter([j + 0.27], [d.drawn[key] * scale], marker="D", s=30, color="white",
                            edgecolor=d.color, lw=1.4, zorder=5)
-            if j > 0:
-                w, m = wins(d, ref, key)
-                text = f"beats the reference\non {w} of {m} tracks"
-                if j > 1:
-                    w2, m2 = wins(d, designs[j - 1], key)
-                    text += f";\nthe design left of it\non {w2} of {m2}"
-                ax.annotate(text, (j, 1.0), xycoords=("data", "axes fraction"), ha="center",
-                            va="bottom", fontsize=7.5, xytext=(0, 2), textcoords="offset points")
-        ax.set_xticks(range(n_cols), [d.label for d in designs], fontsize=8)
+        # under each design's name, on how many tracks it beats the reference (and the
+        # design left of it): read with the design, without a band of text above the panels
+        labels = [designs[0].label]
+        for j, d in enumerate(designs[1:], 1):
+            w, m = wins(d, ref, key)
+            text = f"{d.label}\nbeats the reference\non {w} of {m} tracks"
+            if j > 1:
+                w2, m2 = wins(d, designs[j - 1], key)
+                text += f";\nthe design left of it\non {w2} of {m2}"
+            labels.append(text)
+        ax.set_xticks(range(n_cols), labels, fontsize=8)
         ax.set_xlim(-0.5, n_cols - 0.4)
         ax.set_ylabel(f"{key} [{unit}]" if unit else key)
         ax.grid(axis="x", visible=False)
@@ -113,7 +115,7 @@ def fig_spread(designs: list[Spread], keys: list[str], out: Path, title: str,
                                label="same track: not lower")]
     fig.legend(handles=handles, loc="lower center", ncol=2, fontsize=7.5, frameon=False)
     fig.suptitle(title, fontsize=10)
-    fig.tight_layout(rect=(0, 0.16 if n_cols > 1 else 0.11, 1, 0.86 if n_cols > 2 else 0.9))
+    fig.tight_layout(rect=(0, 0.13 if n_cols > 1 else 0.08, 1, 0.96))
     return save_figure(fig, out / name)
 
 

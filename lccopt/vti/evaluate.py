@@ -28,7 +28,7 @@ from .newmark import integrate
 from .response import Evaluation, objectives_from
 from .specs import Scenario, TrackDesign
 from .track import build_track
-from .unilateral import integrate_unilateral, sleeper_supports
+from .unilateral import sleeper_supports
 from .vehicle import build_vehicle
 
 
@@ -67,16 +67,12 @@ def evaluate(scenario: Scenario, design: TrackDesign) -> Evaluation:
             return float(np.interp(pos, px, pr, left=0.0, right=0.0))
 
     voids = _initial_voids(scenario, track)
-    if voids is None:
-        h = integrate(track, dt, speed, x_start, n_steps, vehicle=vehicle,
-                      irregularity=irregularity, record_dofs=zone_dofs)
-        in_contact = 1.0
-    else:   # sleepers over voids: their supports act only in contact (lccopt.vti.unilateral)
-        supports = sleeper_supports(track).with_gaps(voids)
-        h = integrate_unilateral(track, dt, speed, x_start, n_steps, supports=supports,
-                                 vehicle=vehicle, irregularity=irregularity,
-                                 record_dofs=zone_dofs)
-        in_contact = h.support_contact[1:, :n_zone]   # entry sleepers come first, in zone order
+    # sleepers over voids: their supports act only in contact (lccopt.vti.unilateral)
+    supports = None if voids is None else sleeper_supports(track).with_gaps(voids)
+    h = integrate(track, dt, speed, x_start, n_steps, vehicle=vehicle, irregularity=irregularity,
+                  supports=supports, record_dofs=zone_dofs)
+    # entry sleepers come first, in zone order
+    in_contact = 1.0 if voids is None else h.support_contact[1:, :n_zone]
 
     v_mid = 0.5 * (h.dof_velocity[1:] + h.dof_velocity[:-1])
     # the ballast damper dissipates only while its sleeper touches the ballast
@@ -130,7 +126,7 @@ def _info(vehicle, track, h, n_steps: int, dt: float, leave: bool) -> dict:
         "contact_loss_steps": int(loss.any(axis=1).sum()),
         "contact_loss_first_position": (float(h.wheel_position[loss][0]) if loss.any()
                                         else float("nan")),
-        "vehicle_type": getattr(vehicle, "type", "three-dof"),
+        "vehicle_type": vehicle.type,
         "n_wheels": int(h.wheel_position.shape[1]),
         "direction": "leave" if leave else "enter",
         "n_dofs": track.n_dofs,

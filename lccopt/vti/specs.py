@@ -26,15 +26,15 @@ import numpy as np
 
 # [m] sleeper spans and the Type II strip are counted in 0.1 m elements (paper, Table 4)
 ELEMENT_UNIT = 0.1
-VEHICLE_TYPES = ("three-dof", "bogie", "half-car")
 # named points of the layout that lengths are measured from (TrackSpec.position)
 ZONE_POINTS = ("entry_interface", "exit_interface")
 
 
 @dataclass(frozen=True, kw_only=True)
 class VehicleSpec:
-    """The vehicle on one rail (per-wheel values; ``lccopt.vti.vehicle``)."""
-    type: str = "three-dof"         # three-dof, bogie or half-car
+    """The vehicle on one rail (per-wheel values; ``lccopt.vti.vehicle``, whose registry
+    ``VEHICLE_TYPES`` says what each type needs and builds it)."""
+    type: str = "three-dof"         # a key of lccopt.vti.vehicle.VEHICLE_TYPES
     model: str = "paper"            # three-dof only: paper (Eq. A.3 as printed) or quarter-car
     speed: float                    # [m/s]
     carbody_mass: float             # [kg]
@@ -51,15 +51,6 @@ class VehicleSpec:
     bogie_pitch_inertia: float | None = None    # bogie, half-car [kg m^2]
     carbody_pitch_inertia: float | None = None  # half-car [kg m^2]
     bogie_distance: float | None = None         # half-car [m]
-
-    @property
-    def length(self) -> float:
-        """Distance from the leading to the last wheel [m]."""
-        if self.type == "bogie":
-            return float(self.wheelbase)
-        if self.type == "half-car":
-            return float(self.bogie_distance + self.wheelbase)
-        return 0.0
 
 
 @dataclass(frozen=True)

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse.linalg as sla
 
-from .newmark import contact_vectors
+from .wheels import contact_vectors
 
 
 def static_rail_deflection(track, load: float, positions) -> np.ndarray:

@@ -31,6 +31,7 @@ import scipy.sparse as sp
 
 from .assembly import Assembler, beam_stiffness, hermite_gram
 from .specs import ELEMENT_UNIT, Scenario, TrackDesign
+from .vehicle import vehicle_length
 
 # dof kinds, in their order at one position
 RAIL_W, RAIL_TH, SLEEPER, SLAB_W, SLAB_TH = range(5)
@@ -101,7 +102,7 @@ def wheel_window(scenario: Scenario, entry_x: np.ndarray) -> tuple[float, float,
     zones, sim, layout = scenario.zones, scenario.settings, scenario.track.layout
     zone_start = float(entry_x[zones.sleepers - 1])
     zone_end = scenario.track.position(zones.force_zone_end)
-    length = scenario.vehicle.length
+    length = vehicle_length(scenario.vehicle)
     if sim.direction == "leave":
         x_b = layout.entry_length + float(sum(scenario.track.ers.slab_lengths))
         return (max(zone_end, x_b) + sim.run_in, zone_start, zone_end,
@@ -112,7 +113,7 @@ def wheel_window(scenario: Scenario, entry_x: np.ndarray) -> tuple[float, float,
 def wheels_span(scenario: Scenario, window: tuple) -> tuple[float, float]:
     """(lowest, highest) position of any wheel during the run [m]."""
     x_start, _, _, x_end = window
-    length = scenario.vehicle.length
+    length = vehicle_length(scenario.vehicle)
     back = -length if x_end >= x_start else length     # the other wheels trail the leading one
     ends = (x_start, x_end, x_start + back, x_end + back)
     return min(ends), max(ends)
@@ -141,36 +142,9 @@ def rail_nodes(total: float, window: tuple[float, float], fine: float, coarse: f
     return np.unique(nodes.round(9))
 
 
-def build_track(scenario: Scenario, design: TrackDesign) -> TrackModel:
-    """Build the track of ``scenario`` for a design (assumed checked)."""
-    t = scenario.track
-    le = scenario.settings.element_length
-    lay, ers = t.layout, t.ers
-
-    x_a = lay.entry_length
-    ers_length = float(sum(ers.slab_lengths))
-    x_b = x_a + ers_length
-    total = x_b + lay.exit_length
-    entry_x = entry_sleeper_positions(x_a, np.asarray(design.sleeper_spans, dtype=float),
-                                      lay.sleeper_spacing)
-    window = wheel_window(scenario, entry_x)
-    exit_x = x_b + lay.exit_first_span + lay.sleeper_spacing * np.arange(
-        int((total - x_b - lay.exit_first_span) / lay.sleeper_spacing + 1e-9) + 1)
-    exit_x = exit_x[exit_x < total - 1e-9]
-    slab_edges = x_a + np.concatenate([[0.0], np.cumsum(ers.slab_lengths)])
-    node_x = rail_nodes(total, wheels_span(scenario, window), le,
-                        scenario.settings.far_element_length,
-                        np.concatenate([entry_x, exit_x, slab_edges]))
-    n_el = len(node_x) - 1
-    el_len = np.diff(node_x)
-
-    def node_of(pos):  # sleepers and slab edges sit on nodes (multiples of 0.1 m)
-        i = np.searchsorted(node_x, np.asarray(pos) - 1e-9)
-        assert np.allclose(node_x[i], pos, atol=1e-9), "a support is off the mesh"
-        return i
-
-    # --- sleepers
-    n_entry = len(entry_x)
+def _sleeper_values(t, design: TrackDesign, variation, n_entry: int, n_exit: int) -> tuple:
+    """(strengthened, pad k, pad c, mass, support k, support c) of every sleeper, entry
+    (nearest the interface first) then exit, as designed and as built (``variation``)."""
     strengthened = np.arange(n_entry) < int(design.strengthened_sleepers)
     pads = np.asarray(design.railpad_stiffness, dtype=float)[::-1]  # x_rN nearest the interface
     pad_k = np.full(n_entry, t.railpad.stiffness)
@@ -181,26 +155,23 @@ def build_track(scenario: Scenario, design: TrackDesign) -> TrackModel:
     sl_mass = np.where(strengthened, ss.mass, t.sleeper_mass)
     sl_k = np.where(strengthened, ss.support_stiffness, t.support.stiffness)
     sl_c = np.where(strengthened, ss.support_damping, t.support.damping)
-    n_exit = len(exit_x)
-    sleeper_x = np.concatenate([entry_x, exit_x])
-    sleeper_node = node_of(sleeper_x)
     all_pad_k = np.concatenate([pad_k, np.full(n_exit, t.railpad.stiffness)])
     all_pad_c = np.concatenate([pad_c, np.full(n_exit, t.railpad.damping)])
     all_mass = np.concatenate([sl_mass, np.full(n_exit, t.sleeper_mass)])
     all_k = np.concatenate([sl_k, np.full(n_exit, t.support.stiffness)])
     all_c = np.concatenate([sl_c, np.full(n_exit, t.support.damping)])
-    variation = scenario.variation
     if variation is not None:   # the track as built: per-sleeper factors on the drawing's values
         pad_f = variation.per_sleeper("pad_stiffness", n_entry, n_exit, 1.0)
         all_pad_k, all_pad_c = all_pad_k * pad_f, all_pad_c * pad_f
         all_k = all_k * variation.per_sleeper("support_stiffness", n_entry, n_exit, 1.0)
         all_c = all_c * variation.per_sleeper("support_damping", n_entry, n_exit, 1.0)
+    return strengthened, all_pad_k, all_pad_c, all_mass, all_k, all_c
 
-    # --- slabs: node ranges (each slab has its own nodes; neighbouring slabs are not joined)
-    slab_first = node_of(slab_edges[:-1])
-    slab_last = node_of(slab_edges[1:])
 
-    # --- dof numbering along the track: sort (node, kind, slab) keys
+def _number_dofs(n_el: int, sleeper_node: np.ndarray, slab_first, slab_last) -> tuple:
+    """Dofs numbered along the track: (n, rail_w, rail_th, sleeper_dof, [(slab w, slab th)]),
+    -1 where fixed (the rail's w at both ends: pinned)."""
+    # sort (node, kind, slab) keys
     keys_node = [np.arange(n_el + 1), np.arange(n_el + 1), sleeper_node]
     keys_kind = [np.full(n_el + 1, RAIL_W), np.full(n_el + 1, RAIL_TH),
                  np.full(len(sleeper_node), SLEEPER)]
@@ -236,6 +207,47 @@ def build_track(scenario: Scenario, design: TrackDesign) -> TrackModel:
         m = l - f + 1
         slab_dofs.append((dof[off:off + m], dof[off + m:off + 2 * m]))
         off += 2 * m
+    return n, rail_w, rail_th, sleeper_dof, slab_dofs
+
+
+def build_track(scenario: Scenario, design: TrackDesign) -> TrackModel:
+    """Build the track of ``scenario`` for a design (assumed checked)."""
+    t = scenario.track
+    le = scenario.settings.element_length
+    lay, ers = t.layout, t.ers
+
+    x_a = lay.entry_length
+    ers_length = float(sum(ers.slab_lengths))
+    x_b = x_a + ers_length
+    total = x_b + lay.exit_length
+    entry_x = entry_sleeper_positions(x_a, np.asarray(design.sleeper_spans, dtype=float),
+                                      lay.sleeper_spacing)
+    window = wheel_window(scenario, entry_x)
+    exit_x = x_b + lay.exit_first_span + lay.sleeper_spacing * np.arange(
+        int((total - x_b - lay.exit_first_span) / lay.sleeper_spacing + 1e-9) + 1)
+    exit_x = exit_x[exit_x < total - 1e-9]
+    slab_edges = x_a + np.concatenate([[0.0], np.cumsum(ers.slab_lengths)])
+    node_x = rail_nodes(total, wheels_span(scenario, window), le,
+                        scenario.settings.far_element_length,
+                        np.concatenate([entry_x, exit_x, slab_edges]))
+    n_el = len(node_x) - 1
+    el_len = np.diff(node_x)
+
+    def node_of(pos):  # sleepers and slab edges sit on nodes (multiples of 0.1 m)
+        i = np.searchsorted(node_x, np.asarray(pos) - 1e-9)
+        assert np.allclose(node_x[i], pos, atol=1e-9), "a support is off the mesh"
+        return i
+
+    n_entry, n_exit = len(entry_x), len(exit_x)
+    strengthened, all_pad_k, all_pad_c, all_mass, all_k, all_c = _sleeper_values(
+        t, design, scenario.variation, n_entry, n_exit)
+    sleeper_x = np.concatenate([entry_x, exit_x])
+    sleeper_node = node_of(sleeper_x)
+    # slabs: node ranges (each slab has its own nodes; neighbouring slabs are not joined)
+    slab_first = node_of(slab_edges[:-1])
+    slab_last = node_of(slab_edges[1:])
+    n, rail_w, rail_th, sleeper_dof, slab_dofs = _number_dofs(n_el, sleeper_node, slab_first,
+                                                              slab_last)
 
     rail = t.rail
     ei_rail = rail.youngs_modulus * rail.second_moment

@@ -30,23 +30,21 @@ second wheelset (57 kN).
 
 Wheels are numbered from the front; ``wheel_offsets`` are their distances behind the
 leading wheel [m].
+
+The types come from one registry, :data:`VEHICLE_TYPES` (:class:`VehicleType`: what a case of
+each type gives, what one passage of it stands for, how it is built); the config layer and
+the simulation ask it (:func:`vehicle_type`, :func:`build_vehicle`, :func:`vehicle_length`)
+rather than naming types.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Callable, NamedTuple
 
 import numpy as np
 
-from .specs import VEHICLE_TYPES, VehicleSpec
-
-
-def build_vehicle(spec: VehicleSpec):
-    """The vehicle of a spec: a :class:`Vehicle` for ``three-dof``, else a
-    :class:`MultiAxleVehicle`."""
-    if spec.type != "three-dof":
-        return MultiAxleVehicle.from_spec(spec)
-    return Vehicle.from_spec(spec)
+from .specs import VehicleSpec
 
 
 class _Common:
@@ -113,7 +111,7 @@ class Vehicle(_Common):
 
     @classmethod
     def from_spec(cls, v: VehicleSpec) -> "Vehicle":
-        """The three-dof vehicle of a spec (:func:`build_vehicle` picks the class by type)."""
+        """The three-dof vehicle of a spec."""
         return cls(np.array([v.carbody_mass, v.bogie_mass, v.wheelset_mass]),
                    v.primary_stiffness, v.primary_damping, v.secondary_stiffness,
                    v.secondary_damping, v.speed, v.gravity, v.hertz_constant, v.hertz_load,
@@ -157,6 +155,37 @@ class Vehicle(_Common):
         return np.array([self.static_wheel_load])
 
 
+class Bodies(NamedTuple):
+    """The rigid bodies of a multi-axle vehicle on the modelled rail, one dof each entry."""
+    names: list             # dof names
+    mass: list              # mass [kg] or pitch inertia [kg m^2] of each dof
+    translational: list     # 1 for a vertical dof, 0 for a pitch dof
+    carbody: tuple          # (bounce dof, pitch dof or None)
+    bogies: list            # (bounce dof, pitch dof, centre ahead of the carbody's [m]) each
+    wheels_of: list         # (front wheel dof, rear wheel dof) under each bogie
+    offsets: list           # each wheel's distance behind the leading one [m], front first
+
+
+def _bogie(v: VehicleSpec) -> Bodies:
+    """One bogie side and its carbody share (bounce only): 5 dofs."""
+    return Bodies(["carbody", "bogie", "bogie pitch", "wheel 1", "wheel 2"],
+                  [2 * v.carbody_mass, 2 * v.bogie_mass, v.bogie_pitch_inertia, v.wheelset_mass,
+                   v.wheelset_mass],
+                  [1, 1, 0, 1, 1], (0, None), [(1, 2, 0.0)], [(3, 4)], [0.0, v.wheelbase])
+
+
+def _half_car(v: VehicleSpec) -> Bodies:
+    """The carbody half (bounce and pitch) on two bogies: 10 dofs."""
+    d = v.bogie_distance
+    return Bodies(["carbody", "carbody pitch", "bogie 1", "bogie 1 pitch", "bogie 2",
+                   "bogie 2 pitch", "wheel 1", "wheel 2", "wheel 3", "wheel 4"],
+                  [4 * v.carbody_mass, v.carbody_pitch_inertia, 2 * v.bogie_mass,
+                   v.bogie_pitch_inertia, 2 * v.bogie_mass, v.bogie_pitch_inertia]
+                  + [v.wheelset_mass] * 4,
+                  [1, 0, 1, 0, 1, 0, 1, 1, 1, 1], (0, 1), [(2, 3, d / 2), (4, 5, -d / 2)],
+                  [(6, 7), (8, 9)], [0.0, v.wheelbase, d, d + v.wheelbase])
+
+
 @dataclass(frozen=True)
 class MultiAxleVehicle(_Common):
     """A bogie or a half car on one rail, every wheel on the modelled rail (module docstring).
@@ -175,50 +204,13 @@ class MultiAxleVehicle(_Common):
     gravity: float
     hertz_constant: float
     hertz_load: float
+    carbody_dof: int            # the carbody's bounce dof
+    bogie_dofs: tuple           # each bogie's bounce dof
 
     @classmethod
-    def from_spec(cls, v: VehicleSpec) -> "MultiAxleVehicle":
-        """The bogie or half car of a spec."""
-        return cls.build(v.type, carbody_mass=v.carbody_mass, bogie_mass=v.bogie_mass,
-                         wheelset_mass=v.wheelset_mass, primary_stiffness=v.primary_stiffness,
-                         primary_damping=v.primary_damping,
-                         secondary_stiffness=v.secondary_stiffness,
-                         secondary_damping=v.secondary_damping, wheelbase=v.wheelbase,
-                         bogie_pitch_inertia=v.bogie_pitch_inertia,
-                         carbody_pitch_inertia=v.carbody_pitch_inertia,
-                         bogie_distance=v.bogie_distance, speed=v.speed, gravity=v.gravity,
-                         hertz_constant=v.hertz_constant, hertz_load=v.hertz_load)
-
-    @classmethod
-    def build(cls, type: str, *, carbody_mass, bogie_mass, wheelset_mass, primary_stiffness,
-              primary_damping, secondary_stiffness, secondary_damping, wheelbase,
-              bogie_pitch_inertia, carbody_pitch_inertia=None, bogie_distance=None, speed=0.0,
-              gravity=9.81, hertz_constant=5.13e-8, hertz_load=100e3) -> "MultiAxleVehicle":
-        """Per-wheel values as in a VehicleSpec (module docstring)."""
-        if type == "bogie":
-            names = ["carbody", "bogie", "bogie pitch", "wheel 1", "wheel 2"]
-            mass = [2 * carbody_mass, 2 * bogie_mass, bogie_pitch_inertia, wheelset_mass,
-                    wheelset_mass]
-            trans = [1, 1, 0, 1, 1]
-            # (bounce dof, pitch dof, centre ahead of the carbody's)
-            bogies = [(1, 2, 0.0)]
-            carbody = (0, None)
-            wheels_of = [(3, 4)]
-            offsets = [0.0, wheelbase]
-        elif type == "half-car":
-            names = ["carbody", "carbody pitch", "bogie 1", "bogie 1 pitch", "bogie 2",
-                     "bogie 2 pitch", "wheel 1", "wheel 2", "wheel 3", "wheel 4"]
-            mass = [4 * carbody_mass, carbody_pitch_inertia, 2 * bogie_mass, bogie_pitch_inertia,
-                    2 * bogie_mass, bogie_pitch_inertia] + [wheelset_mass] * 4
-            trans = [1, 0, 1, 0, 1, 0, 1, 1, 1, 1]
-            bogies = [(2, 3, bogie_distance / 2), (4, 5, -bogie_distance / 2)]
-            carbody = (0, 1)
-            wheels_of = [(6, 7), (8, 9)]
-            offsets = [0.0, wheelbase, bogie_distance, bogie_distance + wheelbase]
-        else:
-            raise ValueError(f"unknown vehicle type {type!r} (expected one of "
-                             f"{', '.join(VEHICLE_TYPES)})")
-        n = len(names)
+    def from_spec(cls, v: VehicleSpec, bodies: Bodies) -> "MultiAxleVehicle":
+        """The vehicle of a spec (per-wheel values, module docstring) with its ``bodies``."""
+        n = len(bodies.names)
         K, C = np.zeros((n, n)), np.zeros((n, n))
 
         def spring(k, c, g):
@@ -233,34 +225,103 @@ class MultiAxleVehicle(_Common):
                 g[pitch] = s
             return g
 
-        for (bz, bp, centre), (w1, w2) in zip(bogies, wheels_of):
+        wheelbase = v.wheelbase
+        for (bz, bp, centre), (w1, w2) in zip(bodies.bogies, bodies.wheels_of):
             # secondary: the carbody point above the bogie centre to the bogie centre
-            spring(2 * secondary_stiffness, 2 * secondary_damping,
-                   point(*carbody, centre) - point(bz, bp, 0.0))
+            spring(2 * v.secondary_stiffness, 2 * v.secondary_damping,
+                   point(*bodies.carbody, centre) - point(bz, bp, 0.0))
             # primary: the bogie point above each wheel (wheelbase/2 ahead, behind) to the wheel
             for w, s in ((w1, wheelbase / 2), (w2, -wheelbase / 2)):
                 g = point(bz, bp, s)
                 g[w] -= 1.0
-                spring(primary_stiffness, primary_damping, g)
-        return cls(type, np.diag(np.asarray(mass, float)), C, K, np.asarray(trans, float),
-                   np.array([names.index(f"wheel {i + 1}") for i in range(len(offsets))]),
-                   np.asarray(offsets, float), tuple(names), speed, gravity, hertz_constant,
-                   hertz_load)
+                spring(v.primary_stiffness, v.primary_damping, g)
+        offsets = bodies.offsets
+        return cls(v.type, np.diag(np.asarray(bodies.mass, float)), C, K,
+                   np.asarray(bodies.translational, float),
+                   np.array([bodies.names.index(f"wheel {i + 1}") for i in range(len(offsets))]),
+                   np.asarray(offsets, float), tuple(bodies.names), v.speed, v.gravity,
+                   v.hertz_constant, v.hertz_load, bodies.carbody[0],
+                   tuple(b[0] for b in bodies.bogies))
 
     @property
     def static_wheel_loads(self) -> np.ndarray:
         """Static contact force of each wheel [N] from the statics of the rigid bodies: each body
-        is carried by two supports symmetric about its centre (bogie: two wheels; carbody: two
-        bogies), so each takes half the load above it, whatever the stiffnesses."""
+        is carried by two supports symmetric about its centre (a bogie: its two wheels; a
+        carbody on two bogies: the bogies), so each takes half the load above it, whatever
+        the stiffnesses."""
         m = np.diag(self.M)
-        g = self.gravity
-        wheels = m[self.wheel_dofs]
-        if self.type == "bogie":
-            above = (m[0] + m[1]) / 2
-        else:
-            above = (m[0] / 2 + m[2]) / 2
-        return (wheels + above) * g
+        above = (m[self.carbody_dof] / len(self.bogie_dofs) + m[self.bogie_dofs[0]]) / 2
+        return (m[self.wheel_dofs] + above) * self.gravity
 
     @property
     def static_wheel_load(self) -> float:
         return float(self.static_wheel_loads.mean())
+
+
+# --- the registry of vehicle types
+
+@dataclass(frozen=True)
+class VehicleType:
+    """One kind of vehicle on the modelled rail: what a case of it gives, what one passage of
+    it stands for, and how it is built."""
+    name: str
+    doc: str                    # what it models (the case reference)
+    keys: tuple                 # VehicleSpec fields it needs beyond the common ones
+    wheels: int                 # wheels on the modelled rail: load cycles per passage
+    passage: str                # what one passage of it is called in traffic counts
+    models: tuple               # readings of its equations (``vehicle.model``), if any
+    build: Callable             # VehicleSpec -> Vehicle or MultiAxleVehicle
+    offsets: Callable           # VehicleSpec -> each wheel's distance behind the leading one
+    check: Callable = lambda spec: None     # VehicleSpec -> (key, problem) or None
+
+    def length(self, spec: VehicleSpec) -> float:
+        """Distance from the leading to the last wheel [m]."""
+        return float(self.offsets(spec)[-1])
+
+
+def _bogies_apart(v: VehicleSpec):
+    if v.bogie_distance <= v.wheelbase:
+        return ("bogie_distance", f"{v.bogie_distance:g} m must exceed the wheelbase "
+                                  f"({v.wheelbase:g} m): the bogies would overlap")
+    return None
+
+
+def _multi_axle(bodies: Callable[[VehicleSpec], Bodies]) -> dict:
+    return dict(build=lambda v: MultiAxleVehicle.from_spec(v, bodies(v)),
+                offsets=lambda v: bodies(v).offsets)
+
+
+VEHICLE_TYPES: dict[str, VehicleType] = {t.name: t for t in (
+    VehicleType("three-dof", "the paper's carbody-bogie-wheelset model (one wheel)", (), 1,
+                "wheel", ("paper", "quarter-car"), Vehicle.from_spec, lambda v: [0.0]),
+    VehicleType("bogie", "one bogie side with both wheelsets on the modelled rail (bounce and "
+                "pitch) under its carbody share", ("wheelbase", "bogie_pitch_inertia"), 2,
+                "bogie", (), **_multi_axle(_bogie)),
+    VehicleType("half-car", "the carbody (bounce and pitch) on two such bogies",
+                ("wheelbase", "bogie_pitch_inertia", "carbody_pitch_inertia", "bogie_distance"),
+                4, "half-car", (), check=_bogies_apart, **_multi_axle(_half_car)),
+)}
+DEFAULT_TYPE = "three-dof"      # a case that names no type: the paper's vehicle
+
+
+def vehicle_type(name: str | None) -> VehicleType:
+    """The registry's entry of type ``name`` (None: the paper's three-dof)."""
+    try:
+        return VEHICLE_TYPES[name or DEFAULT_TYPE]
+    except KeyError:
+        raise ValueError(f"unknown vehicle type {name!r} (expected one of "
+                         f"{', '.join(VEHICLE_TYPES)})") from None
+
+
+def build_vehicle(spec: VehicleSpec):
+    """The vehicle of a spec, built as its type says."""
+    kind = vehicle_type(spec.type)
+    missing = [key for key in kind.keys if getattr(spec, key) is None]
+    if missing:
+        raise ValueError(f"vehicle type {kind.name} needs {', '.join(missing)}")
+    return kind.build(spec)
+
+
+def vehicle_length(spec: VehicleSpec) -> float:
+    """Distance from the leading to the last wheel of a spec's vehicle [m]."""
+    return vehicle_type(spec.type).length(spec)

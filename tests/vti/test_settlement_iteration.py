@@ -19,8 +19,9 @@ from lccopt.degradation.loading import (
 )
 from lccopt.degradation.statics import ZoneStatics
 from lccopt.vti.evaluate import build_vehicle
+from lccopt.vti.newmark import integrate
 from lccopt.vti.track import build_track
-from lccopt.vti.unilateral import integrate_unilateral, sleeper_supports
+from lccopt.vti.unilateral import sleeper_supports
 from tests.vti.test_voids import discrete_track
 
 # seconds a test: settlement predictions over many blocks of simulations
@@ -48,7 +49,7 @@ def moving_load_condition(tr, x_from, x_to, speed=20.0, load=100e3, dt=1e-3):
     steps = int(round((x_to - x_from) / (speed * dt)))
 
     def simulate(sup):
-        h = integrate_unilateral(tr, dt, speed, x_from, steps, load=load, supports=sup)
+        h = integrate(tr, dt, speed, x_from, steps, load=load, supports=sup)
         return Loading(h.support_force.max(axis=0)[None, :], float(h.contact_force.max()))
     return Condition("load", PER_YEAR, simulate, Axles(np.zeros(1), np.array([load])))
 

@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 
 from lccopt.degradation.statics import ZoneStatics
-from lccopt.vti.newmark import contact_vectors
 from lccopt.vti.unilateral import rest_state, sleeper_supports, static_equilibrium
+from lccopt.vti.wheels import contact_vectors
 from tests.vti.test_voids import discrete_track
 
 OFFSETS = np.array([0.0, 2.5])

@@ -7,8 +7,9 @@ import pytest
 
 from lccopt.vti.irregularity import generate, psd
 from lccopt.vti.newmark import integrate
+from lccopt.vti.specs import VehicleSpec
 from lccopt.vti.track import WinklerBeam
-from lccopt.vti.vehicle import MultiAxleVehicle, Vehicle
+from lccopt.vti.vehicle import Vehicle, build_vehicle
 
 EI = 210e9 * 2.337e-5
 M_RAIL = 7800 * 6.977e-3
@@ -22,11 +23,12 @@ def wheel_on_spring(kind):
     if kind == "three-dof":
         return Vehicle(np.array([7047.25, 943.0, M_W]), 1.0, 0.0, 1.0, 0.0, 20.0, 0.0, G, P,
                        "quarter-car")
-    return MultiAxleVehicle.build("bogie", carbody_mass=7047.25, bogie_mass=943.0,
-                                  wheelset_mass=M_W, primary_stiffness=1.0, primary_damping=0.0,
-                                  secondary_stiffness=1.0, secondary_damping=0.0, wheelbase=2.5,
-                                  bogie_pitch_inertia=1400.0, speed=20.0, gravity=0.0,
-                                  hertz_constant=G, hertz_load=P)
+    return build_vehicle(VehicleSpec(type="bogie", carbody_mass=7047.25, bogie_mass=943.0,
+                                     wheelset_mass=M_W, primary_stiffness=1.0,
+                                     primary_damping=0.0, secondary_stiffness=1.0,
+                                     secondary_damping=0.0, wheelbase=2.5,
+                                     bogie_pitch_inertia=1400.0, speed=20.0, gravity=0.0,
+                                     hertz_constant=G, hertz_load=P))
 
 
 @pytest.mark.parametrize("kind", ["three-dof", "bogie"])

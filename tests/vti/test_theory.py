@@ -6,9 +6,10 @@ import pytest
 import scipy.sparse.linalg as sla
 
 from lccopt.config import load_case
-from lccopt.vti.newmark import contact_vector, integrate
+from lccopt.vti.newmark import integrate
 from lccopt.vti.track import WinklerBeam, build_track
 from lccopt.vti.vehicle import Vehicle, build_vehicle
+from lccopt.vti.wheels import contact_vector
 
 EI = 210e9 * 2.337e-5    # 54E1
 M_RAIL = 7800 * 6.977e-3
@@ -160,9 +161,9 @@ def test_newmark_energy_balance_is_exact_over_a_whole_run():
     def g_dot(idx, vals, u, z):            # gᵀU with g = [-N; e3]
         return z[2] - float(vals @ u[idx])
 
-    def on_step(k, u, v, a, z, zd, zdd, idx, vals, force):
-        cur = dict(u=u.copy(), v=v.copy(), z=z.copy(), zd=zd.copy(), idx=idx.copy(),
-                   vals=vals.copy())
+    def on_step(st):
+        cur = dict(u=st.u.copy(), v=st.v.copy(), z=st.z, zd=st.zd, idx=st.idx[0].copy(),
+                   vals=st.vals[0].copy())
         if prev:
             p = prev
             delta_new = g_dot(cur["idx"], cur["vals"], cur["u"], cur["z"])

@@ -16,7 +16,8 @@ switch: it shrinks with Δt (halving Δt divides it by 2.8 here).
 import numpy as np
 import pytest
 
-from lccopt.vti.unilateral import integrate_unilateral, sleeper_supports
+from lccopt.vti.newmark import integrate
+from lccopt.vti.unilateral import sleeper_supports
 from tests.vti.test_voids import discrete_track
 
 # seconds a test: simulations at several time steps
@@ -41,9 +42,10 @@ def run_balance(dt, speed=20.0, load=100e3):
     steps = int(round(6.0 / (speed * dt)))
     rows, prev = [], {}
 
-    def on_step(s, u, v, a, z, zd, zdd, idx, vals, force, contact):
+    def on_step(st):
+        u, v, contact = st.u, st.v, st.contact
         f = np.zeros(n)
-        np.add.at(f, idx[0], load * vals[0])
+        np.add.at(f, st.idx[0], load * st.vals[0])
         p = u[dof] + sup.rest - sup.gap
         phi = np.where(contact, k * p + c * v[dof], 0.0) - k * sup.rest
         cur = dict(u=u.copy(), v=v.copy(), f=f, p=p, phi=phi, s=contact.copy(), vs=v[dof].copy())
@@ -69,7 +71,7 @@ def run_balance(dt, speed=20.0, load=100e3):
         prev.clear()
         prev.update(cur)
 
-    integrate_unilateral(tr, dt, speed, x_start, steps, load=load, supports=sup, on_step=on_step)
+    integrate(tr, dt, speed, x_start, steps, load=load, supports=sup, on_step=on_step)
     return np.array(rows), k
 
 
