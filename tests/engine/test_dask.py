@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import contextlib
+import io
+
 import pytest
 
 from lccopt.engine.runner import optimise
@@ -257,6 +260,75 @@ def test_a_scheduler_killed_mid_run_is_an_environment_fault_never_a_failed_desig
         assert r.returncode == 0, r.stderr
         assert_same_evaluations(reference, read_table(gone))
     finally:
+        cluster.stop()
+
+
+def test_a_scheduler_frozen_longer_than_the_timeout_times_out_no_design(tmp_path, monkeypatch):
+    """SIGSTOP to the Dask scheduler for 2.5 times the evaluations' timeout while they run (its
+    workers go on; nothing they do is reported): no design is recorded as timed out and the
+    table is the uninterrupted run's. Frozen for less than PROBE_TIMEOUT the run waits; longer
+    (shortened here), the scheduler is taken for lost and the designs in flight run again once
+    it answers."""
+    import os
+    import signal
+    import threading
+    import time
+
+    pytest.importorskip("distributed")
+    from lccopt.engine import dask_pool
+
+    from .conftest import REPO, cli, journal_events, n_done, wait_for
+
+    case = write_case(tmp_path, "frozen", budget=8, initial=4, seed=5, timeout=2.0)
+    reference = read_table(optimise(case, workers=2, runs=tmp_path / "local", evaluator=FAKE,
+                                    progress=False))
+    env = {**os.environ, "PYTHONPATH": str(REPO), "LCCOPT_EVALUATOR": FAKE,
+           "LCCOPT_FAKE_DELAY": "0.3"}
+    cluster = _Cluster(env, tmp_path).start()
+    import importlib
+
+    import distributed
+
+    with distributed.Client(cluster.address, timeout="60s") as client:
+        # a worker's first evaluation imports lccopt (about a second): done before the 2 s
+        # timeouts start
+        for module in ("tests.engine.fakesim", "lccopt.engine.dask_pool", "lccopt.store"):
+            client.run(importlib.import_module, module)
+
+    def freeze(run, seconds, p=None):
+        wait_for(lambda: n_done(run) >= 2 or (p is not None and p.poll() is not None))
+        time.sleep(0.1)              # evaluations in flight
+        os.kill(cluster.scheduler.pid, signal.SIGSTOP)
+        time.sleep(seconds)
+        os.kill(cluster.scheduler.pid, signal.SIGCONT)
+
+    try:
+        p = cli("optimise", case, "--scheduler", cluster.address, "--runs", tmp_path / "a",
+                env={"LCCOPT_EVALUATOR": FAKE, "LCCOPT_FAKE_DELAY": "0.3"})
+        run = tmp_path / "a" / "frozen"
+        freeze(run, 5.0, p)
+        out, err = p.communicate(timeout=120)
+        assert p.returncode == 0, err
+        assert "FAILED" not in err and "timed out" not in err, err
+        assert not [e for e in journal_events(run) if e["event"] == "failed"]
+        assert_same_evaluations(reference, read_table(run))
+
+        monkeypatch.setattr(dask_pool, "PROBE_TIMEOUT", 3.5)
+        monkeypatch.setenv("LCCOPT_FAKE_DELAY", "0.3")
+        run = tmp_path / "b" / "frozen"
+        stopper = threading.Thread(target=freeze, args=(run, 5.0), daemon=True)
+        stopper.start()
+        said = io.StringIO()
+        optimise(case, scheduler=cluster.address, runs=tmp_path / "b", evaluator=FAKE,
+                 progress=False, stream=said)
+        stopper.join(30)
+        said = said.getvalue()
+        assert "has not answered for 3.5 s" in said and "is back" in said, said
+        assert not [e for e in journal_events(run) if e["event"] == "failed"]
+        assert_same_evaluations(reference, read_table(run))
+    finally:
+        with contextlib.suppress(OSError):
+            os.kill(cluster.scheduler.pid, signal.SIGCONT)
         cluster.stop()
 
 
