@@ -22,7 +22,9 @@ the reference design (configs/reference.yaml), the VIRM half car leaving over th
 ``lccopt simulate configs/settlement.yaml`` (the command as a user runs it: start-up, the
 prediction, its files and plots). Times are CPU seconds of the process (of the command's
 process for ``lccopt simulate``): on a machine shared with other work the wall time measures
-the others' load as much as this code; the wall time of the command is printed too.
+the others' load as much as this code; the wall time of the command is printed too. Each round
+also runs the checkout's own ``benchmarks/simulator_speed.py --naive-steps 0`` and takes its
+figure for the current method (the median wall time of ``--repeat`` reference evaluations).
 """
 
 from __future__ import annotations
@@ -244,6 +246,17 @@ def _settlement(tree: Path) -> tuple[float, float]:
     return c1.ru_utime + c1.ru_stime - c0.ru_utime - c0.ru_stime, wall
 
 
+def _simulator_speed(tree: Path, repeat: int) -> float:
+    """The checkout's own simulator_speed.py: its median of the current method [s]."""
+    cmd = [sys.executable, str(tree / "benchmarks" / "simulator_speed.py"), "--naive-steps", "0",
+           "--repeat", str(repeat), "--case", str(CASES / "reference.yaml")]
+    done = subprocess.run(cmd, env=_env(tree), cwd=tree, capture_output=True, text=True)
+    if done.returncode:
+        raise SystemExit(f"{tree}: simulator_speed.py failed:\n{done.stderr}")
+    line = next(x for x in done.stdout.splitlines() if "evaluate: median" in x)
+    return float(line.split("median")[1].split()[0])
+
+
 def compare_speed(before: Path, after: Path, rounds: int, repeat: int) -> None:
     got = {"before": [], "after": []}
     for r in range(rounds):
@@ -251,11 +264,12 @@ def compare_speed(before: Path, after: Path, rounds: int, repeat: int) -> None:
         for label, tree in (order if r % 2 == 0 else order[::-1]):
             t = json.loads(_run_in(tree, "--timings", str(repeat)))
             t["settlement (lccopt simulate)"], t["  its wall time"] = _settlement(tree)
+            t["simulator_speed.py (wall)"] = _simulator_speed(tree, repeat)
             got[label].append(t)
             print(f"  round {r + 1} {label:6s} "
                   + ", ".join(f"{k} {v:.3f} s" for k, v in t.items()), flush=True)
-    print(f"medians over {rounds} rounds, CPU seconds (1-min load average now "
-          f"{os.getloadavg()[0]:.2f} on {os.cpu_count()} cores):")
+    print(f"medians over {rounds} rounds, CPU seconds but where it says wall (1-min load "
+          f"average now {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores):")
     for key in got["before"][0]:
         b = statistics.median(t[key] for t in got["before"])
         a = statistics.median(t[key] for t in got["after"])

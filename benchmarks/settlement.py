@@ -9,6 +9,8 @@
     python benchmarks/settlement.py designs      # the paper's designs, softer pads
     python benchmarks/settlement.py tamping      # configs/settlement.yaml's reference design
                                                  # tamped: budget 30, 80, and 200 at 1 kN
+    python benchmarks/settlement.py subgrade     # its reference design untamped on a soft
+                                                 # subgrade, with and without the subgrade law
 
 Traffic: one bogie side of the VIRM (two wheels on the modelled rail) at 140 km/h, 5 x 10^5
 passages a year = 10^6 axle passes a year per track, about 170 trains of 16 axles a day: a
@@ -196,7 +198,42 @@ def tamping():
               + " ".join(f"{v:.2f}" for v in r.void[-1][:5] * 1e3))
 
 
+def subgrade():
+    """configs/settlement.yaml's reference design, untamped, on its support (45 MN/m) and on
+    half of it (the strengthened sleepers' too), with the ballast law alone (soil: none) and
+    with the Li & Selig subgrade (docs/settlement.md, "A softer subgrade is a weaker one")."""
+    import dataclasses
+
+    from lccopt.degradation.evaluate import predict, settlement_objectives
+
+    soft = ["track.support.stiffness=22.5e6",
+            "track.strengthened_sleeper.support_stiffness=28.125e6"]
+    print("| support (strengthened sleepers 1.25x) | subgrade | differential | largest "
+          "settlement | largest void | largest D1 deviation | step | slab | years to the limit | "
+          "seconds |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
+    for soil in ("none", "CL"):
+        for support, sets in (("45 MN/m", []), ("22.5 MN/m", soft)):
+            case = load_case("configs/settlement.yaml",
+                             overrides=[f"degradation.subgrade.soil={soil}", *sets])
+            spec = dataclasses.replace(case.degradation_spec(), tamping=None)
+            t0 = time.perf_counter()
+            r = predict(spec, case.track_design(case.reference))
+            wall = time.perf_counter() - t0
+            o = settlement_objectives(r, spec.limit)
+            sub = case.degradation["subgrade"]
+            k = case.data["track"]["support"]["stiffness"]
+            text = ("none (ballast law alone)" if soil == "none" else
+                    f"{soil}, {sub['strength'] * k / sub['reference_stiffness'] / 1e3:g} kPa")
+            print(f"| {support} | {text} | "
+                  + " | ".join(f"{o[m] * 1e3:.2f} mm" for m in (
+                      "differential_settlement", "max_settlement", "max_void", "level_d1_max",
+                      "rail_step"))
+                  + f" | {r.rail['slab'][-1] * 1e3:.2f} mm | {o['years_to_limit']:.2f} | "
+                  f"{wall:.0f} |", flush=True)
+
+
 if __name__ == "__main__":
     what = sys.argv[1] if len(sys.argv) > 1 else "speed"
     {"speed": speed, "cost": cost, "convergence": convergence, "horizon": horizon,
-     "conditions": conditions, "designs": designs, "tamping": tamping}[what]()
+     "conditions": conditions, "designs": designs, "tamping": tamping, "subgrade": subgrade}[what]()

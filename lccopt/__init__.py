@@ -8,6 +8,7 @@ script) the same jobs are::
     ev = lccopt.simulate(case)                        # the reference design, one simulation
     run = lccopt.optimise(case, workers=2)            # runs/quickstart/, as the command does
     lccopt.resume(run)                                # after an interruption
+                                                      # (lccopt.RunInterrupted)
 
 Nothing heavy is imported until a function is called (the command line sets the BLAS thread
 count before numpy loads).
@@ -15,9 +16,11 @@ count before numpy loads).
 
 from __future__ import annotations
 
+from .errors import CaseError, EnvironmentFault, RunInterrupted, UsageError
 from .version import __version__ as __version__
 
-__all__ = ["load_case", "simulate", "optimise", "resume"]
+__all__ = ["load_case", "simulate", "optimise", "resume",
+           "CaseError", "UsageError", "EnvironmentFault", "RunInterrupted"]
 
 
 # -- the arguments' checks: a wrong type is a TypeError, a wrong value a ValueError, each naming
@@ -174,6 +177,11 @@ def optimise(case, *, workers=None, scheduler=None, runs="runs", force=False, pr
         an argument of a wrong type or value (named).
     lccopt.errors.CaseError, lccopt.errors.UsageError
         a bad case, bad options, a run directory that exists or is in use.
+    lccopt.errors.EnvironmentFault
+        the machine refused a read or a write (disk full, read-only); nothing is lost.
+    lccopt.errors.RunInterrupted
+        the run was stopped by a signal (Ctrl-C, SIGTERM, ...) and saved: carry it on with
+        :func:`resume` (a ``KeyboardInterrupt``; docs/runs.md, "From Python").
     """
     from pathlib import Path
 
@@ -208,6 +216,8 @@ def resume(run, *, budget=None, workers=None, scheduler=None, progress=True):
         an argument of a wrong type or value (named).
     lccopt.errors.UsageError
         not a run directory, a run in use, a budget below what the run asked.
+    lccopt.errors.EnvironmentFault, lccopt.errors.RunInterrupted
+        as for :func:`optimise`.
     """
     from pathlib import Path
 

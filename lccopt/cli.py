@@ -123,8 +123,8 @@ def example(
                                "bundled ones"),
 ) -> None:
     """Write a bundled case (and the cases it extends) into the current folder, or list them."""
+    from .commands.example import list_lines, write_examples
     from .config.bundled import example_names
-    from .example_command import list_lines, write_examples
 
     if list_ or not (names or all_):
         typer.echo("\n".join(list_lines()))
@@ -151,7 +151,7 @@ def simulate(
     set_: Optional[List[str]] = _set_option(),
 ) -> None:
     """Simulate one design: print F_rms, F_max (kN), E_rms, E_max (J); write HDF5 and plots."""
-    from .simulate_command import run_simulate
+    from .commands.simulate import run_simulate
 
     run_simulate(case, design, out, not no_plots, force, set_ or ())
 
@@ -167,11 +167,9 @@ def optimise(
     set_: Optional[List[str]] = _set_option(),
 ) -> None:
     """Run the surrogate optimisation of a case into runs/<case name>/."""
-    from .config import load_case
-    from .engine.runner import optimise as run_optimise
+    from .commands.run import run_optimise
 
-    run_optimise(load_case(case, set_) if set_ else case, workers=workers, scheduler=scheduler,
-                 runs=runs, force=force)
+    run_optimise(case, set_, workers, scheduler, runs, force)
 
 
 def _run_dir(run: Path) -> Path:
@@ -201,11 +199,10 @@ def resume(
                                              "journal (the whole journal is kept beside it)"),
 ) -> None:
     """Carry on an interrupted run where it stopped, or a finished one to a larger budget."""
-    from .engine.runner import resume as run_resume
+    from .commands.run import run_resume
 
-    run_resume(_run_dir(run), workers=workers, scheduler=scheduler, case=case,
-               allow_changed_case=allow_changed_case, budget=budget,
-               repair_journal=repair_journal)
+    run_resume(_run_dir(run), workers, scheduler, case, allow_changed_case, budget,
+               repair_journal)
 
 
 @app.command()
@@ -231,9 +228,9 @@ def report(
     force: bool = typer.Option(False, "--force", help="replace a report already in --out"),
 ) -> None:
     """Write figures and a summary of a run into RUN/report/ (or --out)."""
-    from .report import write_report
+    from .commands.report import run_report
 
-    write_report(_run_dir(run), format.value, out, force)
+    run_report(_run_dir(run), format.value, out, force)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -253,6 +250,8 @@ def main(argv: list[str] | None = None) -> int:
     _ignore_stop_signals()
     if PipeGuard.closed_pipe:
         return EXIT_PIPE
+    if code == EXIT_INTERRUPTED:
+        _end_now(code)
     out = sys.stdout
     if code == EXIT_OK and isinstance(out, PipeGuard) and out.lost:
         # the command's work is done; what it had to say is not, and a script must know
@@ -285,6 +284,11 @@ def _main(argv, usage_errors, aborts) -> int:
     except OSError as exc:  # the environment refused: read-only, missing, full, not a file ...
         return _fail(f"lccopt: error: {describe_os_error(exc)}", EXIT_USAGE)
     except Exception as exc:
+        cause = _interruption_behind(exc)
+        if cause is not None:
+            # a signal raised where Python wraps what it raises (a class body's __set_name__,
+            # a codec, an import hook): still the interruption, not an internal error
+            return _interrupted(cause)
         import traceback
 
         try:
@@ -293,6 +297,17 @@ def _main(argv, usage_errors, aborts) -> int:
             pass
         return _fail(f"lccopt: internal error: {exc}", EXIT_INTERNAL)
     return EXIT_OK
+
+
+def _interruption_behind(exc: BaseException) -> BaseException | None:
+    """The interruption an exception was raised because of (its cause or context), if any."""
+    seen = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, KeyboardInterrupt):
+            return exc
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__
+    return None
 
 
 def _click_exception_types() -> tuple[tuple, tuple]:
@@ -367,6 +382,26 @@ def _interrupted(exc: BaseException) -> int:
     _ignore_stop_signals()  # a second signal must not break the message or the exit code
     how = f" by {exc.name}" if isinstance(exc, Interrupted) else ""
     return _fail(f"lccopt: interrupted{how}", EXIT_INTERRUPTED)
+
+
+def _end_now(code: int) -> None:
+    """End an interrupted command without the interpreter's finalisation: the signal may have
+    cut an extension module's import or a C library's call in half, and tearing those modules
+    down then crashed the process (SIGSEGV after the one line, measured under load). What was
+    computed is on disk already (journal lines are synced, result files replaced whole); the
+    exit handlers still run, so worker processes and pools are stopped."""
+    import atexit
+
+    try:
+        atexit._run_exitfuncs()
+    except BaseException:  # noqa: BLE001 - ending anyway
+        pass
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (OSError, ValueError):
+            pass
+    os._exit(code)
 
 
 def _ignore_stop_signals() -> None:

@@ -70,6 +70,30 @@ class Interrupted(KeyboardInterrupt):
             return f"signal {self.signum}"
 
 
+class RunInterrupted(Interrupted):
+    """A run (``lccopt.optimise``, ``lccopt.resume``) stopped before its end by a stopping
+    signal: Ctrl-C (the evaluations running finish first; a second Ctrl-C stops them too),
+    SIGTERM, SIGHUP and the others of ``STOP_SIGNALS`` (at once). Nothing is lost: every
+    evaluation committed is in the run directory ``path`` and the ones in flight stay pending;
+    ``lccopt.resume(path)`` carries the run on to the table an uninterrupted run makes, with
+    no budget spent twice. The command line says so and exits 130.
+
+    A ``KeyboardInterrupt`` (as Ctrl-C in any Python program), so that ``except Exception``
+    does not swallow it. ``signum``: the first stopping signal (None when the run stopped
+    for another reason, e.g. its output pipe closed); ``done`` and ``budget``: the
+    evaluations saved and the run's budget."""
+
+    def __init__(self, path, done: int, budget: int, signum: int | None = None):
+        super().__init__(signal.SIGINT if signum is None else signum)
+        self.signum = signum
+        self.path, self.done, self.budget = path, done, budget
+
+    def __str__(self) -> str:
+        how = f" by {self.name}" if self.signum is not None else ""
+        return (f"run {self.path} interrupted{how}: {self.done}/{self.budget} evaluations saved; "
+                f"carry on with lccopt.resume({str(self.path)!r})")
+
+
 def _raise_interrupted(signum, frame):
     Interrupted.last = signum
     raise Interrupted(signum)

@@ -34,6 +34,18 @@ def wrap_message(text: str, width: int | None = None) -> str:
                                    break_long_words=False, break_on_hyphens=False))
 
 
+def echo(message: str = "", err: bool = False) -> None:
+    """Say one message, as a line on standard output (``err``: on standard error), flushed:
+    the library's default for the messages of a long job (a report's warnings, a check that
+    takes a while). A program passes its own function of the same signature (the command
+    line passes ``typer.echo``; a notebook may pass a logger's)."""
+    stream = sys.stderr if err else sys.stdout
+    if stream is None:
+        return
+    stream.write(f"{message}\n")
+    stream.flush()
+
+
 STREAM_NAMES = {0: "standard input", 1: "standard output", 2: "standard error"}
 
 

@@ -13,6 +13,7 @@ import pytest
 import yaml
 
 from lccopt.config import load_case
+from lccopt.degradation.rail import MEASURES
 from lccopt.errors import CaseError
 from tests.conftest import CONFIGS
 
@@ -48,6 +49,11 @@ def test_configs_settlement_is_the_paper_crossing_under_ten_years_of_virm_bogies
     assert dict(spec.law.parameters) == {"alpha": 0.6, "beta": 0.82, "gamma": 0.01, "f0": 50e3,
                                          "n0": 1e6}
     assert (spec.limit.measure, spec.limit.value) == ("level_d1_max", 2e-3)
+    # it optimises the rail's measure with tamping: how often the rail's D1 level reaches its
+    # limit and has to be tamped, the two sleepers by the slab out of the machine's reach
+    assert spec.limit.measure in MEASURES
+    assert (spec.tamping.unreachable_sleepers, spec.tamping.min_interval) == (2, 0.1)
+    assert list(case.optimisation["objectives"]) == ["interventions", "maintenance_rate"]
     assert case.conditions == () and case.traffic == ()      # one task per design
     # the resolved case (what a run keeps) says what the prediction ran with: the law's
     # defaults and the horizon, none of the other law's keys
@@ -254,13 +260,17 @@ def test_check_prints_the_prediction_in_80_columns(run_cli):
     assert all(len(line) <= 80 for line in out), [line for line in out if len(line) > 80]
     text = r.stdout
     assert "settlement: varandas law: alpha 0.6, beta 0.82, gamma 10 mm," in text
-    assert "traffic vehicle: 170 trains a day x 8 bogie passages," in text
-    assert "= 4.96e+05 a year (2 axles each), axle load 174 kN" in text
-    assert "170 trains a day, 9.93e+05 axle passes," in text
+    assert "traffic: 170 trains a day, 8 bogie passages each," in text
+    assert "496,000 bogie passages a year (2 axles each), axle load 174 kN" in text
+    assert "170 trains a day, 993,000 axle passes," in text
     assert "about 17.7 million gross tonnes a year" in text
-    assert "horizon 10 years = 9.93e+06 axle passes; 20 settling sleepers" in text
+    assert "horizon 10 years = 9.93 million axle passes; 20 settling sleepers" in text
     assert "limit: level_d1_max 2 mm" in text
     assert "at most 30 simulations x 1 condition(s), tolerance 2 kN" in text
+    # where a user first reads the law: its millimetres are not checked against a crossing
+    assert ("the millimetres will be the law's values, not a forecast: the law is not\n"
+            "    calibrated to a measured crossing (docs/settlement.md, Validation)") in text
+    assert "subgrade (Li & Selig): soil CL, strength 150 kPa," in text
 
 
 def _docs_traffic_example() -> str:

@@ -21,3 +21,62 @@ def test_ruff_check_finds_nothing():
     )
     exit_code, report = result.returncode, result.stdout + result.stderr
     assert exit_code == 0, f"ruff check found problems:\n{report}"
+
+
+# The command layer: lccopt/cli.py (options, messages, exit codes), lccopt/commands/ (one
+# module per command) and python -m lccopt. The library below it raises lccopt.errors and
+# returns what it did.
+COMMAND_LAYER = ("lccopt/cli.py", "lccopt/commands/", "lccopt/__main__.py")
+
+
+def _imports(source: str, package: tuple[str, ...]) -> set[str]:
+    """Every module a module of PACKAGE imports, at its top or inside a function, as absolute
+    names (relative imports resolved)."""
+    import ast
+
+    names = set()
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.Import):
+            names.update(a.name for a in node.names)
+        elif isinstance(node, ast.ImportFrom):
+            base = list(package[:len(package) - node.level + 1]) if node.level else []
+            module = ".".join(base + ([node.module] if node.module else []))
+            names.add(module)
+            names.update(f"{module}.{a.name}" for a in node.names)
+    return names
+
+
+def _command_line_imports(source: str, package: tuple[str, ...]) -> list[str]:
+    return sorted(name for name in _imports(source, package)
+                  if name.split(".")[0] in ("typer", "click")
+                  or name.startswith(("lccopt.cli", "lccopt.commands")))
+
+
+def test_only_the_command_layer_knows_the_command_line():
+    """Nothing under lccopt/ but the command layer imports typer or click (a library function
+    never raises typer.Exit nor prints through typer), and nothing below it imports it back."""
+    below, found = [], []
+    for path in sorted((ROOT / "lccopt").rglob("*.py")):
+        rel = path.relative_to(ROOT)
+        if rel.as_posix().startswith(COMMAND_LAYER):
+            continue
+        below.append(rel)
+        package = rel.parts[:-1]
+        found += [f"{rel} imports {name}" for name in
+                  _command_line_imports(path.read_text(encoding="utf-8"), package)]
+    assert len(below) > 50, below            # the scan saw the library
+    assert not found, "\n".join(found)
+
+
+def test_the_import_scan_sees_lazy_and_relative_imports():
+    """The scan above catches typer imported inside a function, click's exceptions, and the
+    command layer reached through a relative import; a plain library import passes."""
+    source = ("from ..errors import UsageError\n"
+              "def stop():\n    import typer\n    raise typer.Exit(130)\n"
+              "def fail():\n    from click.exceptions import Abort\n"
+              "    from ..commands.run import run_optimise\n")
+    assert _command_line_imports(source, ("lccopt", "engine")) == [
+        "click.exceptions", "click.exceptions.Abort", "lccopt.commands.run",
+        "lccopt.commands.run.run_optimise", "typer"]
+    assert _command_line_imports("from ..errors import UsageError\n",
+                                 ("lccopt", "engine")) == []

@@ -79,3 +79,67 @@ def test_every_argument_of_a_wrong_type_or_value_is_named(tmp_path):
         lccopt.simulate(case, "abc")
     with pytest.raises(ValueError, match="design: a design vector has 8 values"):
         lccopt.simulate(case, [1.0, 2.0])
+
+
+_STOPPED_RUN = """
+import json, os, signal, sys, threading, time
+import lccopt
+
+case, runs = sys.argv[1], sys.argv[2]
+journal = os.path.join(runs, "apistop", "journal.jsonl")
+
+
+def stop_after_two():
+    while True:
+        try:
+            if open(journal).read().count('"evaluated"') >= 2:
+                break
+        except OSError:
+            pass
+        time.sleep(0.05)
+    os.kill(os.getpid(), signal.SIGTERM)
+
+
+threading.Thread(target=stop_after_two, daemon=True).start()
+try:
+    lccopt.optimise(case, workers=1, runs=runs, progress=False)
+except Exception as exc:   # noqa: BLE001 - what a script's except Exception would catch
+    print(json.dumps({"caught by except Exception": repr(exc)}))
+except lccopt.RunInterrupted as exc:
+    print(json.dumps({"class": f"{type(exc).__module__}.{type(exc).__name__}",
+                      "keyboard": isinstance(exc, KeyboardInterrupt), "path": str(exc.path),
+                      "done": exc.done, "budget": exc.budget, "signal": exc.name,
+                      "text": str(exc),
+                      "handler back": signal.getsignal(signal.SIGTERM) == signal.SIG_DFL}))
+    sys.stdout.flush()
+    print(lccopt.resume(exc.path, progress=False))
+"""
+
+
+def test_an_interrupted_optimise_raises_the_library_exception_and_resumes(tmp_path):
+    """A run stopped by a signal from Python raises lccopt.RunInterrupted (a KeyboardInterrupt,
+    never typer's Exit nor SystemExit), saying where the run is saved; the program's signal
+    handler is back; lccopt.resume carries the run on to its budget."""
+    import json
+
+    from tests.conftest import subprocess_env
+    from tests.engine.conftest import read_table
+
+    case = write_case(tmp_path, "apistop", budget=8, initial=4, seed=4)
+    runs = tmp_path / "runs"
+    r = subprocess.run([sys.executable, "-c", _STOPPED_RUN, str(case), str(runs)],
+                       capture_output=True, text=True, timeout=300,
+                       env=subprocess_env(LCCOPT_EVALUATOR="tests.engine.fakesim:evaluate",
+                                          LCCOPT_FAKE_DELAY="0.2"))
+    assert r.returncode == 0, r.stderr
+    lines = r.stdout.splitlines()      # the stop, the resumed run's summary, its directory
+    stopped, resumed = json.loads(lines[0]), lines[-1]
+    run = runs / "apistop"
+    assert stopped["class"] == "lccopt.errors.RunInterrupted" and stopped["keyboard"], stopped
+    assert (stopped["path"], stopped["budget"], stopped["signal"]) == (str(run), 8, "SIGTERM")
+    assert 2 <= stopped["done"] < 8 and stopped["handler back"], stopped
+    assert stopped["text"] == (f"run {run} interrupted by SIGTERM: {stopped['done']}/8 "
+                               f"evaluations saved; carry on with lccopt.resume('{run}')")
+    assert resumed == str(run)
+    t = read_table(run)
+    assert len(t["id"]) == 8 and set(t["status"]) == {"ok"}

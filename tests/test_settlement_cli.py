@@ -74,7 +74,7 @@ def test_check_and_simulate_say_what_the_prediction_does(tmp_path):
     case = write_settlement_case(tmp_path)
     r = cli("check", case, cwd=tmp_path)
     assert r.returncode == 0, r.stderr
-    assert "horizon 0.2 years = 2e+05 axle passes; 8 settling sleepers" in r.stdout
+    assert "horizon 0.2 years = 200,000 axle passes; 8 settling sleepers" in r.stdout
     r = cli("simulate", case, cwd=tmp_path)
     assert r.returncode == 0, r.stderr
     out = r.stdout
@@ -82,6 +82,7 @@ def test_check_and_simulate_say_what_the_prediction_does(tmp_path):
     for k in SETTLEMENT:
         assert f"\n  {k} " in out, k
     assert "settlement after 0.2 years" in out and " mm " in out
+    assert "(the law's values, not a forecast: not calibrated to a measured crossing)" in out
     assert re.search(r"\n  tamped [1-9]\d* time\(s\): after 0\.05", out), out
     sim = tmp_path / "runs" / "s-simulate"
     for png in ("contact_force", "sleeper_energy", "displacement", "settlement-history",
@@ -156,9 +157,33 @@ def test_status_and_report_speak_settlement(run):
     assert "The track is tamped whenever the limit is reached" in md
     assert re.search(r"tamped \d+ times over the horizon \(after ", md), md
     assert "the law's values, not a forecast" in md
+    # the traffic in the words check uses, not a condition's name and a rate
+    assert ("of the traffic (500,000 bogie passages a year (2 axles each), axle load 174 kN; "
+            "1 million axle passes, about 17.8 million gross tonnes a year)") in md, md
+    # the best design re-predicted under the law's uncertainty, said and tabled
+    assert "### Rankings and the law's uncertainty" in md
+    assert re.search(r"the best design beats the reference design in level_d1_max and "
+                     r"interventions in \d of 8", md), md
+    assert ("within the model's uncertainty" in md) == s_within(rep)
+    t0 = time.monotonic()                     # a second report reads the kept predictions
+    again = cli("report", base / "runs" / "s", cwd=base)
+    assert again.returncode == 0 and "predicting the best" not in again.stderr, again.stderr
+    assert time.monotonic() - t0 < 60
+    for label in ("alpha -30 %", "1 - beta +30 %", "gamma +30 %", "passage reading",
+                  "logarithmic law (matched)"):
+        assert f"| {label} |" in md, label
     s = json.loads((rep / "summary.json").read_text())
     assert set(SETTLEMENT) <= set(s["best"]["objectives"])
     assert s["figures"]["settlement-profile"] == "settlement-profile.png"
+
+
+def s_within(rep: Path) -> bool:
+    """Whether summary.json's law check says "within the model's uncertainty" (checked to
+    be: the best beats the reference in at most half of the 8 variants)."""
+    check = json.loads((rep / "summary.json").read_text())["law_check"]
+    assert check["n"] == 8 and 0 <= check["beats"] <= 8
+    assert check["within_uncertainty"] == (check["beats"] <= 4)
+    return check["within_uncertainty"]
 
 
 def _n_done(run: Path) -> int:
@@ -219,9 +244,11 @@ def test_the_papers_three_dof_vehicle_is_refused_in_one_line(tmp_path):
 
 def test_a_settlement_objective_alone_is_what_the_run_minimises(tmp_path):
     """max_void alone: a single-objective run whose value column is each design's largest
-    void, and whose best design is the one with the smallest."""
+    void, and whose best design is the one with the smallest. Untamped (half the cost)."""
     case = write_settlement_case(tmp_path, name="v", budget=6)
     text = case.read_text().replace("[level_d1_max, interventions]", "[max_void]")
+    text = text.replace("  tamping: {unreachable_sleepers: 2, min_interval: 0.05}\n", "")
+    assert "tamping" not in text
     case.write_text(text.replace("initial_points: 5", "initial_points: 4"), encoding="utf-8")
     r = cli("optimise", case, "--workers", 1, cwd=tmp_path)
     assert r.returncode == 0, r.stderr[-3000:]
@@ -250,7 +277,14 @@ def test_settlement_history_keeps_its_labels_clear_of_the_legend_and_the_limit(r
         return path
 
     monkeypatch.setattr(settlement, "_save", keep)
-    write_report(run[0] / "runs" / "s", "md", tmp_path / "rep", False)
+    # the law check's predictions as the run's report kept them: read back, not predicted anew
+    (tmp_path / "rep").mkdir()
+    kept = run[0] / "runs" / "s" / "report" / settlement.CHECK_FILE
+    (tmp_path / "rep" / settlement.CHECK_FILE).write_bytes(kept.read_bytes())
+    said = []
+    write_report(run[0] / "runs" / "s", "md", tmp_path / "rep", True,
+                 echo=lambda text, err=False: said.append(text))
+    assert not any("predicting" in text for text in said), said
     fig = figs["settlement-history"]
     lower = [ax for ax in fig.axes if ax.get_ylabel() == "[mm]"][0]
     assert not lower.texts                     # nothing written inside the panel
@@ -267,21 +301,26 @@ def test_settlement_history_keeps_its_labels_clear_of_the_legend_and_the_limit(r
     assert not any(a.overlaps(b) for i, a in enumerate(boxes) for b in boxes[i + 1:]), texts
 
 
-@pytest.mark.parametrize("degradation, key", [
-    ("{trains_per_day: 30}", "degradation.trains_per_day"),
-    ("{trains_per_day: 30, vehicles_per_train: 4, tamping: {unreachable_sleepers: 25}}",
+@pytest.mark.parametrize("body, line, key", [
+    ("degradation: {trains_per_day: 30}\n", 3, "degradation.trains_per_day"),
+    ("degradation: {trains_per_day: 30, vehicles_per_train: 4,\n"
+     "              tamping: {unreachable_sleepers: 25}}\n", 4,
      "degradation.tamping.unreachable_sleepers"),
-    ("{trains_per_day: 30, vehicles_per_train: 4, subgrade: {depth: 0}}",
+    ("degradation: {trains_per_day: 30, vehicles_per_train: 4,\n"
+     "              tamping: {min_interval: 0 year}}\n", 4, "degradation.tamping.min_interval"),
+    ("degradation: {trains_per_day: 30, vehicles_per_train: 4, subgrade: {depth: 0}}\n", 3,
      "degradation.subgrade.depth"),
+    ("degradation: {trains_per_day: 30, vehicles_per_train: 4}\n"
+     "track: {sleeper: {bearing_area: 0 m^2}}\n", 4, "track.sleeper.bearing_area"),
 ])
-def test_bad_traffic_tamping_and_subgrade_are_one_line_exit_2(tmp_path, degradation, key):
+def test_bad_traffic_tamping_and_subgrade_are_one_line_exit_2(tmp_path, body, line, key):
     """What a user gets wrong most (a train without its length, a tamping that reaches no
-    sleeper, a subgrade at no depth): exit 2, one line naming the file, line and key."""
+    sleeper or comes at no interval, a subgrade at no depth, a sleeper on no area): exit 2,
+    one line naming the file, line and key."""
     case = tmp_path / "bad.yaml"
-    case.write_text(f"extends: {BOGIE}\nname: bad\ndegradation: {degradation}\n",
-                    encoding="utf-8")
+    case.write_text(f"extends: {BOGIE}\nname: bad\n{body}", encoding="utf-8")
     r = cli("check", case, cwd=tmp_path)
     assert r.returncode == 2, r.stdout + r.stderr
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and "Traceback" not in r.stderr, r.stderr
-    assert re.search(rf"{re.escape(str(case))}:3: {re.escape(key)}: ", lines[0]), lines[0]
+    assert re.search(rf"{re.escape(str(case))}:{line}: {re.escape(key)}: ", lines[0]), lines[0]

@@ -4,6 +4,7 @@ uncertainty: section, its realisations in the model and the robust statistics.""
 from __future__ import annotations
 
 import math
+import re
 import subprocess
 from dataclasses import replace
 
@@ -11,7 +12,7 @@ import numpy as np
 import pytest
 
 from lccopt.config import load_case
-from lccopt.config.uncertainty import fingerprint
+from lccopt.config.uncertainty import fingerprint, uncertainty_lines
 from lccopt.errors import CaseError
 from lccopt.problem import evaluate
 from lccopt.uncertainty import fields
@@ -148,8 +149,38 @@ def test_bad_uncertainty_input_is_one_line_naming_file_line_and_key(tmp_path, se
     with pytest.raises(CaseError) as e:
         load_case(path)
     msg = str(e.value)
-    assert "\n" not in msg and msg.startswith(f"{path}:"), msg
-    assert f": {key}: " in msg and words in msg, msg
+    assert "\n" not in msg and msg.startswith(f"{path}:{key_line(path, key)}: {key}: "), msg
+    assert words in msg, msg
+
+
+def key_line(path, key: str) -> int:
+    """The line of the file where the key's last part is written."""
+    last = key.split(".")[-1]
+    return next(i for i, line in enumerate(path.read_text().splitlines(), 1)
+                if f"{last}:" in line)
+
+
+@pytest.mark.parametrize("section, key", [
+    ("  realisations: 3\n  support_stiffness:\n    correlation_length: 3 m\n    cov: -0.1\n",
+     "uncertainty.support_stiffness.cov"),
+    ("  realisations: 0\n  support_stiffness: {}\n", "uncertainty.realisations"),
+    ("  realisations: 100000\n  support_stiffness: {}\n", "uncertainty.realisations"),
+    ("  realisations: 3\n  ballast_stiffness: {}\n", "uncertainty.ballast_stiffness"),
+    ("  realisations: 400\n  support_stiffness: {}\n", "uncertainty.realisations"),
+])
+def test_check_refuses_bad_uncertainty_in_one_line_and_exits_2(tmp_path, section, key):
+    """As a user meets it: a negative spread, 0 or absurdly many realisations, an unknown
+    quantity, more realisations than the cost cap allows (the paper's 1.5 us steps)."""
+    path = robust_case(tmp_path, section)
+    if "400" in section:
+        path.write_text(path.read_text().replace(CHEAP_SIMULATION,
+                                                 "simulation: {time_step: 1.5e-6}\n"))
+    r = subprocess.run(lccopt_command() + ["check", str(path)], capture_output=True, text=True,
+                       env=subprocess_env())
+    assert r.returncode == 2, r
+    line, = r.stderr.strip().splitlines()
+    assert line.startswith(f"lccopt: error: {path}:{key_line(path, key)}: {key}: "), line
+    assert r.stdout == ""
 
 
 def test_a_robust_objective_without_the_section_and_check_exits_2(tmp_path):
@@ -169,7 +200,17 @@ def test_too_many_realisations_for_a_design_are_refused_with_how_many_fit(tmp_pa
     # the paper's simulation at 1.5 us steps: 460,000 steps of 2,700 dofs, 501 times
     path.write_text(path.read_text().replace(CHEAP_SIMULATION, "simulation: {time_step: 1.5e-6}\n"))
     with pytest.raises(CaseError, match=r"uncertainty\.realisations: 500 realisations .* at "
-                                        r"most \d+ realisations here"):
+                                        r"most \d+ realisations here") as e:
+        load_case(path)
+    most = int(re.search(r"at most (\d+) realisations here", str(e.value)).group(1))
+    assert 2 <= most < 500
+    # the cap check prints is the one it enforces: `most` loads, one more does not
+    path.write_text(path.read_text().replace("realisations: 500", f"realisations: {most}"))
+    assert (f"    at most {most} realisations: the cost cap, about 6 hours of one core a "
+            f"design") in uncertainty_lines(load_case(path))
+    path.write_text(path.read_text().replace(f"realisations: {most}",
+                                             f"realisations: {most + 1}"))
+    with pytest.raises(CaseError, match=f"at most {most} realisations here"):
         load_case(path)
 
 
@@ -186,6 +227,7 @@ def test_check_prints_the_realisations_and_what_they_cost(tmp_path):
     assert "initial_void: 10% of the sleepers hang, gap 0.5 mm" in out
     assert "per design: 4 tracks (the drawing and 3 realisations) = 4 tasks" in out
     assert "budget 10: 40 tasks (4 x a deterministic run)" in out
+    assert "at most 500 realisations: the section's limit" in out
     assert max(len(line) for line in out.splitlines()[1:]) <= 80
 
 

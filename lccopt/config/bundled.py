@@ -2,7 +2,7 @@
 
 They are the files of a checkout's ``configs/``; the package reaches them as
 ``lccopt/examples`` (a link to ``configs/`` in a checkout, the files themselves in a wheel), so
-there is one copy of each. ``lccopt example`` writes them out (``lccopt.example_command``); a
+there is one copy of each. ``lccopt example`` writes them out (``lccopt.commands.example``); a
 case file that is missing but has a bundled namesake is answered with the command that writes
 it.
 """

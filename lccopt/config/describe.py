@@ -238,10 +238,60 @@ def law_items(law: dict) -> list[str]:
             for k, v in law.items() if k != "name"]
 
 
+def count_text(v: float) -> str:
+    """A count as people write it: three significant figures, with thousands separated
+    (496,000), in millions from a million (9.93 million)."""
+    if not math.isfinite(v):
+        return f"{v}"
+    if abs(v) >= 1e6:
+        return f"{v / 1e6:.3g} million"
+    if abs(v) >= 1e3:
+        return f"{float(f'{v:.3g}'):,.0f}"
+    return f"{v:.3g}"
+
+
+def traffic_items(case) -> tuple[list[tuple[str, list[str]]], list[str], float]:
+    """The traffic in the words people count it in: each condition's trains (when given so),
+    passages of its modelled vehicle, axles and axle load, then the trains, axle passes and
+    gross tonnes a year of all together.
+
+    Parameters
+    ----------
+    case
+        a loaded case with a ``degradation:`` section.
+
+    Returns
+    -------
+    (list of (str, list of str), list of str, float)
+        (condition name, its items) in case order, the items of the total, and the axle passes
+        a year.
+    """
+    vehicles = ({c.name: c.data["vehicle"] for c in case.traffic}
+                or {SINGLE_CONDITION: case.vehicle})
+    per, axle_passes, tonnes, trains = [], 0.0, 0.0, 0.0
+    for name, t in resolved_traffic(case.data, case.traffic).items():
+        v = vehicles[name]
+        n, load = axles(v), vehicle_facts(v)[2]                 # kN per wheel
+        what = vehicle_type(v.get("type")).passage
+        if t.trains_per_day is not None:
+            trains += t.trains_per_day
+            items = [f"{t.trains_per_day:g} trains a day, {t.per_train:g} {what} passages each",
+                     f"{count_text(t.passages)} {what} passages a year ({n} axles each)"]
+        else:
+            items = [f"{count_text(t.passages)} {what} passages a year ({n} axles each)"]
+        items.append(f"axle load {2 * load:.3g} kN")
+        per.append((name, items))
+        axle_passes += t.axle_passes
+        tonnes += t.axle_passes * 2 * load * 1e3 / 9.81 / 1e3            # t
+    total = [f"{count_text(axle_passes)} axle passes",
+             f"about {tonnes / 1e6:.3g} million gross tonnes a year"]
+    if trains:
+        total.insert(0, f"{trains:g} trains a day")
+    return per, total, axle_passes
+
+
 def traffic_lines(case) -> tuple[list[str], float]:
-    """The traffic as ``lccopt check`` prints it: each condition's trains (when given so),
-    passages of its modelled vehicle and axle passes, then the trains, axle passes and gross
-    tonnes of all together; and the axle passes a year.
+    """The traffic as ``lccopt check`` prints it (:func:`traffic_items`).
 
     Parameters
     ----------
@@ -253,29 +303,31 @@ def traffic_lines(case) -> tuple[list[str], float]:
     (list of str, float)
         lines of at most 80 columns, and the axle passes a year.
     """
-    vehicles = ({c.name: c.data["vehicle"] for c in case.traffic}
-                or {SINGLE_CONDITION: case.vehicle})
-    lines, axle_passes, tonnes, trains = [], 0.0, 0.0, 0.0
-    for name, t in resolved_traffic(case.data, case.traffic).items():
-        v = vehicles[name]
-        n, load = axles(v), vehicle_facts(v)[2]                 # kN per wheel
-        what = vehicle_type(v.get("type")).passage
-        head = f"    traffic {name}: "
-        if t.trains_per_day is not None:
-            trains += t.trains_per_day
-            items = [f"{t.trains_per_day:g} trains a day x {t.per_train:g} {what} passages",
-                     f"= {t.passages:.3g} a year ({n} axles each)"]
-        else:
-            items = [f"{t.passages:.3g} {what} passages a year ({n} axles each)"]
-        items.append(f"axle load {2 * load:.3g} kN")
-        lines += wrap_items(items, head)
-        axle_passes += t.axle_passes
-        tonnes += t.axle_passes * 2 * load * 1e3 / 9.81 / 1e3            # t
-    total = [f"{axle_passes:.3g} axle passes", f"about {tonnes / 1e6:.3g} million gross tonnes "
-                                               f"a year"]
-    if trains:
-        total.insert(0, f"{trains:g} trains a day")
+    per, total, axle_passes = traffic_items(case)
+    lines = []
+    for name, items in per:
+        lines += wrap_items(items, "    traffic: " if not case.traffic else f"    traffic {name}: ")
     return lines + wrap_items(total, "    "), axle_passes
+
+
+def traffic_sentence(case) -> str:
+    """The traffic in one phrase, as ``lccopt check`` counts it (the report's words): the one
+    vehicle's traffic without its condition's name, or each condition's by its name.
+
+    Parameters
+    ----------
+    case
+        a loaded case with a ``degradation:`` section.
+
+    Returns
+    -------
+    str
+    """
+    per, total, _ = traffic_items(case)
+    if not case.traffic:
+        return f"{', '.join(per[0][1])}; {', '.join(total[-2:])}"
+    return "; ".join(f"{name}: {', '.join(items)}" for name, items in per) + \
+        f"; together {', '.join(total)}"
 
 
 def degradation_lines(case) -> list[str]:
@@ -301,7 +353,7 @@ def degradation_lines(case) -> list[str]:
     horizon = deg["horizon_years"]
     limit = deg["limit"]
     lines.append(f"    horizon {horizon:.4g} year{'' if horizon == 1 else 's'} = "
-                 f"{horizon * per_year:.3g} axle passes; "
+                 f"{count_text(horizon * per_year)} axle passes; "
                  f"{deg['settling_sleepers']} settling sleepers")
     lines.append(f"    limit: {limit['measure']} {limit['value'] * 1e3:g} mm (years_to_limit, "
                  f"maintenance_rate)")
@@ -311,6 +363,9 @@ def degradation_lines(case) -> list[str]:
                      f"sleeper(s) by the slab; at most every {tamping['min_interval']:g} yr")
     lines.append(f"    per design: at most {deg['max_simulations']} simulations x {simulated} "
                  f"condition(s), tolerance {deg['tolerance'] / 1e3:g} kN")
+    # the law's parameters come from other tracks: nothing here is a forecast
+    lines += ["    the millimetres will be the law's values, not a forecast: the law is not",
+              "    calibrated to a measured crossing (docs/settlement.md, Validation)"]
     return lines
 
 
@@ -328,10 +383,14 @@ def _pressure_lines(case) -> list[str]:
         return lines + ["    subgrade: none (the ballast law alone: a softer support settles "
                         "less)"]
     k = case.data["track"]["support"]["stiffness"]
-    here = sub["strength"] * k / sub["reference_stiffness"]
+    k0 = sub["reference_stiffness"]
+    here = sub["strength"] * k / k0
+    strength = [f"strength {here / 1e3:.3g} kPa"]
+    if k != k0:        # the strength follows the support: say from what
+        strength += [f"scaled from {sub['strength'] / 1e3:g} kPa on {k0 / 1e6:g} MN/m "
+                     f"to this {k / 1e6:g} MN/m support"]
     return lines + wrap_items(
-        [f"soil {sub['soil']}", f"strength {here / 1e3:.3g} kPa on this {k / 1e6:g} MN/m support",
-         f"{sub['strength'] / 1e3:g} kPa on {sub['reference_stiffness'] / 1e6:g} MN/m",
+        [f"soil {sub['soil']}", *strength,
          f"{sub['depth']:g}-{sub['depth'] + sub['thickness']:g} m below the sleepers"],
         "    subgrade (Li & Selig): ")
 

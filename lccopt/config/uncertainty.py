@@ -28,6 +28,7 @@ from ..uncertainty import statistics as stats
 from ..vti.response import REPORTED_ONLY, SETTLEMENT_OBJECTIVES
 from ..vti.specs import TrackVariation
 from .checks import MAX_DESIGN_STEP_DOFS, simulation_size
+from .schema import MAX_REALISATIONS
 
 # the quantities of the section, in the order check prints them
 QUANTITIES = ("support_stiffness", "support_damping", "pad_stiffness", "settlement_coefficient",
@@ -206,11 +207,18 @@ def check_uncertainty(data: dict, conditions: tuple, err) -> None:
     per_design = design_work(data, conditions)
     n = int(unc["realisations"])
     if (n + 1) * per_design > MAX_ROBUST_DESIGN_WORK:
-        most = max(1, int(MAX_ROBUST_DESIGN_WORK // per_design) - 1)
         raise err(("uncertainty", "realisations"),
                   f"{n} realisations and the track as drawn take {(n + 1) * per_design:.2g} "
                   f"steps x track dofs per design; at most {MAX_ROBUST_DESIGN_WORK:.0e} (about "
-                  f"6 hours of one core per design): at most {most} realisations here")
+                  f"6 hours of one core per design): at most "
+                  f"{most_realisations(data, conditions)} realisations here")
+
+
+def most_realisations(data: dict, conditions: tuple) -> int:
+    """The most realisations a design of this case may have: its simulations on them and on
+    the drawing within ``MAX_ROBUST_DESIGN_WORK``, and no more than the section allows."""
+    fit = int(MAX_ROBUST_DESIGN_WORK // design_work(data, conditions)) - 1
+    return max(1, min(fit, MAX_REALISATIONS))
 
 
 def design_work(data: dict, conditions: tuple) -> float:
@@ -245,14 +253,18 @@ def _field_text(q: dict, name: str, unc: dict) -> str:
     return where
 
 
-def uncertainty_lines(case) -> list[str]:
+def uncertainty_lines(case, *, cost: bool = True, budget: bool = True) -> list[str]:
     """The ``uncertainty:`` section as ``lccopt check`` prints it: the quantities, the seed,
-    and the cost per design and for the budget.
+    and the cost per design, the realisations the cost cap allows and the budget's cost.
 
     Parameters
     ----------
     case
         a loaded case with an ``uncertainty:`` section.
+    cost
+        False: the head line and the quantities only.
+    budget
+        False: without the budget's cost (a single design's command).
 
     Returns
     -------
@@ -277,17 +289,23 @@ def uncertainty_lines(case) -> list[str]:
             text = (f"{q['distribution']}, {mean}cov {q['cov']:g}, "
                     f"{_field_text(q, name, unc)}")
         lines.append(f"    {name}: {text}")
+    if not cost:
+        return lines
     tasks, sims = simulations_per_design(case)
     each = (f" x {len(case.conditions)} conditions" if case.conditions else "")
-    budget = (case.optimisation or {}).get("budget")
+    designs = (case.optimisation or {}).get("budget") if budget else None
     head = (f"    per design: {n + 1} tracks (the drawing and {n} realisations){each} = "
             f"{tasks} tasks")
     if sims != tasks:
         head += f", up to {sims:,} simulations"
     lines.append(head)
-    if budget:
-        lines.append(f"    budget {budget}: {budget * tasks:,} tasks" +
-                     (f", up to {budget * sims:,} simulations" if sims != tasks else "") +
+    most = most_realisations(data, case.traffic)
+    lines.append(f"    at most {most} realisations: " + (
+        "the section's limit" if most == MAX_REALISATIONS else
+        "the cost cap, about 6 hours of one core a design"))
+    if designs:
+        lines.append(f"    budget {designs}: {designs * tasks:,} tasks" +
+                     (f", up to {designs * sims:,} simulations" if sims != tasks else "") +
                      f" ({n + 1} x a deterministic run)")
     return lines
 

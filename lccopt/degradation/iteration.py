@@ -335,6 +335,7 @@ class _Run:
         self.tamping = tamping
         self.seg_start = 0.0               # years of the last tamping (0: the new track)
         self.ineffective = None            # years of a tamping that did not cure the limit
+        self.post_tamp = None              # dynamic parts simulated just after a tamping
         self.rail_seats = rail_seats
         self.grid, self.slab = grid, slab
         self.statics = ZoneStatics(track, zone.supports, level_x=grid.x)
@@ -466,7 +467,7 @@ class _Run:
                 # allowance again
                 self._tamp()
                 parts, _, mark = self.simulate()
-                self.loads.dynamic = parts
+                self.loads.dynamic = self.post_tamp = parts
                 self.mark(mark)
                 dt, allowance = one_pass, tolerance / _ERROR_PER_METRE
                 seg_settlement = self.settlement.copy()
@@ -514,6 +515,10 @@ class _Run:
                 if stop:
                     break
                 self._tamp()
+                if self.post_tamp is not None:
+                    # no simulation left: the freshly tamped track loads as the last freshly
+                    # tamped one that was simulated, not as the worn track before it
+                    self.loads.dynamic = self.post_tamp
                 dt = one_pass
             if profile is not None and np.max(np.abs(s - profile[0])) >= 0.75 * profile[1]:
                 break

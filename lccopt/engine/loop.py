@@ -35,13 +35,12 @@ import threading
 import time
 from pathlib import Path
 
-import typer
-
 from ..config import Case, design_items
 from ..errors import (
     STOP_SIGNALS,
     CaseError,
     EnvironmentFault,
+    RunInterrupted,
     describe_os_error,
     environment_errno,
     printable_lines,
@@ -116,9 +115,12 @@ class Engine:
         self.histories = getattr(case, "histories", "best")
         self._histories_done: set[int] = set()  # designs whose histories were made at the end
         self._owner_lost = False   # the run's journal was replaced: this process stops writing
+        self.signum: int | None = None  # the first stopping signal of the run
 
     # -- signals ---------------------------------------------------------------------------------
     def _on_signal(self, signum, frame) -> None:
+        if self.signum is None:
+            self.signum = signum
         if signum == signal.SIGINT and not self.stop:
             self.stop = True
         else:
@@ -247,7 +249,7 @@ class Engine:
             p.log(f"saved {self.table.n_done}/{pb.budget} evaluations in {self.rd.path}; carry on "
                   f"with:")
             p.log(f"    lccopt resume {self.rd.path}")
-            raise typer.Exit(130)
+            raise RunInterrupted(self.rd.path, self.table.n_done, pb.budget, self.signum)
         self._summary(wall)
 
     def _close_session(self, wall: float, n_start: int) -> None:

@@ -50,7 +50,7 @@ def optimise(case, workers: int | None = None, scheduler=None, runs: Path = Path
     """Start a run of CASE in ``runs/<case name>/``; return the run directory.
 
     Raises CaseError (bad case), UsageError (bad options, run exists or is locked),
-    typer.Exit(130) after an interruption (the run is saved and resumable).
+    RunInterrupted after an interruption (the run is saved and resumable).
     """
     case_obj = case if isinstance(case, Case) else load_case(case)
     problem = Problem.from_case(case_obj)

@@ -20,6 +20,8 @@ Writes into ``RUN/report/`` (or ``--out DIR``):
     settlement-history.png settlement per sleeper against axle passes, best and reference (a
                            case with degradation:; lccopt/report/settlement.py)
     settlement-profile.png the settlement along the zone at chosen times, and the voids
+    law-variants.json      the best and the reference design re-predicted under eight variants
+                           of the settlement law (kept for the next report)
     robust-spread.png      each objective over the realisations of the track, reference, nominal
                            and robust optimum side by side (a case with uncertainty:;
                            lccopt/report/robust.py)
@@ -42,37 +44,58 @@ report at a time per folder.
 from __future__ import annotations
 
 import json
-import math
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Callable
 
 from ..errors import printable
 from ..outdir import Output
+from ..terminal import echo
 from .along_track import fig_contact_force, fig_sleeper_energy
-from .data import FIGURES, FORMATS, _usage, load_run, pct, read_history
+from .data import FIGURES, FORMATS, RunData, _usage, load_run, read_history
 from .design import fig_best_vs_reference, fig_conditions, fig_track_layout
 from .robust import fig_spread, run_spreads, spread_keys
 from .search import fig_objective_space, fig_search_history
 from .sensitivity import fig_sensitivity, sensitivity_of
 from .settlement import (
+    CHECK_FILE,
     Design,
     fig_settlement_history,
     fig_settlement_profile,
     has_settlement,
+    law_check,
     limit_of,
 )
 from .summary import build_summary, history_facts
 
-__all__ = ["write_report"]
+__all__ = ["Report", "write_report"]
+
+Echo = Callable[..., None]   # echo(text, err=False): how the report says something
 
 
-REPORT_FILES = ("report.md", "report.html", "summary.json")
+REPORT_FILES = ("report.md", "report.html", "summary.json", CHECK_FILE)
+
+
+@dataclass(frozen=True)
+class Report:
+    """What :func:`write_report` wrote: the report's folder (as the user named it), the run it
+    reports on (its name, evaluations, state, objectives), the summary's key numbers, the
+    figures and the summary files."""
+
+    path: Path
+    run: RunData
+    summary: dict
+    figures: dict
+    files: list
 
 
 def write_report(run: Path, format: str = "both", out: Path | None = None,
-                 force: bool = False) -> Path:
+                 force: bool = False, *, echo: Echo = echo) -> Report:
     """Write figures and the summary of run directory RUN into OUT (default RUN/report/);
-    return that directory. A folder of the user's (``out``) that already holds a report's
-    files is refused unless ``force``: a report replaces its own files only."""
+    return what was written. A folder of the user's (``out``) that already holds a report's
+    files is refused unless ``force``: a report replaces its own files only. ``echo(text,
+    err=False)`` says the run's warnings and the progress of a long step (on standard error,
+    ``err=True``)."""
     import time
 
     t0 = time.perf_counter()
@@ -81,40 +104,18 @@ def write_report(run: Path, format: str = "both", out: Path | None = None,
         raise _usage(f"--format must be one of {', '.join(FORMATS)}, got {format!r}")
     data = load_run(Path(run))
     try:
-        with _output(data, out, force) as output:
-            summary, figs, wrote = _draw(data, fmt_, output.root, t0)
+        with _output(data, out, force, echo) as output:
+            summary, figs, wrote = _draw(data, fmt_, output.root, t0, echo)
     finally:
         data.rd.close()
-    import typer
-
-    # printable: the name and objectives come from the run's files, which anyone may edit
-    typer.echo(f"report of '{printable(data.name)}' ({data.n}/{data.budget} evaluations, "
-               f"{data.state})")
-    if "best" in summary:  # a line of its own: one line would wrap on an 80-column terminal
-        typer.echo(f"  best #{summary['best']['id']}: " + ", ".join(
-            f"{printable(k)} "
-            f"{pct(summary['best']['objectives'][k], data.ref_objectives.get(k, math.nan))}"
-            for k in data.objectives))
-        from ..terminal import wrap_items
-
-        on = [f"{k} ({side})" for k, side in summary["on_bound"].items()]
-        worse = [f"{k} {pct(summary['best']['objectives'][k], data.ref_objectives[k])}"
-                 for k in summary["worse"]]
-        for head, items in (("  on a bound: ", on), ("  worse than the reference: ", worse)):
-            if items:
-                typer.echo("\n".join(wrap_items(items, head)))
-    typer.echo(f"  {len(figs)} figures and {', '.join(p.name for p in wrote)} in "
-               f"{output.shown} ({summary['seconds']:.1f} s)")
-    return output.shown
+    return Report(output.shown, data, summary, figs, wrote)
 
 
-def _output(data, out: Path | None, force: bool) -> Output:
+def _output(data, out: Path | None, force: bool, echo: Echo) -> Output:
     """Where the report goes: RUN/report (lccopt's own, replaced whole), or a folder of the
     user's (``out``), whose report files are refused unless ``force``."""
-    import typer
-
     for warning in data.warnings:
-        typer.echo(f"lccopt: warning: {printable(warning)}", err=True)
+        echo(f"lccopt: warning: {printable(warning)}", err=True)
     own = data.path / "report"
     if out is None or Path(out).absolute() == own.absolute():
         return Output.own(data.rd.folder, "report", own, "report")
@@ -122,7 +123,7 @@ def _output(data, out: Path | None, force: bool) -> Output:
     return Output.into(Path(out), names, (), force, "report")
 
 
-def _draw(data, fmt_: str, out, t0: float):
+def _draw(data, fmt_: str, out, t0: float, echo: Echo):
     """Every figure and the summary of ``data`` into ``out`` (a staged folder); return
     (summary, figures, summary files)."""
     import time
@@ -167,7 +168,7 @@ def _draw(data, fmt_: str, out, t0: float):
         best, ref, _ = histories[shown["sleeper-energy"]]
         facts = history_facts(best, ref, shown["sleeper-energy"])
         settlement = _settlement_figures(data, histories[None] if None in histories else None,
-                                         bi, out, figs)
+                                         bi, out, figs, echo)
     else:
         facts, settlement = [], None
     robust = run_spreads(data, bi, ri) if bi is not None else None
@@ -196,7 +197,7 @@ def _draw(data, fmt_: str, out, t0: float):
     return summary, figs, wrote
 
 
-def _settlement_figures(data, histories, bi: int, out: Path, figs: dict):
+def _settlement_figures(data, histories, bi: int, out: Path, figs: dict, echo: Echo):
     """The settlement figures of a run whose evaluations predicted settlement (best and
     reference design); (designs, limit) for the summary, or None."""
     if histories is None:
@@ -212,8 +213,9 @@ def _settlement_figures(data, histories, bi: int, out: Path, figs: dict):
     if not designs:
         return None
     limit = limit_of(designs[-1].info)
-    title = f"Settlement of '{data.name}' under its traffic"
+    title = (f"Settlement of '{data.name}' under its traffic (the law's values, not a "
+             f"forecast)")
     figs["settlement-history"] = fig_settlement_history(designs, out, title, limit)
     figs["settlement-profile"] = fig_settlement_profile(designs, out, title)
-    return designs, limit
+    return designs, limit, law_check(data, bi, data.ref_index(), out, echo)
 

@@ -116,7 +116,7 @@ def fig_spread(designs: list[Spread], keys: list[str], out: Path, title: str,
     fig.legend(handles=handles, loc="lower center", ncol=2, fontsize=7.5, frameon=False)
     fig.suptitle(title, fontsize=10)
     fig.tight_layout(rect=(0, 0.13 if n_cols > 1 else 0.08, 1, 0.96))
-    return save_figure(fig, out / name)
+    return save_figure(fig, (Path(out) if isinstance(out, str) else out) / name)
 
 
 # ---------------------------------------------------------------------------- a run's designs
@@ -203,7 +203,7 @@ def robust_section(doc, run: RunData, designs: list[Spread], figs: dict) -> dict
     if run.case is not None and run.case.realisations:
         from ..config.uncertainty import uncertainty_lines
 
-        what = "; ".join(line.strip() for line in uncertainty_lines(run.case)[1:-2])
+        what = "; ".join(line.strip() for line in uncertainty_lines(run.case, cost=False)[1:])
     doc.p(f"Every design was simulated on the track as drawn and on the same {n} realisations "
           f"of it (common random numbers: seed {rec.get('seed', '?')}, fingerprint "
           f"`{rec.get('fingerprint', '?')}`; docs/robust.md)" + (f": {what}." if what else ".")

@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from ..config.describe import pad_facts
-from ..vti.response import objective_unit
+from ..vti.response import objective_display, objective_unit
 from .data import (
     OBJECTIVE_DOC,
     OBJECTIVE_NAMES,
@@ -317,6 +317,10 @@ def build_summary(run: RunData, figs: dict, notes: dict, facts: list[str] | None
         _conditions_section(doc, run, bi, ri, figs)
     if settlement is not None:
         _settlement_section(doc, run, *settlement, figs)
+        if len(settlement) > 2 and settlement[2] is not None:
+            check = settlement[2]
+            summary["law_check"] = {k: check[k] for k in ("keys", "n", "beats", "per_key",
+                                                          "within_uncertainty")}
     if robust:
         from .robust import robust_section
 
@@ -589,9 +593,10 @@ def _conditions_section(doc: Doc, run: RunData, bi: int, ri: int, figs: dict) ->
                 "dashed: the combined value.")
 
 
-def _settlement_section(doc: Doc, run: RunData, designs: list, limit, figs: dict) -> None:
-    """What the settlement prediction assumed, what its objectives mean, and what it shows."""
-    from .settlement import facts, meaning_items
+def _settlement_section(doc: Doc, run: RunData, designs: list, limit, check, figs: dict) -> None:
+    """What the settlement prediction assumed, what its objectives mean, what it shows, and
+    whether the ranking holds under the law's uncertainty (``check``, or None)."""
+    from .settlement import check_sentences, facts, meaning_items
 
     doc.h(2, "Settlement over the horizon")
     info = designs[-1].info
@@ -600,13 +605,9 @@ def _settlement_section(doc: Doc, run: RunData, designs: list, limit, figs: dict
     what = (f"over {horizon:g} year{'' if horizon == 1 else 's'}" if horizon
             else "over its horizon")
     if deg is not None:
-        from ..config.degradation import resolved_traffic
-        from ..config.describe import law_items
+        from ..config.describe import law_items, traffic_sentence
 
-        traffic = ", ".join(
-            (f"{k}: {t.trains_per_day:g} trains a day, " if t.trains_per_day else f"{k}: ")
-            + f"{t.axle_passes:.3g} axle passes a year"
-            for k, t in resolved_traffic(run.case.data, run.case.traffic).items())
+        traffic = traffic_sentence(run.case)
         what += (f" of the traffic ({traffic}), by the {deg['law']['name']} law "
                  f"({', '.join(law_items(deg['law']))}), {deg['settling_sleepers']} settling "
                  f"sleepers next to the slab")
@@ -637,3 +638,20 @@ def _settlement_section(doc: Doc, run: RunData, designs: list, limit, figs: dict
     for key, cap in captions.items():
         if key in figs:
             doc.fig(figs[key], cap)
+    if check is not None:
+        doc.h(3, "Rankings and the law's uncertainty")
+        for sentence in check_sentences(check):
+            doc.p(sentence)
+        keys = check["keys"]
+        rows = []
+        for r in check["variants"]:
+            cells = [r["label"]]
+            for k in keys:
+                scale, unit = objective_display(k)
+                cells.append(f"{fnum(r['best'][k] * scale, 3)} / "
+                             f"{fnum(r['reference'][k] * scale, 3)} {unit}".rstrip())
+            cells.append("yes" if all(r["best"][k] <= r["reference"][k] for k in keys)
+                         and any(r["best"][k] < r["reference"][k] for k in keys) else "no")
+            rows.append(cells)
+        doc.table(["law variant", *(f"{k}: best / reference" for k in keys),
+                   "best beats reference"], rows, "l" + "r" * len(keys) + "l")

@@ -35,7 +35,7 @@ OBJECTIVE_DOC = {  # short enough for one line of `lccopt simulate` on 80 column
     "rail_angle": "rail slope at the interface, mm/m",
     "interventions": "tampings over the horizon",
     "differential_settlement": "max - min over the settling sleepers",
-    "max_settlement": "the largest: the step from the slab",
+    "max_settlement": "largest of any settling sleeper",
     "max_void": "largest void under a sleeper",
     "level_std": "std of the rail level, zone +- 3 m",
     "force_growth": "wheel force: at the horizon / new",

@@ -205,7 +205,7 @@ class SupportContacts:
         wheels = self.wheels
         if not len(self.out.dofs):
             delta, coef = wheels.solve(y, c0)
-            return delta, self.factor.backward(wheels.correct(y, coef, False))
+            return delta, self.factor.backward(wheels.correct(y, coef))
         z, delta = self.out.solve(y, wheels.Sm, np.atleast_1d(c0), wheels.rider.kap)
         return (delta if wheels.k > 1 else delta[0]), self.factor.backward(z)
 

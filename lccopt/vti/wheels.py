@@ -206,7 +206,8 @@ class Wheels:
     def __init__(self, track: TrackLike, dt: float, speed: float, x_start: float, n_steps: int,
                  *, vehicle=None, load: float = 0.0,
                  irregularity: Callable[[float], float] | None = None):
-        self.steps, self.dt = steps, dt = n_steps + 1, dt
+        self.steps = steps = n_steps + 1
+        self.dt = dt
         self.time = dt * np.arange(steps)
         self.lead = x_start + speed * self.time
         _check_on_rail(track, self.lead)
@@ -270,9 +271,9 @@ class Wheels:
         self.s_vec, self.vals1 = self.Sm[0], self.vals[:, 0]
         self.force1, self.rail1 = self.force[:, 0], self.rail[:, 0]
         self.prev = [-10] * k
-        self.on = list(range(k))
+        self.on = []                     # (wheel, its rows, its row of S) on the rail
         self._eye = np.eye(k)
-        if k == 1:
+        if k == 1:                       # the same step, written out on scalars
             self.step = self._step_one
 
     def _enter(self, s: int) -> None:
@@ -294,7 +295,7 @@ class Wheels:
             else:
                 fill(scols[i], idx[i])
             prev[i] = e
-        self.on = [i for i, p in enumerate(prev) if p >= 0]
+        self.on = [(i, scols[i], self.Sm[i]) for i, p in enumerate(prev) if p >= 0]
 
     def prepare(self, s: int) -> None:
         """S = U⁻ᵀN of step s (rows of the wheels on the rail)."""
@@ -308,9 +309,9 @@ class Wheels:
         if self.k == 1:
             np.dot(self.vals1[s], self.scols[0], out=self.s_vec)
             return
-        vals, scols, Sm = self.vals[s], self.scols, self.Sm
-        for i in self.on:
-            np.dot(vals[i], scols[i], out=Sm[i])
+        vals = self.vals[s]
+        for i, rows, out in self.on:
+            np.dot(vals[i], rows, out=out)
 
     def offsets(self, s: int):
         """c0 of step s (a scalar for one wheel)."""
@@ -329,10 +330,10 @@ class Wheels:
         delta = np.linalg.solve(self._eye + np.dot(G2, kap), np.dot(Sm, y) + np.dot(G2, c0))
         return delta, c0 - np.dot(kap, delta)
 
-    def correct(self, y: np.ndarray, coef, inplace: bool) -> np.ndarray:
-        """y + S c (in place of y if ``inplace``), to be solved backward for u."""
+    def correct(self, y: np.ndarray, coef) -> np.ndarray:
+        """y + S c (a new array), to be solved backward for u."""
         if self.k == 1:
-            return blas.daxpy(self.s_vec, y if inplace else y.copy(), a=coef)
+            return blas.daxpy(self.s_vec, y.copy(), a=coef)
         return y + np.dot(coef, self.Sm)
 
     def finish(self, s: int, delta) -> None:
@@ -341,12 +342,15 @@ class Wheels:
         self.rail[s] = delta
 
     def step(self, s: int, rhs: np.ndarray, q: np.ndarray) -> np.ndarray:
-        """Displacements u of step s for the track's right-hand side ``rhs`` (overwritten)."""
+        """Displacements u of step s for the track's right-hand side ``rhs`` (overwritten); one
+        wheel takes :meth:`_step_one` instead."""
         self.prepare(s)
-        y = self.factor.forward(rhs)
-        delta, coef = self.solve(y, self.offsets(s))
-        self.finish(s, delta)
-        return self.factor.backward(self.correct(y, coef, True))
+        factor, rider, r = self.factor, self.rider, self.r_step[s]
+        y = factor.forward(rhs)
+        delta, coef = self.solve(y, rider.offsets(r))
+        self.force[s] = rider.finish(s, r, delta)
+        self.rail[s] = delta
+        return factor.backward(self.correct(y, coef))
 
     def _step_one(self, s: int, rhs: np.ndarray, q: np.ndarray) -> np.ndarray:
         """:meth:`step` of one wheel, :meth:`prepare`, :meth:`solve` and :meth:`correct`

@@ -433,3 +433,20 @@ def test_workers_that_cannot_start_an_evaluation_stop_the_run_with_nothing_faile
                        capture_output=True, text=True, timeout=120, env=subprocess_env(**ENV))
     assert r.returncode == 0, r.stderr
     assert_same_evaluations(reference, read_table(runs / "nofork"))
+
+
+def test_an_interruption_wrapped_by_python_is_still_an_interruption():
+    """A signal raised inside a class body's __set_name__ (a lazily imported dataclass) comes
+    out wrapped in a RuntimeError: the command line finds the interruption behind it."""
+    from lccopt.cli import _interruption_behind
+    from lccopt.errors import Interrupted
+
+    class Stopped:
+        def __set_name__(self, owner, name):
+            raise Interrupted(signal.SIGTERM)
+
+    with pytest.raises(RuntimeError) as caught:
+        type("Case", (), {"data": Stopped()})
+    found = _interruption_behind(caught.value)
+    assert isinstance(found, Interrupted) and found.signum == signal.SIGTERM
+    assert _interruption_behind(RuntimeError("a real fault")) is None

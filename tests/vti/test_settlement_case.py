@@ -18,7 +18,7 @@ from lccopt.degradation.evaluate import (
     sleeper_law,
 )
 from lccopt.degradation.iteration import predict_settlement
-from lccopt.degradation.laws import VarandasLaw
+from lccopt.degradation.laws import LI_SELIG, VarandasLaw
 from lccopt.degradation.loading import entry_zone, vti_condition
 from lccopt.problem import Problem, evaluate
 from lccopt.vti.evaluate import build_vehicle
@@ -184,22 +184,29 @@ SOFT = """  track: {support: {stiffness: 22.5 MN/m},
 
 @pytest.mark.parametrize("soil", ["none", "CL"])
 def test_a_soft_subgrade_settles_as_the_docs_say(tmp_path, soil):
-    """docs/settlement.md, "The subgrade": halving the support stiffness (a soft subgrade, the
-    strengthened sleepers' too) spreads each wheel over more sleepers, so the ballast law
-    alone (soil: none) predicts *less* settlement; with the subgrade layer, whose strength
-    falls with its stiffness, the soft subgrade settles *more* (largest settlement and the
-    spread along the approach)."""
+    """docs/settlement.md, "A softer subgrade is a weaker one": halving the support stiffness
+    (a soft subgrade, the strengthened sleepers' too) spreads each wheel over more sleepers,
+    so the ballast law alone (soil: none) predicts *less* settlement and a better rail; with
+    the subgrade layer, whose strength falls with its stiffness, the approach settles *more*,
+    the slab on the same soil 2^m times as much, and the rail measures do not get worse."""
     deg = f"  passages_per_year: 5.0e5\n{ONE_YEAR}  subgrade: {{soil: {soil}}}\n"
-    out = {}
+    out, slab = {}, {}
     for name, extra in (("stiff", ""), ("soft", SOFT)):
         case = cheap_case(tmp_path, deg, extra.replace("  track:", "track:"), name=name)
         r = predict(case.degradation_spec(), case.track_design(case.reference))
         out[name] = r.objectives("differential_settlement", 3e-3)
-    for k in ("max_settlement", "differential_settlement"):
-        if soil == "none":
-            assert out["soft"][k] < out["stiff"][k]
-        else:
-            assert out["soft"][k] > 1.1 * out["stiff"][k]
+        slab[name] = r.rail["slab"][-1]
+    soft, stiff = out["soft"], out["stiff"]
+    if soil == "none":
+        for k in ("max_settlement", "differential_settlement", "level_d1_max", "rail_step"):
+            assert soft[k] < stiff[k], k
+        assert slab["soft"] == slab["stiff"] == 0.0
+    else:
+        assert soft["max_settlement"] > 1.1 * stiff["max_settlement"]
+        assert soft["differential_settlement"] > stiff["differential_settlement"]
+        assert slab["soft"] / slab["stiff"] == pytest.approx(2.0 ** LI_SELIG["CL"][2])
+        for k in ("level_d1_max", "rail_step"):
+            assert stiff[k] * 0.9 < soft[k] <= stiff[k] * 1.02, k
 
 
 def test_tamping_lifts_the_reachable_sleepers_and_leaves_the_others(tmp_path):

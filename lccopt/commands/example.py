@@ -22,7 +22,7 @@ import stat
 import textwrap
 from pathlib import Path
 
-from .config.bundled import (
+from ..config.bundled import (
     bundled_root,
     example_names,
     files_of,
@@ -30,10 +30,10 @@ from .config.bundled import (
     read_bundled,
     resolve_name,
 )
-from .errors import UsageError
-from .outdir import Output
-from .safeio import UnsafeFile, read_input
-from .terminal import WIDTH
+from ..errors import UsageError
+from ..outdir import Output
+from ..safeio import UnsafeFile, read_input
+from ..terminal import WIDTH
 
 # the name column of ``lccopt example --list``
 _NAME_WIDTH = 24

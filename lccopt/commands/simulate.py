@@ -16,13 +16,13 @@ from pathlib import Path
 import numpy as np
 import typer
 
-from . import machine
-from .config import design_items, load_case, parse_design
-from .config.describe import condition_lines, vehicle_line, zone_line
-from .outdir import Output
-from .store import write_evaluation
-from .terminal import wrap_items
-from .vti.response import (
+from .. import machine
+from ..config import design_items, load_case, parse_design
+from ..config.describe import condition_lines, vehicle_line, zone_line
+from ..outdir import Output
+from ..store import write_evaluation
+from ..terminal import wrap_items
+from ..vti.response import (
     OBJECTIVE_DOC,
     PAPER_OBJECTIVES,
     SETTLEMENT_OBJECTIVES,
@@ -39,7 +39,7 @@ def _echo_design(case, case_path: Path, x) -> None:
 
 def run_simulate(case_path: Path, design: str | None, out: Path | None, plots: bool,
                  force: bool = False, overrides=()) -> Evaluation:
-    from .errors import UsageError
+    from ..errors import UsageError
 
     case = load_case(case_path, overrides)
     try:
@@ -67,7 +67,7 @@ def run_simulate(case_path: Path, design: str | None, out: Path | None, plots: b
 
 def _outputs(case, plots: bool) -> tuple[list[str], list[str]]:
     """(files, folders) ``simulate`` may write into its output folder."""
-    from .report.simulation import FILES
+    from ..report.simulation import FILES
 
     files, folders = ["simulation.h5"], []
     if plots:
@@ -107,7 +107,7 @@ def _simulate_one(case, case_path: Path, x, out, plots: bool, evaluate) -> Evalu
                    f"spring pulled the wheel", err=True)
     _write(out, ev, x, case)
     if plots:
-        from .report.simulation import simulation_figures
+        from ..report.simulation import simulation_figures
 
         _said(out, simulation_figures(ev, case.name, out))
     return ev
@@ -129,8 +129,8 @@ def _said(out, paths, what: str = "plot") -> None:
 def _simulate_conditions(case, case_path: Path, x, out: Path, plots: bool, evaluate) -> Evaluation:
     """A case with traffic conditions: one simulation per condition, their objectives and the
     combination the optimiser would minimise; one file with every condition."""
-    from .problem import combine_conditions
-    from .store import write_condition_evaluations
+    from ..problem import combine_conditions
+    from ..store import write_condition_evaluations
 
     names = [c.name for c in case.conditions]
     _echo_design(case, case_path, x)
@@ -163,7 +163,7 @@ def _simulate_conditions(case, case_path: Path, x, out: Path, plots: bool, evalu
                                 {"case": case.resolved, **machine.describe()})
     _said(out, [p], "histories")
     if plots:
-        from .report.simulation import simulation_figures
+        from ..report.simulation import simulation_figures
 
         for c, ev in zip(case.conditions, evs):
             _said(out, simulation_figures(ev, case.name, out.sub(c.name)))
@@ -173,7 +173,7 @@ def _simulate_conditions(case, case_path: Path, x, out: Path, plots: bool, evalu
 def _simulate_settlement(case, case_path: Path, x, out: Path, plots: bool, evaluate) -> Evaluation:
     """A case with degradation: the paper's objectives on the new track and the settlement
     prediction of the design; its histories and, with plots, the settlement figures."""
-    from .config.describe import degradation_lines
+    from ..config.describe import degradation_lines
 
     _echo_design(case, case_path, x)
     if case.traffic:
@@ -197,6 +197,7 @@ def _simulate_settlement(case, case_path: Path, x, out: Path, plots: bool, evalu
     typer.echo(f"settlement after {horizon:g} year{'' if horizon == 1 else 's'}: "
                f"{info.get('settlement_simulations', '?')} simulations, "
                f"{info.get('settlement_blocks', '?')} blocks, {wall:.1f} s")
+    typer.echo("  (the law's values, not a forecast: not calibrated to a measured crossing)")
     _echo_objectives(o, [k for k in (*SETTLEMENT_OBJECTIVES, "years_to_limit") if k in o])
     if not info.get("settlement_limit_reached", True):
         typer.echo(f"  (the limit, {info['settlement_limit_measure']} "
@@ -219,17 +220,18 @@ def _simulate_settlement(case, case_path: Path, x, out: Path, plots: bool, evalu
         typer.echo("\n".join(wrap_items([f"{a:.2f}" for a in v], "  void       ")))
     _write(out, ev, x, case)
     if plots:
-        from .report.settlement import (
+        from ..report.settlement import (
             Design,
             fig_settlement_history,
             fig_settlement_profile,
             limit_of,
         )
-        from .report.simulation import simulation_figures
+        from ..report.simulation import simulation_figures
 
         paths = simulation_figures(ev, case.name, out)
         design = Design("design", h, info)
-        title = f"Settlement of '{case.name}' under its traffic"
+        title = (f"Settlement of '{case.name}' under its traffic (the law's values, not a "
+                 f"forecast)")
         paths.append(fig_settlement_history([design], out, title, limit_of(info)))
         paths.append(fig_settlement_profile([design], out, title))
         _said(out, paths)
@@ -242,12 +244,12 @@ def _simulate_realisations(case, case_path: Path, x, out: Path, plots: bool,
     (each under every traffic condition, combined as the optimiser would), one line per
     track, the statistics over the realisations, one file with every track and the spread
     figure."""
-    from .config.uncertainty import uncertainty_lines
-    from .problem import Problem
-    from .report.data import BEST_COLOR
-    from .report.robust import fig_spread, spread_of
-    from .store import write_condition_evaluations
-    from .uncertainty import statistics as stats
+    from ..config.uncertainty import uncertainty_lines
+    from ..problem import Problem
+    from ..report.data import BEST_COLOR
+    from ..report.robust import fig_spread, spread_of
+    from ..store import write_condition_evaluations
+    from ..uncertainty import statistics as stats
 
     problem = Problem.from_case(case) if _optimisable(case) else None
     keys = _spread_keys(case)
@@ -257,7 +259,7 @@ def _simulate_realisations(case, case_path: Path, x, out: Path, plots: bool,
     else:
         typer.echo(f"vehicle: {vehicle_line(case.vehicle)}")
     typer.echo(zone_line(case))
-    typer.echo("\n".join(line[2:] for line in uncertainty_lines(case)[:-1]))
+    typer.echo("\n".join(line[2:] for line in uncertainty_lines(case, budget=False)))
     head = "".join(f"{k[:13]:>14}" for k in keys)
     units = "".join(f"{'[' + (objective_display(k)[1] or '-') + ']':>14}" for k in keys)
     typer.echo(f"{'track':<16}{head}{'time':>7}")
@@ -307,7 +309,7 @@ def _simulate_realisations(case, case_path: Path, x, out: Path, plots: bool,
                                 realisations=list(zip(on_track, first)))
     _said(out, [p], "histories")
     if plots:
-        from .report.simulation import simulation_figures
+        from ..report.simulation import simulation_figures
 
         label = ("the reference design" if np.array_equal(x, case.reference)
                  else "this design")
@@ -322,7 +324,7 @@ def _simulate_realisations(case, case_path: Path, x, out: Path, plots: bool,
 def combine_tracks(evs, names, weights, mode) -> dict:
     """One track's objectives from its conditions' evaluations, combined as the optimiser
     would (``Problem.combine``)."""
-    from .problem import combine_conditions
+    from ..problem import combine_conditions
 
     return combine_conditions([e.objectives for e in evs], names, weights, mode)
 
@@ -336,7 +338,7 @@ def _spread_keys(case) -> list[str]:
     """The objectives a simulation of a case with uncertainty shows per track: those the
     case's objectives measure, then the paper's F_max and E_max (and a settlement measure),
     four at most."""
-    from .uncertainty import statistics as stats
+    from ..uncertainty import statistics as stats
 
     named = [stats.objective_of(k) for k in (case.optimisation or {}).get("objectives") or []]
     default = ["F_max", "E_max", "F_rms", "E_rms"]
@@ -355,14 +357,14 @@ def _echo_objectives(objectives: dict, keys) -> None:
 def _simulator():
     """The function that simulates ``(case, x)``: the workers' (lccopt.problem.evaluate) or
     the stand-in named by LCCOPT_EVALUATOR."""
-    from .engine.worker import evaluator_spec, load_evaluator
+    from ..engine.worker import evaluator_spec, load_evaluator
 
     return load_evaluator(evaluator_spec())
 
 
 def _check_finite(objectives: dict, case, x, condition: str | None = None) -> None:
     """Stop (exit 2, one line, nothing written) when an objective is not a finite number."""
-    from .errors import UsageError
+    from ..errors import UsageError
 
     bad = [f"{k} = {v!r}" for k, v in objectives.items()
            if not isinstance(v, (int, float)) or not math.isfinite(v)]

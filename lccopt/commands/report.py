@@ -1,0 +1,39 @@
+"""``lccopt report RUN``: write a run's report (``lccopt.report``) and say what it holds."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import typer
+
+from ..errors import printable
+from ..report import Report, write_report
+from ..report.data import pct
+from ..terminal import wrap_items
+
+
+def run_report(run: Path, format: str, out: Path | None, force: bool) -> None:
+    typer.echo("\n".join(report_lines(write_report(run, format, out, force, echo=typer.echo))))
+
+
+def report_lines(report: Report) -> list[str]:
+    """The lines that sum a written report up: the run, its best design against the
+    reference, what sits on a bound or got worse, and what was written where."""
+    data, summary = report.run, report.summary
+    # printable: the name and objectives come from the run's files, which anyone may edit
+    lines = [f"report of '{printable(data.name)}' ({data.n}/{data.budget} evaluations, "
+             f"{data.state})"]
+    if "best" in summary:  # a line of its own: one line would wrap on an 80-column terminal
+        best = summary["best"]["objectives"]
+        lines.append(f"  best #{summary['best']['id']}: " + ", ".join(
+            f"{printable(k)} {pct(best[k], data.ref_objectives.get(k, math.nan))}"
+            for k in data.objectives))
+        on = [f"{k} ({side})" for k, side in summary["on_bound"].items()]
+        worse = [f"{k} {pct(best[k], data.ref_objectives[k])}" for k in summary["worse"]]
+        for head, items in (("  on a bound: ", on), ("  worse than the reference: ", worse)):
+            if items:
+                lines += wrap_items(items, head)
+    lines.append(f"  {len(report.figures)} figures and {', '.join(p.name for p in report.files)} "
+                 f"in {report.path} ({summary['seconds']:.1f} s)")
+    return lines
