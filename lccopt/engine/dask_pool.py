@@ -130,8 +130,8 @@ class DaskExecutor:
     runs them again; if it does not come back, :class:`ExecutorLost` stops the run with the
     evaluations still pending. A heartbeat thread asks the scheduler every HEARTBEAT s: the
     spans in which it does not answer (frozen by SIGSTOP, a debugger, a full machine) are not
-    counted against the evaluations' timeout, no evaluation is timed out while it is silent,
-    and one silent for PROBE_TIMEOUT is taken for lost likewise. So is a scheduler whose
+    counted against the evaluations' timeout, no evaluation is timed out before it has answered
+    again, and one silent for PROBE_TIMEOUT is taken for lost likewise. So is a scheduler whose
     workers have all gone (waited for up to WORKERS_TIMEOUT). The time the executor waits for
     the cluster is not counted against the evaluations' timeout."""
 
@@ -165,6 +165,7 @@ class DaskExecutor:
         # scheduler) are not counted against the evaluations' timeout.
         self._beats = 0            # answers so far (written by the thread only)
         self._beats_seen = 0       # ... as the loop last read them
+        self._late: dict = {}      # future past its timeout -> the count when first seen so
         self._answered_at = awake.now()
         self._silences: list[tuple[float, float]] = []
         self._beating: threading.Event | None = None
@@ -350,9 +351,10 @@ class DaskExecutor:
             time.sleep(timeout)
             return []
         now = awake.now()   # the driver's own clock: its pauses are not the designs' (awake.py)
+        # until the next deadline (one past waits for the heartbeat: the loop's usual turn)
         limit = timeout if self._stalled_at is not None else min(
-            [timeout] + [max(0.0, self.timeout - self._charged(t0, now))
-                         for _, t0 in self._futures.values()])
+            [timeout] + [r for r in (self.timeout - self._charged(t0, now)
+                                     for _, t0 in self._futures.values()) if r > 0])
         finished = []
         try:
             finished.append(self._done.get(timeout=max(0.01, limit)))
@@ -496,16 +498,19 @@ class DaskExecutor:
 
     def _timeouts(self, now: float) -> list[Outcome]:
         """The evaluations past their timeout (less the scheduler's silences), recorded as
-        failed; only while the scheduler answers (a heartbeat answered within the last
-        2 HEARTBEAT s): one that does not is not known to have run them."""
+        failed once the scheduler has answered a whole heartbeat asked after they were seen
+        late: a scheduler frozen meanwhile has not reported what its workers did, and its
+        silence, once it answers, is taken off their time."""
         late = [f for f, (_, t0) in self._futures.items() if self._charged(t0, now) > self.timeout]
-        if not late or now - self._answered_at >= 2 * HEARTBEAT:
-            return []
+        # the heartbeat count when each was first seen late (a design no longer late, after a
+        # silence was taken off, starts again)
+        self._late = {f: self._late.get(f, self._beats) for f in late}
         out = []
         for fut in late:
-            if fut.done():   # finished as the time ran out: its result is read at the next turn
-                continue
+            if fut.done() or self._beats < self._late[fut] + 2:
+                continue    # finished as its time ran out (read at the next turn), or not known
             task, t0 = self._futures.pop(fut)
+            del self._late[fut]
             with contextlib.suppress(Exception):
                 fut.cancel()
             out.append(Outcome.of(task, wall_time=self._charged(t0, now), worker="dask",
@@ -518,6 +523,7 @@ class DaskExecutor:
             with contextlib.suppress(Exception):
                 fut.cancel()
         self._futures.clear()
+        self._late.clear()
         self._orphans.clear()
 
 

@@ -10,7 +10,14 @@ import pytest
 from lccopt.engine.runner import optimise
 from lccopt.store import read_evaluation
 
-from .conftest import FAKE, assert_same_evaluations, optimise_on_local_dask, read_table, write_case
+from .conftest import (
+    FAKE,
+    FAULTY,
+    assert_same_evaluations,
+    optimise_on_local_dask,
+    read_table,
+    write_case,
+)
 
 # seconds a test: Dask schedulers and workers
 pytestmark = pytest.mark.slow
@@ -180,8 +187,12 @@ class _Cluster:
             client.wait_for_workers(2, timeout=120)
         return self
 
-    def kill_scheduler(self) -> None:
-        self.scheduler.kill()
+    def kill_scheduler(self, sig=None) -> None:
+        """kill -9 (or ``sig``: SIGTERM is the scheduler's orderly close)."""
+        if sig is None:
+            self.scheduler.kill()
+        else:
+            self.scheduler.send_signal(sig)
         self.scheduler.wait()
 
     def stop(self) -> None:
@@ -199,12 +210,14 @@ class _Cluster:
 
 def test_a_scheduler_killed_mid_run_is_an_environment_fault_never_a_failed_design(
         tmp_path, monkeypatch):
-    """kill -9 of the Dask scheduler while evaluations run: nothing in flight fails and no
-    budget is spent. Brought back (scheduler and workers restarted), the run carries on by
+    """The Dask scheduler stopped (SIGTERM) or killed (kill -9) while evaluations run: nothing
+    in flight fails and no budget is spent. Brought back (scheduler and workers restarted after
+    a SIGTERM), the run carries on by
     itself; never back, the run stops with exit 2 and one line after its wait, and a resume on
     a new cluster ends it. Both tables are the uninterrupted run's (the local pool with as
     many workers)."""
     import os
+    import signal
     import threading
     import time
 
@@ -226,7 +239,7 @@ def test_a_scheduler_killed_mid_run_is_an_environment_fault_never_a_failed_desig
                 env={"LCCOPT_EVALUATOR": FAKE})
         run = tmp_path / "back" / "lost"
         wait_for(lambda: n_done(run) >= 4)
-        cluster.kill_scheduler()
+        cluster.kill_scheduler(signal.SIGTERM)
         cluster.stop()
         time.sleep(1.0)
         cluster.start()
@@ -282,8 +295,11 @@ def test_a_scheduler_frozen_longer_than_the_timeout_times_out_no_design(tmp_path
     case = write_case(tmp_path, "frozen", budget=8, initial=4, seed=5, timeout=2.0)
     reference = read_table(optimise(case, workers=2, runs=tmp_path / "local", evaluator=FAKE,
                                     progress=False))
+    faults = tmp_path / "faults"
+    faults.mkdir()
     env = {**os.environ, "PYTHONPATH": str(REPO), "LCCOPT_EVALUATOR": FAKE,
-           "LCCOPT_FAKE_DELAY": "0.3"}
+           "LCCOPT_FAKE_DELAY": "0.3", "LCCOPT_TEST_FAULTS": "hang",
+           "LCCOPT_TEST_FAULT_DIR": str(faults), "LCCOPT_TEST_HANG": "5"}
     cluster = _Cluster(env, tmp_path).start()
     import importlib
 
@@ -326,6 +342,13 @@ def test_a_scheduler_frozen_longer_than_the_timeout_times_out_no_design(tmp_path
         assert "has not answered for 3.5 s" in said and "is back" in said, said
         assert not [e for e in journal_events(run) if e["event"] == "failed"]
         assert_same_evaluations(reference, read_table(run))
+
+        # while the scheduler answers, a design that hangs is still timed out (once)
+        table = read_table(optimise(case, scheduler=cluster.address, runs=tmp_path / "c",
+                                    evaluator=FAULTY, progress=False))
+        failed = [r for r, s in zip(table["reason"], table["status"]) if s == "failed"]
+        assert failed == ["timed out after 2 s (Dask task cancelled)"], failed
+        assert len(table["id"]) == 8 and (faults / "hang").exists()
     finally:
         with contextlib.suppress(OSError):
             os.kill(cluster.scheduler.pid, signal.SIGCONT)
