@@ -64,6 +64,9 @@ SILENT = 3.0                 # [s] without an answer: the scheduler is not answe
 _RESUME = "--scheduler ADDRESS"   # what a resume on a cluster that works needs
 MAX_CANCELLED = 3            # times an evaluation may be cancelled by Dask before the run stops
 _SCHEMES = ("tcp", "tls", "ws", "wss", "ucx")
+# distributed's loggers of the client's side of a connection
+_CLIENT_LOGGERS = ("distributed.client", "distributed.batched", "distributed.comm",
+                   "distributed.core")
 
 
 def _check_scheduler_address(address: str) -> None:
@@ -179,10 +182,13 @@ class DaskExecutor:
 
         self._log = log
         # this executor says in one line what a lost scheduler means for the run; distributed's
-        # own reports of it (reconnecting, giving up) would only repeat it, with a timestamp
-        logger = logging.getLogger("distributed.client")
-        self._log_level = logger.level
-        logger.setLevel(logging.CRITICAL)
+        # own reports of it on this side (reconnecting, giving up, a closed connection's
+        # traceback) would only repeat it, with a timestamp
+        self._log_level = {}
+        for name in _CLIENT_LOGGERS:
+            logger = logging.getLogger(name)
+            self._log_level[name] = logger.level
+            logger.setLevel(logging.CRITICAL)
         if isinstance(self.address, str):
             _check_scheduler_address(self.address)
         try:
@@ -282,10 +288,11 @@ class DaskExecutor:
             client, self.client = self.client, None
             with contextlib.suppress(BaseException):
                 client.close(timeout=5)
-        if getattr(self, "_log_level", None) is not None:
+        if getattr(self, "_log_level", None):
             import logging
 
-            logging.getLogger("distributed.client").setLevel(self._log_level)
+            for name, level in self._log_level.items():
+                logging.getLogger(name).setLevel(level)
             self._log_level = None
         if self._probe_folder is not None:
             if self._probe is not None:

@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
-import contextlib
 import io
+import os
+import signal
 
 import pytest
 
@@ -177,6 +178,8 @@ class _Cluster:
                                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
 
     def start(self) -> "_Cluster":
+        import importlib
+
         import distributed
 
         self.scheduler = self._popen("distributed.cli.dask_scheduler", "--host", "127.0.0.1",
@@ -185,6 +188,19 @@ class _Cluster:
                                    "--nthreads", "1", "--no-dashboard", "--memory-limit", "0")
         with distributed.Client(self.address, timeout="60s") as client:
             client.wait_for_workers(2, timeout=120)
+            # a worker's first evaluation imports lccopt (about a second): done before a test's
+            # short timeouts start
+            for module in ("tests.engine.fakesim", "lccopt.engine.dask_pool", "lccopt.store"):
+                client.run(importlib.import_module, module)
+        return self
+
+    def running(self) -> "_Cluster":
+        """Started again if a test left it stopped or frozen."""
+        if self.scheduler is not None and self.scheduler.poll() is None:
+            os.kill(self.scheduler.pid, signal.SIGCONT)
+        if any(p is None or p.poll() is not None for p in (self.scheduler, self.workers)):
+            self.stop()
+            self.start()
         return self
 
     def kill_scheduler(self, sig=None) -> None:
@@ -208,31 +224,47 @@ class _Cluster:
                     p.wait()
 
 
+@pytest.fixture(scope="module")
+def cluster(tmp_path_factory):
+    """One cluster for the tests that stop, kill and freeze it (a start costs seconds); its
+    workers' evaluator ``FAULTY`` hangs once, for 6 s."""
+    pytest.importorskip("distributed")
+    from .conftest import REPO
+
+    where = tmp_path_factory.mktemp("cluster")
+    (where / "faults").mkdir()
+    env = {**os.environ, "PYTHONPATH": str(REPO), "LCCOPT_EVALUATOR": FAKE,
+           "LCCOPT_FAKE_DELAY": "0.3", "LCCOPT_TEST_FAULTS": "hang",
+           "LCCOPT_TEST_FAULT_DIR": str(where / "faults"), "LCCOPT_TEST_HANG": "6"}
+    c = _Cluster(env, where)
+    c.faults = where / "faults"
+    try:
+        yield c.start()
+    finally:
+        c.running()
+        c.stop()
+
+
 def test_a_scheduler_killed_mid_run_is_an_environment_fault_never_a_failed_design(
-        tmp_path, monkeypatch):
+        tmp_path, monkeypatch, cluster):
     """The Dask scheduler stopped (SIGTERM) or killed (kill -9) while evaluations run: nothing
     in flight fails and no budget is spent. Brought back (scheduler and workers restarted after
     a SIGTERM), the run carries on by
     itself; never back, the run stops with exit 2 and one line after its wait, and a resume on
     a new cluster ends it. Both tables are the uninterrupted run's (the local pool with as
     many workers)."""
-    import os
-    import signal
     import threading
     import time
 
-    pytest.importorskip("distributed")
     from lccopt.engine import dask_pool
     from lccopt.errors import UsageError
 
-    from .conftest import REPO, cli, cli_run, journal_events, n_done, wait_for
+    from .conftest import cli, cli_run, journal_events, n_done, wait_for
 
     case = write_case(tmp_path, "lost", budget=12, initial=4, seed=6)
     reference = read_table(optimise(case, workers=2, runs=tmp_path / "local", evaluator=FAKE,
                                     progress=False))
-    env = {**os.environ, "PYTHONPATH": str(REPO), "LCCOPT_EVALUATOR": FAKE,
-           "LCCOPT_FAKE_DELAY": "0.3"}
-    cluster = _Cluster(env, tmp_path).start()
+    cluster.running()
     try:
         # brought back: the run waits, saying so, and carries on
         p = cli("optimise", case, "--scheduler", cluster.address, "--runs", tmp_path / "back",
@@ -273,43 +305,27 @@ def test_a_scheduler_killed_mid_run_is_an_environment_fault_never_a_failed_desig
         assert r.returncode == 0, r.stderr
         assert_same_evaluations(reference, read_table(gone))
     finally:
-        cluster.stop()
+        cluster.running()
 
 
-def test_a_scheduler_frozen_longer_than_the_timeout_times_out_no_design(tmp_path, monkeypatch):
-    """SIGSTOP to the Dask scheduler for 2.5 times the evaluations' timeout while they run (its
+def test_a_scheduler_frozen_longer_than_the_timeout_times_out_no_design(tmp_path, monkeypatch,
+                                                                        cluster):
+    """SIGSTOP to the Dask scheduler for 1.75 times the evaluations' timeout while they run (its
     workers go on; nothing they do is reported): no design is recorded as timed out and the
     table is the uninterrupted run's. Frozen for less than PROBE_TIMEOUT the run waits; longer
     (shortened here), the scheduler is taken for lost and the designs in flight run again once
     it answers."""
-    import os
-    import signal
     import threading
     import time
 
-    pytest.importorskip("distributed")
     from lccopt.engine import dask_pool
 
-    from .conftest import REPO, cli, journal_events, n_done, wait_for
+    from .conftest import cli, journal_events, n_done, wait_for
 
     case = write_case(tmp_path, "frozen", budget=8, initial=4, seed=5, timeout=2.0)
     reference = read_table(optimise(case, workers=2, runs=tmp_path / "local", evaluator=FAKE,
                                     progress=False))
-    faults = tmp_path / "faults"
-    faults.mkdir()
-    env = {**os.environ, "PYTHONPATH": str(REPO), "LCCOPT_EVALUATOR": FAKE,
-           "LCCOPT_FAKE_DELAY": "0.3", "LCCOPT_TEST_FAULTS": "hang",
-           "LCCOPT_TEST_FAULT_DIR": str(faults), "LCCOPT_TEST_HANG": "5"}
-    cluster = _Cluster(env, tmp_path).start()
-    import importlib
-
-    import distributed
-
-    with distributed.Client(cluster.address, timeout="60s") as client:
-        # a worker's first evaluation imports lccopt (about a second): done before the 2 s
-        # timeouts start
-        for module in ("tests.engine.fakesim", "lccopt.engine.dask_pool", "lccopt.store"):
-            client.run(importlib.import_module, module)
+    cluster.running()
 
     def freeze(run, seconds, p=None):
         wait_for(lambda: n_done(run) >= 2 or (p is not None and p.poll() is not None))
@@ -322,7 +338,7 @@ def test_a_scheduler_frozen_longer_than_the_timeout_times_out_no_design(tmp_path
         p = cli("optimise", case, "--scheduler", cluster.address, "--runs", tmp_path / "a",
                 env={"LCCOPT_EVALUATOR": FAKE, "LCCOPT_FAKE_DELAY": "0.3"})
         run = tmp_path / "a" / "frozen"
-        freeze(run, 5.0, p)
+        freeze(run, 3.5, p)
         out, err = p.communicate(timeout=120)
         assert p.returncode == 0, err
         assert "FAILED" not in err and "timed out" not in err, err
@@ -332,7 +348,7 @@ def test_a_scheduler_frozen_longer_than_the_timeout_times_out_no_design(tmp_path
         monkeypatch.setattr(dask_pool, "PROBE_TIMEOUT", 3.5)
         monkeypatch.setenv("LCCOPT_FAKE_DELAY", "0.3")
         run = tmp_path / "b" / "frozen"
-        stopper = threading.Thread(target=freeze, args=(run, 5.0), daemon=True)
+        stopper = threading.Thread(target=freeze, args=(run, 4.5), daemon=True)
         stopper.start()
         said = io.StringIO()
         optimise(case, scheduler=cluster.address, runs=tmp_path / "b", evaluator=FAKE,
@@ -348,11 +364,9 @@ def test_a_scheduler_frozen_longer_than_the_timeout_times_out_no_design(tmp_path
                                     evaluator=FAULTY, progress=False))
         failed = [r for r, s in zip(table["reason"], table["status"]) if s == "failed"]
         assert failed == ["timed out after 2 s (Dask task cancelled)"], failed
-        assert len(table["id"]) == 8 and (faults / "hang").exists()
+        assert len(table["id"]) == 8 and (cluster.faults / "hang").exists()
     finally:
-        with contextlib.suppress(OSError):
-            os.kill(cluster.scheduler.pid, signal.SIGCONT)
-        cluster.stop()
+        cluster.running()
 
 
 def test_scheduler_addresses_lccopt_cannot_use_are_one_line_with_no_finaliser_later(tmp_path):
