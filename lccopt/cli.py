@@ -1,4 +1,5 @@
-"""The ``lccopt`` command line: thin wrappers that parse options and call one module each.
+"""The ``lccopt`` command line: options parsed here, each command run by its module in
+``lccopt.commands``; the library's errors mapped to one-line messages and exit codes (``main``).
 
 Exit codes: 0 done, 1 internal error, 2 bad usage, case file, run directory or environment
 (disk full, read-only), 130 interrupted (any stopping signal), 141 output pipe closed.
@@ -104,10 +105,9 @@ def _set_option():
 def check(case: Path = typer.Argument(..., help="case file (YAML)"),
           set_: Optional[List[str]] = _set_option()) -> None:
     """Validate a case file without simulating."""
-    from .config import load_case
-    from .config.describe import case_lines
+    from .commands.check import run_check
 
-    typer.echo("\n".join(case_lines(load_case(case, set_ or ()), case)))
+    run_check(case, set_ or ())
 
 
 @app.command()
@@ -123,15 +123,9 @@ def example(
                                "bundled ones"),
 ) -> None:
     """Write a bundled case (and the cases it extends) into the current folder, or list them."""
-    from .commands.example import list_lines, write_examples
-    from .config.bundled import example_names
+    from .commands.example import run_example
 
-    if list_ or not (names or all_):
-        typer.echo("\n".join(list_lines()))
-        return
-    if names and all_:
-        raise UsageError("give case names or --all, not both")
-    typer.echo("\n".join(write_examples(example_names() if all_ else names, out, force)))
+    run_example(names or [], list_, all_, out, force)
 
 
 @app.command()
@@ -208,15 +202,9 @@ def resume(
 @app.command()
 def status(run: Path = typer.Argument(..., help=_RUN_HELP)) -> None:
     """Where a run stands: state, evaluations, best so far, pace (safe while it runs)."""
-    from .engine.journal import JournalError
-    from .engine.rundir import RunError
-    from .engine.status import status_lines
+    from .commands.status import run_status
 
-    try:
-        lines = status_lines(_run_dir(run))
-    except (RunError, JournalError) as exc:
-        raise UsageError(str(exc)) from None
-    typer.echo("\n".join(lines))
+    run_status(_run_dir(run))
 
 
 @app.command()

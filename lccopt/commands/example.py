@@ -22,6 +22,8 @@ import stat
 import textwrap
 from pathlib import Path
 
+import typer
+
 from ..config.bundled import (
     bundled_root,
     example_names,
@@ -37,6 +39,17 @@ from ..terminal import WIDTH
 
 # the name column of ``lccopt example --list``
 _NAME_WIDTH = 24
+
+
+def run_example(names: list[str], list_: bool, all_: bool, out: Path, force: bool) -> None:
+    """List the bundled cases (``--list``, or nothing named), or write the ones named (or
+    ``--all``) into ``out``, and say what was written."""
+    if list_ or not (names or all_):
+        typer.echo("\n".join(list_lines()))
+        return
+    if names and all_:
+        raise UsageError("give case names or --all, not both")
+    typer.echo("\n".join(write_examples(example_names() if all_ else names, out, force)))
 
 
 def list_lines() -> list[str]:

@@ -3,7 +3,7 @@ may be written in, its default, range, whether it is required, and what it is.
 
     python -m lccopt.config.reference > docs/case-reference.md
 
-tests/test_case_reference.py fails when docs/case-reference.md and the schema differ.
+tests/config/test_case_reference.py fails when docs/case-reference.md and the schema differ.
 """
 
 from __future__ import annotations

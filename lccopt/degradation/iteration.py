@@ -24,7 +24,7 @@ the long horizon (10^7 axle passes) cheap and stable:
   ``tolerance`` within a block or the profile would pass the allowance.
 
 As ``tolerance`` shrinks, both errors shrink and the result converges
-(tests/vti/test_settlement_iteration.py).
+(tests/degradation/test_settlement_iteration.py).
 """
 
 from __future__ import annotations

@@ -29,15 +29,12 @@ objectives fix the ASF reference point (``reference`` line) before any value is 
 
 from __future__ import annotations
 
-import signal
 import sys
-import threading
 import time
 from pathlib import Path
 
-from ..config import Case, design_items
+from ..config import Case
 from ..errors import (
-    STOP_SIGNALS,
     CaseError,
     EnvironmentFault,
     RunInterrupted,
@@ -46,11 +43,10 @@ from ..errors import (
     printable_lines,
 )
 from ..problem import Problem
-from ..terminal import PipeGuard, wrap_items
-from . import awake
+from ..terminal import PipeGuard
 from .executors import ExecutorLost
 from .journal import Journal, line_mark
-from .progress import Progress, fmt, hms, objective_text, objective_value, reference_objectives
+from .progress import Progress, summary_lines
 from .rundir import (
     RunDir,
     Table,
@@ -60,6 +56,7 @@ from .rundir import (
     write_results,
 )
 from .schedule import batch_size, may_ask, release
+from .stopping import StopSignals
 from .worker import Outcome, Task
 
 RESULTS_EVERY = 10.0  # [s] results.h5 is rebuilt at most this often while running (and at the end)
@@ -98,8 +95,7 @@ class Engine:
         # proposals per surrogate fit (schedule.py)
         self.batch = batch_size(self.lag, getattr(case, "proposals_per_fit", 1))
         self.strategy.set_batch(self.batch)
-        self.stop = False
-        self.abort = False
+        self.halt = StopSignals()  # stop: propose nothing more; abort: stop the running too
         self._stop_logged = False
         self._saved_seq = table.seq
         self._results_at = 0.0
@@ -109,40 +105,11 @@ class Engine:
         self.t_bookkeeping = 0.0   # journal, snapshots, results.h5, files written here
         self.t_held = 0.0          # worker-seconds idle because a proposal waited for a late result
         self._held = False         # the last ask waited for a result (schedule.py)
-        self._old_handlers: dict = {}
         self._restore: list[int] = []          # ids whose lost evals/ file is simulated again
         self._restoring: set[int] = set()
         self.histories = getattr(case, "histories", "best")
         self._histories_done: set[int] = set()  # designs whose histories were made at the end
         self._owner_lost = False   # the run's journal was replaced: this process stops writing
-        self.signum: int | None = None  # the first stopping signal of the run
-
-    # -- signals ---------------------------------------------------------------------------------
-    def _on_signal(self, signum, frame) -> None:
-        if self.signum is None:
-            self.signum = signum
-        if signum == signal.SIGINT and not self.stop:
-            self.stop = True
-        else:
-            self.stop = self.abort = True
-
-    def _install_signals(self) -> None:
-        if threading.current_thread() is not threading.main_thread():
-            return
-        # SIGTERM/SIGHUP (Slurm, systemd, timeout, a closed terminal) and the other stopping
-        # signals stop at once like a second Ctrl-C; the workers ignore them, so an evaluation
-        # is never reported as killed by them
-        for sig in STOP_SIGNALS:
-            self._old_handlers[sig] = signal.signal(sig, self._on_signal)
-        # SIGCONT after SIGSTOP or Ctrl-Z: the pause was this process's (awake.py)
-        old = awake.install()
-        if old is not None:
-            self._old_handlers[signal.SIGCONT] = old
-
-    def _restore_signals(self) -> None:
-        for sig, h in self._old_handlers.items():
-            signal.signal(sig, h)
-        self._old_handlers.clear()
 
     def restore_files(self, ids: list[int], out: Progress) -> None:
         """Simulate again the evaluations whose file was deleted or damaged (no budget spent)."""
@@ -171,7 +138,7 @@ class Engine:
                 and self.table.rows[0]["status"] == "failed" \
                 and self.table.reference is None:
             raise self._reference_failed(self.table.rows[0]["reason"])
-        self._install_signals()
+        self.halt.install()
         t_start = time.monotonic()
         n_start = self.table.n_done
         try:
@@ -191,19 +158,19 @@ class Engine:
                       f"{', '.join('#' + str(i) for i in requeue)}")
             while True:
                 # | head went away: stop as SIGPIPE would
-                if PipeGuard.closed_pipe and not self.abort:
-                    self.stop = self.abort = True
-                if self.stop:
+                if PipeGuard.closed_pipe and not self.halt.abort:
+                    self.halt.stop = self.halt.abort = True
+                if self.halt.stop:
                     self._held = False
-                submitted = 0 if self.stop else self._fill(requeue)
+                submitted = 0 if self.halt.stop else self._fill(requeue)
                 if time.monotonic() - self._snapshot_at > SNAPSHOT_EVERY:
                     self._check_owner()
                     self._snapshot()
                 if self.executor.running == 0:
-                    if (not self.stop and self.strategy.done and not self._restore
+                    if (not self.halt.stop and self.strategy.done and not self._restore
                             and self._best_lacks_histories()):
                         continue  # its histories are simulated again (no budget), then it ends
-                    if self.stop or (self.strategy.done and not self._restore):
+                    if self.halt.stop or (self.strategy.done and not self._restore):
                         break
                     if submitted == 0 and self.executor.free() > 0:
                         break  # nothing left to propose and nothing in flight
@@ -216,15 +183,15 @@ class Engine:
                     p.parts(self.table, self.executor.parts_done(set(self.table.pending_ids())))
                 if idle:
                     self.t_held += idle * (time.monotonic() - t_wait)
-                if self.stop and not self._stop_logged:
+                if self.halt.stop and not self._stop_logged:
                     self._stop_logged = True
                     n = self.executor.running
                     msg = "interrupted: no new evaluations"
-                    if not self.abort and n:
+                    if not self.halt.abort and n:
                         msg += (f"; waiting for the {n} running to finish (Ctrl-C again to stop "
                                 f"them now)")
                     p.log(msg)
-                if self.abort:
+                if self.halt.abort:
                     n = self.executor.running
                     if n:
                         p.log(f"stopping {n} running evaluation(s); they run again on resume")
@@ -234,7 +201,7 @@ class Engine:
                     self._write_results()
         finally:
             self.executor.close()
-            self._restore_signals()
+            self.halt.restore()
             p.close()
             wall = time.monotonic() - t_start
             try:
@@ -249,7 +216,7 @@ class Engine:
             p.log(f"saved {self.table.n_done}/{pb.budget} evaluations in {self.rd.path}; carry on "
                   f"with:")
             p.log(f"    lccopt resume {self.rd.path}")
-            raise RunInterrupted(self.rd.path, self.table.n_done, pb.budget, self.signum)
+            raise RunInterrupted(self.rd.path, self.table.n_done, pb.budget, self.halt.signum)
         self._summary(wall)
 
     def _close_session(self, wall: float, n_start: int) -> None:
@@ -389,7 +356,7 @@ class Engine:
         row = self.table.rows.get(o.id)
         if row is None or row["status"] != "pending":
             return
-        if (self.stop and o.error is not None
+        if (self.halt.stop and o.error is not None
                 and o.error.startswith("worker process died (killed by")):
             return  # stopped along with lccopt by a signal: pending, runs again on resume
         t0 = time.perf_counter()
@@ -506,37 +473,7 @@ class Engine:
         self.t_bookkeeping += time.perf_counter() - t0
 
     def _summary(self, wall: float) -> None:
-        t, pb = self.table, self.problem
-        lines = [f"done: {t.n_done} evaluations ({t.n_failed} failed) in {self.rd.path}",
-                 f"  this session {hms(wall)} wall, optimiser {self.t_optimiser:.1f} s, "
-                 f"bookkeeping {self.t_bookkeeping:.1f} s"]
-        best = t.best()
-        ref = reference_objectives(t) or {}
-        if best is not None:
-            lines.append(f"best #{best['id']} ({best['phase']}, restart {best['restart']}): value "
-                         f"{fmt(best['value'])}")
-            lines += wrap_items(design_items(self.case, best["x"]), "  x: ")
-            for k in pb.objectives:
-                v, r = best["objectives"].get(k), ref.get(k)
-                rel = ("" if not r else " (unchanged: the reference design's)" if v == r else
-                       f" ({(v - r) / r:+.1%} vs reference design {objective_value(k, r)})")
-                lines.append(f"  {objective_text(k, v)}{rel}")
-        if best is not None and pb.realisations and ref:
-            lines += wrap_items(realisation_wins(pb, best["objectives"], ref),
-                                "  beats the reference design on the same tracks: ")
-        lines.append(f"results: {self.rd.results_path}")
+        lines = summary_lines(self.rd, self.table, self.case, self.problem, wall,
+                              self.t_optimiser, self.t_bookkeeping)
         sys.stdout.write(printable_lines("\n".join(lines)) + "\n")
         sys.stdout.flush()
-
-
-def realisation_wins(problem: Problem, objectives: dict, reference: dict) -> list[str]:
-    """``F_max on 7 of 8``: on how many realisations a design's value of each objective the
-    case measures is below the reference design's."""
-    from ..uncertainty import statistics as robust
-
-    out = []
-    for base in dict.fromkeys(robust.objective_of(k) for k in problem.objectives):
-        a = robust.values(objectives, base, problem.realisations)
-        b = robust.values(reference, base, problem.realisations)
-        out.append(f"{base} on {int((a < b).sum())} of {problem.realisations} realisations")
-    return out

@@ -250,3 +250,44 @@ def _isatty(stream) -> bool:
         return bool(stream.isatty())
     except (AttributeError, OSError, ValueError):
         return False
+
+
+def summary_lines(rd, table, case, problem, wall: float, t_optimiser: float,
+                  t_bookkeeping: float) -> list[str]:
+    """The lines that end a run's session: evaluations, times, the best design against the
+    reference design (on the same tracks, with realisations), where the results are."""
+    from ..config import design_items
+
+    t, pb = table, problem
+    lines = [f"done: {t.n_done} evaluations ({t.n_failed} failed) in {rd.path}",
+             f"  this session {hms(wall)} wall, optimiser {t_optimiser:.1f} s, "
+             f"bookkeeping {t_bookkeeping:.1f} s"]
+    best = t.best()
+    ref = reference_objectives(t) or {}
+    if best is not None:
+        lines.append(f"best #{best['id']} ({best['phase']}, restart {best['restart']}): value "
+                     f"{fmt(best['value'])}")
+        lines += wrap_items(design_items(case, best["x"]), "  x: ")
+        for k in pb.objectives:
+            v, r = best["objectives"].get(k), ref.get(k)
+            rel = ("" if not r else " (unchanged: the reference design's)" if v == r else
+                   f" ({(v - r) / r:+.1%} vs reference design {objective_value(k, r)})")
+            lines.append(f"  {objective_text(k, v)}{rel}")
+    if best is not None and pb.realisations and ref:
+        lines += wrap_items(realisation_wins(pb, best["objectives"], ref),
+                            "  beats the reference design on the same tracks: ")
+    lines.append(f"results: {rd.results_path}")
+    return lines
+
+
+def realisation_wins(problem, objectives: dict, reference: dict) -> list[str]:
+    """``F_max on 7 of 8``: on how many realisations a design's value of each objective the
+    case measures is below the reference design's."""
+    from ..uncertainty import statistics as robust
+
+    out = []
+    for base in dict.fromkeys(robust.objective_of(k) for k in problem.objectives):
+        a = robust.values(objectives, base, problem.realisations)
+        b = robust.values(reference, base, problem.realisations)
+        out.append(f"{base} on {int((a < b).sum())} of {problem.realisations} realisations")
+    return out

@@ -71,3 +71,29 @@ def test_single_objective_summary_and_objective_space_note(run_dir):
     assert "Minimise **F_max**" in md
     assert "minimised F_max alone" in md  # objective space drawn anyway, with a note
     assert "target f^r" not in md
+
+
+def test_the_library_says_a_reports_warnings_only_through_the_callers_echo(run_dir, tmp_path,
+                                                                          monkeypatch, capsys):
+    """From Python, write_report prints nothing itself: the run's warning (a damaged journal
+    line) goes to the echo it is given, on the error side, and what it wrote comes back."""
+    import shutil
+
+    import lccopt.report as report
+
+    run = shutil.copytree(run_dir[0], tmp_path / "run")
+    journal = run / "journal.jsonl"
+    lines = journal.read_text().splitlines(keepends=True)
+    journal.write_text("".join(lines[:-2] + ["{damaged\n"] + lines[-2:]))
+    drawn = ({"seconds": 0.0}, {}, [])      # the figures are the other tests'
+    monkeypatch.setattr(report, "_draw", lambda *args: drawn)
+    heard = []
+    written = report.write_report(run, "md", tmp_path / "rep",
+                                  echo=lambda text, err=False: heard.append((text, err)))
+    said = capsys.readouterr()
+    assert said.out == said.err == ""
+    assert len(heard) == 1 and heard[0][1] is True, heard
+    assert heard[0][0].startswith(f"lccopt: warning: {journal}: line {len(lines) - 1} is damaged")
+    assert heard[0][0].endswith("the table is results.h5's, which may lag the run")
+    assert written.path == tmp_path / "rep" and written.run.name == "rep-fail"
+    assert (written.summary, written.figures, written.files) == drawn

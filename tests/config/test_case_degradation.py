@@ -275,7 +275,7 @@ def test_check_prints_the_prediction_in_80_columns(run_cli):
 
 def _docs_traffic_example() -> str:
     """The traffic example of docs/settlement.md (after its marker), as a user copies it."""
-    text = (Path(__file__).parents[1] / "docs" / "settlement.md").read_text(encoding="utf-8")
+    text = (Path(__file__).parents[2] / "docs" / "settlement.md").read_text(encoding="utf-8")
     block = text.split("<!-- traffic-example -->", 1)[1].split("```yaml\n", 1)[1]
     return block.split("```", 1)[0]
 
