@@ -6,7 +6,7 @@ optimisation saw. Prints a Markdown table and writes the spread figure of the fi
 
     nice -n 10 python benchmarks/robust_study.py paper --seeds 1 2 3 --budget 100 \\
         --realisations 8 --fresh 100 --out benchmarks/results/robust-paper
-    nice -n 10 python benchmarks/robust_study.py settlement --seeds 1 2 --budget 40 \\
+    nice -n 10 python benchmarks/robust_study.py settlement --seeds 1 --budget 40 \\
         --realisations 8 --fresh 40 --out benchmarks/results/robust-settlement
 
 Cases: ``paper``, the paper's crossing (configs/reference.yaml) for F_max, on
