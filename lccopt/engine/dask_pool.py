@@ -17,6 +17,7 @@ from __future__ import annotations
 import contextlib
 import os
 import queue
+import threading
 import time
 import uuid
 from pathlib import Path
@@ -58,9 +59,14 @@ CONNECT_TIMEOUT = 10         # [s] to reach the scheduler (distributed retries m
 WORKERS_TIMEOUT = 600        # [s] for a worker to join a scheduler that has none
 RECONNECT_TIMEOUT = 300      # [s] for a lost scheduler to come back before the run stops
 PROBE_TIMEOUT = 10           # [s] for the scheduler to answer a question (is it frozen?)
+HEARTBEAT = 1.0              # [s] between the executor's questions to the scheduler
+SILENT = 3.0                 # [s] without an answer: the scheduler is not answering (frozen)
 _RESUME = "--scheduler ADDRESS"   # what a resume on a cluster that works needs
 MAX_CANCELLED = 3            # times an evaluation may be cancelled by Dask before the run stops
 _SCHEMES = ("tcp", "tls", "ws", "wss", "ucx")
+# distributed's loggers of the client's side of a connection
+_CLIENT_LOGGERS = ("distributed.client", "distributed.batched", "distributed.comm",
+                   "distributed.core")
 
 
 def _check_scheduler_address(address: str) -> None:
@@ -125,10 +131,12 @@ class DaskExecutor:
     fetched) are kept, the executor waits for the scheduler to come back (distributed
     reconnects, else a new Client every few seconds), saying so, for RECONNECT_TIMEOUT, then
     runs them again; if it does not come back, :class:`ExecutorLost` stops the run with the
-    evaluations still pending. A scheduler that does not answer when a task reaches its
-    timeout is taken for lost likewise (a frozen scheduler must not time designs out), and so
-    is a scheduler whose workers have all gone (waited for up to WORKERS_TIMEOUT). The time
-    the executor waits for the cluster is not counted against the evaluations' timeout."""
+    evaluations still pending. A heartbeat thread asks the scheduler every HEARTBEAT s: the
+    spans in which it does not answer (frozen by SIGSTOP, a debugger, a full machine) are not
+    counted against the evaluations' timeout, no evaluation is timed out before it has answered
+    again, and one silent for PROBE_TIMEOUT is taken for lost likewise. So is a scheduler whose
+    workers have all gone (waited for up to WORKERS_TIMEOUT). The time the executor waits for
+    the cluster is not counted against the evaluations' timeout."""
 
     kind = "dask"
 
@@ -153,6 +161,18 @@ class DaskExecutor:
         self._probe: tuple[str, str] | None = None  # (path, content) of the run directory's probe
         self._probe_folder = None                   # the folder it is in, held open
         self._slots_cache = (0.0, 0)
+        # the heartbeat (a thread asks the scheduler every HEARTBEAT s) counts its answers;
+        # the run's loop reads the count and times them on the driver's clock (the thread never
+        # reads or marks that clock: awake.py counts a pause from the main thread's last turn).
+        # The spans of SILENT s or more without an answer (a frozen, stopped or cut-off
+        # scheduler) are not counted against the evaluations' timeout.
+        self._beats = 0            # answers so far (written by the thread only)
+        self._beats_seen = 0       # ... as the loop last read them
+        self._late: dict = {}      # future past its timeout -> the count when first seen so
+        self._answered_at = awake.now()
+        self._silences: list[tuple[float, float]] = []
+        self._beating: threading.Event | None = None
+        self._beat_thread: threading.Thread | None = None
         self.description = f"Dask scheduler {address if isinstance(address, str) else 'in-process'}"
 
     # -- lifecycle ---------------------------------------------------------------------------
@@ -162,10 +182,13 @@ class DaskExecutor:
 
         self._log = log
         # this executor says in one line what a lost scheduler means for the run; distributed's
-        # own reports of it (reconnecting, giving up) would only repeat it, with a timestamp
-        logger = logging.getLogger("distributed.client")
-        self._log_level = logger.level
-        logger.setLevel(logging.CRITICAL)
+        # own reports of it on this side (reconnecting, giving up, a closed connection's
+        # traceback) would only repeat it, with a timestamp
+        self._log_level = {}
+        for name in _CLIENT_LOGGERS:
+            logger = logging.getLogger(name)
+            self._log_level[name] = logger.level
+            logger.setLevel(logging.CRITICAL)
         if isinstance(self.address, str):
             _check_scheduler_address(self.address)
         try:
@@ -188,6 +211,60 @@ class DaskExecutor:
                                     f"again") from None
             n = self._n_threads(force=True)
         self.description = f"Dask scheduler {self.client.scheduler.address} ({n} worker threads)"
+        self._answered(awake.now())
+        self._beating = threading.Event()
+        self._beat_thread = threading.Thread(target=self._heartbeat, args=(self._beating,),
+                                             daemon=True, name="lccopt-dask-heartbeat")
+        self._beat_thread.start()
+
+    # -- the heartbeat -----------------------------------------------------------------------
+    def _heartbeat(self, stop: threading.Event) -> None:
+        """Thread: ask the scheduler for its workers every HEARTBEAT s and count its answers
+        (a sync call of the Client, which serves any thread through its own event loop; never
+        the run's loop, which must not wait on a scheduler that may be frozen)."""
+        while not stop.wait(HEARTBEAT):
+            client = self.client
+            if client is None or client.status != "running":
+                continue
+            try:
+                n = int(sum(client.nthreads(callback_timeout=SILENT).values()))
+            except Exception:  # noqa: BLE001 - no answer: the silence goes on
+                continue
+            if stop.is_set():
+                return
+            self._slots_cache = (time.monotonic(), n)
+            self._beats += 1
+
+    def _observe(self) -> float:
+        """The loop's turn: an answer counted since the last turn is timed now (on the
+        driver's clock); return now."""
+        now = awake.now()
+        beats = self._beats
+        if beats != self._beats_seen:
+            self._beats_seen = beats
+            self._answered(now)
+        return now
+
+    def _answered(self, t: float) -> None:
+        if t - self._answered_at >= SILENT:
+            self._silences.append((self._answered_at, t))
+        self._answered_at = max(self._answered_at, t)
+        # spans that no evaluation in flight overlaps any more are dropped
+        oldest = min((t0 for _, t0 in self._futures.values()), default=t)
+        self._silences = [(a, b) for a, b in self._silences if b > oldest]
+
+    def _silent_for(self, now: float) -> float:
+        """How long the scheduler has not answered (0 if it answered within SILENT s)."""
+        quiet = now - self._answered_at
+        return quiet if quiet >= SILENT else 0.0
+
+    def _charged(self, t0: float, now: float) -> float:
+        """Time of an evaluation submitted at ``t0``, at ``now``, less the spans in which the
+        scheduler did not answer (a frozen scheduler reports nothing its workers did)."""
+        spans = list(self._silences)
+        if now - self._answered_at >= SILENT:
+            spans.append((self._answered_at, now))
+        return (now - t0) - sum(max(0.0, min(b, now) - max(a, t0)) for a, b in spans)
 
     def _connect(self, timeout: float):
         if isinstance(self.address, str):
@@ -199,15 +276,23 @@ class DaskExecutor:
             self._log(message)
 
     def close(self) -> None:
+        if self._beating is not None:
+            self._beating.set()
+            self._beating = None
+            # its call returns within SILENT s: never a thread in a Client being closed, nor
+            # one left running while the interpreter exits
+            self._beat_thread.join(SILENT + 1.0)
+            self._beat_thread = None
         if self.client is not None:
             self.kill_running()
             client, self.client = self.client, None
             with contextlib.suppress(BaseException):
                 client.close(timeout=5)
-        if getattr(self, "_log_level", None) is not None:
+        if getattr(self, "_log_level", None):
             import logging
 
-            logging.getLogger("distributed.client").setLevel(self._log_level)
+            for name, level in self._log_level.items():
+                logging.getLogger(name).setLevel(level)
             self._log_level = None
         if self._probe_folder is not None:
             if self._probe is not None:
@@ -222,6 +307,8 @@ class DaskExecutor:
 
     def _n_threads(self, force: bool = False) -> int:
         t, n = self._slots_cache
+        if self._beating is not None and not force:
+            return n     # the heartbeat's latest answer: the loop never waits on the scheduler
         if self._connected() and (force or time.monotonic() - t > 5.0):
             try:   # never without a time limit: a frozen scheduler would hang the run
                 n = int(sum(self.client.nthreads(callback_timeout=PROBE_TIMEOUT).values()))
@@ -261,6 +348,7 @@ class DaskExecutor:
         fut.add_done_callback(self._done.put)  # no scan of every future in flight per wait
 
     def wait(self, timeout: float) -> list[Outcome]:
+        self._observe()
         if self._lost is not None:
             self._reconnect(timeout)
             return []
@@ -270,8 +358,10 @@ class DaskExecutor:
             time.sleep(timeout)
             return []
         now = awake.now()   # the driver's own clock: its pauses are not the designs' (awake.py)
+        # until the next deadline (one past waits for the heartbeat: the loop's usual turn)
         limit = timeout if self._stalled_at is not None else min(
-            [timeout] + [max(0.0, t0 + self.timeout - now) for _, t0 in self._futures.values()])
+            [timeout] + [r for r in (self.timeout - self._charged(t0, now)
+                                     for _, t0 in self._futures.values()) if r > 0])
         finished = []
         try:
             finished.append(self._done.get(timeout=max(0.01, limit)))
@@ -280,14 +370,16 @@ class DaskExecutor:
         except queue.Empty:
             pass
         out: list[Outcome] = []
-        now = awake.now()
+        now = self._observe()
         for fut in finished:
             if fut not in self._futures:
                 continue
             task, t0 = self._futures.pop(fut)
-            outcome = self._outcome(fut, task, now - t0)
+            outcome = self._outcome(fut, task, self._charged(t0, now))
             if outcome is not None:
                 out.append(outcome)
+        if self._lost is None and self._silent_for(now) > PROBE_TIMEOUT:
+            self._lose(f"it has not answered for {PROBE_TIMEOUT} s")
         if self._lost is None:
             self._check_workers(now)
         if self._lost is None and self._stalled_at is None:
@@ -340,7 +432,7 @@ class DaskExecutor:
         self._futures.clear()
         self._say(f"lost the connection to the Dask scheduler at {self.address} "
                   f"({_short(why)}); waiting up to {_span(RECONNECT_TIMEOUT)} for it to come "
-                  f"back; the {len(self._orphans)} evaluation(s) in flight will run again")
+                  f"back; the evaluations in flight will run again")
 
     def _reconnect(self, timeout: float) -> None:
         since, why = self._lost
@@ -357,7 +449,8 @@ class DaskExecutor:
                 self.client = self._connect(1.0)
             except Exception:  # noqa: BLE001 - not back yet
                 self.client = None
-        if self._connected():
+        self._observe()
+        if self._connected() and (self._answered_at > since or self._beating is None):
             self._lost = None
             self._update_stall()
             self._slots_cache = (0.0, 0)
@@ -411,34 +504,33 @@ class DaskExecutor:
                 self._futures[fut] = (task, t0 + shift)
 
     def _timeouts(self, now: float) -> list[Outcome]:
-        late = [f for f, (_, t0) in self._futures.items() if now - t0 > self.timeout]
-        if not late:
-            return []
-        if not self._answers():   # a frozen scheduler, not slow designs
-            self._lose(f"it did not answer within {PROBE_TIMEOUT} s")
-            return []
+        """The evaluations past their timeout (less the scheduler's silences), recorded as
+        failed once the scheduler has answered a whole heartbeat asked after they were seen
+        late: a scheduler frozen meanwhile has not reported what its workers did, and its
+        silence, once it answers, is taken off their time."""
+        late = [f for f, (_, t0) in self._futures.items() if self._charged(t0, now) > self.timeout]
+        # the heartbeat count when each was first seen late (a design no longer late, after a
+        # silence was taken off, starts again)
+        self._late = {f: self._late.get(f, self._beats) for f in late}
         out = []
         for fut in late:
+            if fut.done() or self._beats < self._late[fut] + 2:
+                continue    # finished as its time ran out (read at the next turn), or not known
             task, t0 = self._futures.pop(fut)
+            del self._late[fut]
             with contextlib.suppress(Exception):
                 fut.cancel()
-            out.append(Outcome.of(task, wall_time=now - t0, worker="dask",
+            out.append(Outcome.of(task, wall_time=self._charged(t0, now), worker="dask",
                                   error=f"timed out after {self.timeout:g} s "
                                         f"(Dask task cancelled)"))
         return out
-
-    def _answers(self) -> bool:
-        try:
-            self.client.sync(self.client.scheduler.identity, callback_timeout=PROBE_TIMEOUT)
-            return True
-        except Exception:  # noqa: BLE001
-            return False
 
     def kill_running(self) -> None:
         for fut in list(self._futures):
             with contextlib.suppress(Exception):
                 fut.cancel()
         self._futures.clear()
+        self._late.clear()
         self._orphans.clear()
 
 

@@ -179,7 +179,8 @@ class RunDir:
                     runs.remove_tree(tmp)
                 except OSError:
                     pass
-                if isinstance(exc, OSError) and exc.errno in (errno.EEXIST, errno.ENOTEMPTY):
+                if isinstance(exc, OSError) and exc.errno in (errno.EEXIST, errno.ENOTEMPTY,
+                                                            errno.ENOTDIR):
                     raise RunError(f"{path} already exists (another run was started at the same "
                                    f"time?)") from None
                 raise

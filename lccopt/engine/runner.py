@@ -75,8 +75,9 @@ def optimise(case, workers: int | None = None, scheduler=None, runs: Path = Path
         # a stopping signal waits for the old run's removal and the new one's creation: never
         # half a run directory (which --force would then refuse to replace)
         with signals_deferred():
-            if run_path.exists():
-                _remove_run(run_path, Path(runs))
+            # looked at again: the workers took seconds to start, and meanwhile another
+            # optimise may have made the run, or a link may have been put in its place
+            _clear_the_way(run_path, Path(runs), force, case_obj)
             rd = RunDir.create(run_path, case_obj, problem,
                                spec if isinstance(spec, str) else repr(spec))
             rd.lock()
@@ -99,21 +100,50 @@ def optimise(case, workers: int | None = None, scheduler=None, runs: Path = Path
     return rd.path
 
 
-def _remove_run(run_path: Path, runs: Path) -> None:
-    """Remove the run directory ``run_path`` (``--force``), once no process drives it, through
-    the runs folder held open: the directory removed is the one that was checked and locked."""
-    from ..safeio import Folder
+def _clear_the_way(run_path: Path, runs: Path, force: bool, case_obj) -> None:
+    """Make sure nothing is at ``run_path`` before the run is made there: without ``force``
+    anything there is refused; with it, only the lccopt run directory found there (never
+    through a link) is removed, once no process drives it (RunError otherwise)."""
+    from ..safeio import Folder, UnsafeFile
 
-    old = RunDir(run_path)
     try:
-        old.lock()  # refuse to delete a run another process is driving
-        with Folder.open(runs) as folder:
+        folder = Folder.open(runs)
+    except FileNotFoundError:
+        return    # made with the run
+    except OSError as exc:
+        raise RunError(str(exc)) from None
+    with folder:
+        st = folder.lstat(run_path.name)
+        if st is None:
+            return
+        if not force:
+            raise RunError(f"{run_path} already exists (made while this lccopt started: another "
+                           f"optimise of the same case?): carry it on with 'lccopt resume "
+                           f"{run_path}', or start again with 'lccopt optimise {case_obj.path} "
+                           f"--force'")
+        try:
+            sub = folder.sub(run_path.name)
+        except (UnsafeFile, OSError):
+            raise RunError(f"{run_path} is not a run directory inside {runs} any more; --force "
+                           f"only replaces lccopt run directories: move or remove it yourself"
+                           ) from None
+        old = RunDir(run_path, sub)
+        try:
+            try:
+                meta = old.meta()
+            except RunError:
+                meta = None
+            if not isinstance(meta, dict):
+                raise RunError(f"{run_path} is not an lccopt run directory (no readable run.json "
+                               f"of lccopt); --force only replaces run directories: move or "
+                               f"remove it yourself")
+            old.lock()  # refuse to delete a run another process is driving
             st = folder.lstat(run_path.name)
-            if st is None or (st.st_dev, st.st_ino) != old.folder.identity:
+            if st is None or (st.st_dev, st.st_ino) != sub.identity:
                 raise RunError(f"{run_path} was moved or replaced meanwhile; nothing removed")
             folder.remove_tree(run_path.name)
-    finally:
-        old.close()
+        finally:
+            old.close()
 
 
 def _kind(path: Path) -> str:

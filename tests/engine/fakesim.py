@@ -13,7 +13,8 @@ the crossing hangs once the log holds n lines: a run then stays, until killed, w
 whose other conditions have finished (a kill between conditions without a timing race).
 
 ``faulty``: like ``evaluate`` for the reference design; otherwise fires each fault listed
-in ``LCCOPT_TEST_FAULTS`` (comma-separated: raise, nan, exit, hang) exactly once, claimed
+in ``LCCOPT_TEST_FAULTS`` (comma-separated: raise, nan, exit, hang: for
+``LCCOPT_TEST_HANG`` seconds if set, else for ever) exactly once, claimed
 through marker files in ``LCCOPT_TEST_FAULT_DIR`` (so each fault happens once whatever the
 worker), then behaves like ``evaluate``.
 """
@@ -100,9 +101,10 @@ def faulty(case, x) -> Evaluation:
                     return ev
                 if kind == "exit":
                     os._exit(7)
-                if kind == "hang":
-                    while True:
-                        time.sleep(1)
+                if kind == "hang":   # for LCCOPT_TEST_HANG seconds if set, else for ever
+                    end = time.monotonic() + float(os.environ.get("LCCOPT_TEST_HANG", "inf"))
+                    while time.monotonic() < end:
+                        time.sleep(min(1.0, max(0.0, end - time.monotonic())))
     return evaluate(case, x)
 
 

@@ -2,12 +2,23 @@
 
 from __future__ import annotations
 
+import io
+import os
+import signal
+
 import pytest
 
 from lccopt.engine.runner import optimise
 from lccopt.store import read_evaluation
 
-from .conftest import FAKE, assert_same_evaluations, optimise_on_local_dask, read_table, write_case
+from .conftest import (
+    FAKE,
+    FAULTY,
+    assert_same_evaluations,
+    optimise_on_local_dask,
+    read_table,
+    write_case,
+)
 
 # seconds a test: Dask schedulers and workers
 pytestmark = pytest.mark.slow
@@ -167,6 +178,8 @@ class _Cluster:
                                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
 
     def start(self) -> "_Cluster":
+        import importlib
+
         import distributed
 
         self.scheduler = self._popen("distributed.cli.dask_scheduler", "--host", "127.0.0.1",
@@ -175,10 +188,27 @@ class _Cluster:
                                    "--nthreads", "1", "--no-dashboard", "--memory-limit", "0")
         with distributed.Client(self.address, timeout="60s") as client:
             client.wait_for_workers(2, timeout=120)
+            # a worker's first evaluation imports lccopt (about a second): done before a test's
+            # short timeouts start
+            for module in ("tests.engine.fakesim", "lccopt.engine.dask_pool", "lccopt.store"):
+                client.run(importlib.import_module, module)
         return self
 
-    def kill_scheduler(self) -> None:
-        self.scheduler.kill()
+    def running(self) -> "_Cluster":
+        """Started again if a test left it stopped or frozen."""
+        if self.scheduler is not None and self.scheduler.poll() is None:
+            os.kill(self.scheduler.pid, signal.SIGCONT)
+        if any(p is None or p.poll() is not None for p in (self.scheduler, self.workers)):
+            self.stop()
+            self.start()
+        return self
+
+    def kill_scheduler(self, sig=None) -> None:
+        """kill -9 (or ``sig``: SIGTERM is the scheduler's orderly close)."""
+        if sig is None:
+            self.scheduler.kill()
+        else:
+            self.scheduler.send_signal(sig)
         self.scheduler.wait()
 
     def stop(self) -> None:
@@ -194,36 +224,54 @@ class _Cluster:
                     p.wait()
 
 
+@pytest.fixture(scope="module")
+def cluster(tmp_path_factory):
+    """One cluster for the tests that stop, kill and freeze it (a start costs seconds); its
+    workers' evaluator ``FAULTY`` hangs once, for 6 s."""
+    pytest.importorskip("distributed")
+    from .conftest import REPO
+
+    where = tmp_path_factory.mktemp("cluster")
+    (where / "faults").mkdir()
+    env = {**os.environ, "PYTHONPATH": str(REPO), "LCCOPT_EVALUATOR": FAKE,
+           "LCCOPT_FAKE_DELAY": "0.3", "LCCOPT_TEST_FAULTS": "hang",
+           "LCCOPT_TEST_FAULT_DIR": str(where / "faults"), "LCCOPT_TEST_HANG": "6"}
+    c = _Cluster(env, where)
+    c.faults = where / "faults"
+    try:
+        yield c.start()
+    finally:
+        c.running()
+        c.stop()
+
+
 def test_a_scheduler_killed_mid_run_is_an_environment_fault_never_a_failed_design(
-        tmp_path, monkeypatch):
-    """kill -9 of the Dask scheduler while evaluations run: nothing in flight fails and no
-    budget is spent. Brought back (scheduler and workers restarted), the run carries on by
+        tmp_path, monkeypatch, cluster):
+    """The Dask scheduler stopped (SIGTERM) or killed (kill -9) while evaluations run: nothing
+    in flight fails and no budget is spent. Brought back (scheduler and workers restarted after
+    a SIGTERM), the run carries on by
     itself; never back, the run stops with exit 2 and one line after its wait, and a resume on
     a new cluster ends it. Both tables are the uninterrupted run's (the local pool with as
     many workers)."""
-    import os
     import threading
     import time
 
-    pytest.importorskip("distributed")
     from lccopt.engine import dask_pool
     from lccopt.errors import UsageError
 
-    from .conftest import REPO, cli, cli_run, journal_events, n_done, wait_for
+    from .conftest import cli, cli_run, journal_events, n_done, wait_for
 
     case = write_case(tmp_path, "lost", budget=12, initial=4, seed=6)
     reference = read_table(optimise(case, workers=2, runs=tmp_path / "local", evaluator=FAKE,
                                     progress=False))
-    env = {**os.environ, "PYTHONPATH": str(REPO), "LCCOPT_EVALUATOR": FAKE,
-           "LCCOPT_FAKE_DELAY": "0.3"}
-    cluster = _Cluster(env, tmp_path).start()
+    cluster.running()
     try:
         # brought back: the run waits, saying so, and carries on
         p = cli("optimise", case, "--scheduler", cluster.address, "--runs", tmp_path / "back",
                 env={"LCCOPT_EVALUATOR": FAKE})
         run = tmp_path / "back" / "lost"
         wait_for(lambda: n_done(run) >= 4)
-        cluster.kill_scheduler()
+        cluster.kill_scheduler(signal.SIGTERM)
         cluster.stop()
         time.sleep(1.0)
         cluster.start()
@@ -257,7 +305,68 @@ def test_a_scheduler_killed_mid_run_is_an_environment_fault_never_a_failed_desig
         assert r.returncode == 0, r.stderr
         assert_same_evaluations(reference, read_table(gone))
     finally:
-        cluster.stop()
+        cluster.running()
+
+
+def test_a_scheduler_frozen_longer_than_the_timeout_times_out_no_design(tmp_path, monkeypatch,
+                                                                        cluster):
+    """SIGSTOP to the Dask scheduler for 1.75 times the evaluations' timeout while they run (its
+    workers go on; nothing they do is reported): no design is recorded as timed out and the
+    table is the uninterrupted run's. Frozen for less than PROBE_TIMEOUT the run waits; longer
+    (shortened here), the scheduler is taken for lost and the designs in flight run again once
+    it answers."""
+    import threading
+    import time
+
+    from lccopt.engine import dask_pool
+
+    from .conftest import cli, journal_events, n_done, wait_for
+
+    case = write_case(tmp_path, "frozen", budget=8, initial=4, seed=5, timeout=2.0)
+    reference = read_table(optimise(case, workers=2, runs=tmp_path / "local", evaluator=FAKE,
+                                    progress=False))
+    cluster.running()
+
+    def freeze(run, seconds, p=None):
+        wait_for(lambda: n_done(run) >= 2 or (p is not None and p.poll() is not None))
+        time.sleep(0.1)              # evaluations in flight
+        os.kill(cluster.scheduler.pid, signal.SIGSTOP)
+        time.sleep(seconds)
+        os.kill(cluster.scheduler.pid, signal.SIGCONT)
+
+    try:
+        p = cli("optimise", case, "--scheduler", cluster.address, "--runs", tmp_path / "a",
+                env={"LCCOPT_EVALUATOR": FAKE, "LCCOPT_FAKE_DELAY": "0.3"})
+        run = tmp_path / "a" / "frozen"
+        freeze(run, 3.5, p)
+        out, err = p.communicate(timeout=120)
+        assert p.returncode == 0, err
+        assert "FAILED" not in err and "timed out" not in err, err
+        assert not [e for e in journal_events(run) if e["event"] == "failed"]
+        assert_same_evaluations(reference, read_table(run))
+
+        monkeypatch.setattr(dask_pool, "PROBE_TIMEOUT", 3.5)
+        monkeypatch.setenv("LCCOPT_FAKE_DELAY", "0.3")
+        run = tmp_path / "b" / "frozen"
+        stopper = threading.Thread(target=freeze, args=(run, 4.5), daemon=True)
+        stopper.start()
+        said = io.StringIO()
+        optimise(case, scheduler=cluster.address, runs=tmp_path / "b", evaluator=FAKE,
+                 progress=False, stream=said)
+        stopper.join(30)
+        said = said.getvalue()
+        assert "has not answered for 3.5 s" in said and "is back" in said, said
+        assert not [e for e in journal_events(run) if e["event"] == "failed"]
+        assert_same_evaluations(reference, read_table(run))
+
+        # while the scheduler answers, a design that hangs is still timed out (once)
+        table = read_table(optimise(case, scheduler=cluster.address, runs=tmp_path / "c",
+                                    evaluator=FAULTY, progress=False))
+        failed = [r for r, s in zip(table["reason"], table["status"]) if s == "failed"]
+        assert failed == ["timed out after 2 s (Dask task cancelled)"], failed
+        assert len(table["id"]) == 8 and (cluster.faults / "hang").exists()
+    finally:
+        cluster.running()
 
 
 def test_scheduler_addresses_lccopt_cannot_use_are_one_line_with_no_finaliser_later(tmp_path):

@@ -191,6 +191,67 @@ def test_a_kill_9_while_a_run_is_made_leaves_nothing_the_next_optimise_keeps(tmp
     assert (foreign / "thesis.tex").read_text() == "mine"
 
 
+def test_what_appears_at_the_run_path_while_the_workers_start_is_never_removed(tmp_path):
+    """The runs folder changes while optimise waits for its workers (after its first look):
+    another process makes a folder or a link where the run goes, or swaps the run --force was
+    to replace for a link or a folder of the user's. Each is refused with one line and exit 2;
+    nothing is removed, and nothing is written into a link's target."""
+    case = write_case(tmp_path, "w", budget=3, initial=3)
+    victim = tmp_path / "victim"
+    victim.mkdir()
+    (victim / "thesis.tex").write_text("precious")
+
+    def plant_a_link(run):
+        run.symlink_to(victim)
+
+    def plant_a_folder(run):
+        run.mkdir()
+        (run / "notes.txt").write_text("mine")
+
+    def swap_for_a_link(run):
+        run.rename(run.with_name("moved"))
+        run.symlink_to(victim)
+
+    def swap_for_a_folder(run):
+        run.rename(run.with_name("moved"))
+        plant_a_folder(run)
+
+    attacks = [(plant_a_link, False, "already exists"), (plant_a_folder, False, "already exists"),
+               (swap_for_a_link, True, "not a run directory inside"),
+               (swap_for_a_folder, True, "not an lccopt run directory")]
+    made = optimise(case, workers=1, runs=tmp_path / "made", evaluator=FAKE, progress=False)
+    started = []
+    for k, (attack, force, _) in enumerate(attacks):
+        runs = tmp_path / f"runs{k}"
+        runs.mkdir()
+        if force:   # a real run for --force to replace (what the first look sees)
+            shutil.copytree(made, runs / "w")
+    for k, (attack, force, _) in enumerate(attacks):
+        runs = tmp_path / f"runs{k}"
+        mark = tmp_path / f"mark{k}"
+        started.append(cli("optimise", case, "--runs", runs, "--workers", "1",
+                           *(["--force"] if force else []),
+                           env={"LCCOPT_EVALUATOR": "tests.engine.slowstart:evaluate",
+                                "LCCOPT_SLOW_START": "1.5", "LCCOPT_SLOW_MARK": str(mark)}))
+    for k, ((attack, force, said), p) in enumerate(zip(attacks, started)):
+        wait_for(lambda: (tmp_path / f"mark{k}").exists() or p.poll() is not None)
+        assert p.poll() is None, p.communicate()
+        attack(tmp_path / f"runs{k}" / "w")
+    done = [p.communicate(timeout=120) for p in started]
+    assert _tree(victim) == ["thesis.tex"] and (victim / "thesis.tex").read_text() == "precious"
+    for k, ((attack, force, said), p, (out, err)) in enumerate(zip(attacks, started, done)):
+        run = tmp_path / f"runs{k}" / "w"
+        if attack in (plant_a_link, swap_for_a_link):
+            assert run.is_symlink(), attack.__name__
+        else:
+            assert _tree(run) == ["notes.txt"], (attack.__name__, _tree(run))
+            assert (run / "notes.txt").read_text() == "mine"
+        if force:   # the run that was there is where the attacker moved it, whole
+            assert len(read_table(tmp_path / f"runs{k}" / "moved")["id"]) == 3
+        got = _error_line(subprocess.CompletedProcess(p.args, p.returncode, out, err))
+        assert said in got, (attack.__name__, got)
+
+
 # ------------------------------------------------------------------------ readers
 
 def test_every_reader_follows_one_rule_for_links(tmp_path, finished):
