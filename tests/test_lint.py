@@ -80,3 +80,51 @@ def test_the_import_scan_sees_lazy_and_relative_imports():
         "lccopt.commands.run.run_optimise", "typer"]
     assert _command_line_imports("from ..errors import UsageError\n",
                                  ("lccopt", "engine")) == []
+
+
+# Size limits: a module does one job, which fits in 500 lines; a function does one step, which
+# fits in 120. The modules listed here are over the limit today and wait to be split by their
+# jobs; the list may only shrink (a listed module that comes under the limit fails the test, so
+# it is taken off the list).
+MODULE_LINES, FUNCTION_LINES = 500, 120
+OVERSIZED_MODULES = {
+    # Owned by the run-files and run-control work, being edited by others this round.
+    "lccopt/engine/rundir.py",
+    "lccopt/engine/dask_pool.py",
+    "lccopt/safeio.py",
+    # Not split yet.
+    "lccopt/config/case.py",
+    "lccopt/config/schema.py",
+    "lccopt/degradation/iteration.py",
+    "lccopt/optim/strategy.py",
+    "lccopt/report/data.py",
+    "lccopt/report/settlement.py",
+    "lccopt/report/summary.py",
+}
+OVERSIZED_FUNCTIONS = {
+    "lccopt/report/summary.py:build_summary",
+}
+
+
+def _package_modules():
+    for path in sorted((ROOT / "lccopt").rglob("*.py")):
+        yield path.relative_to(ROOT).as_posix(), path.read_text(encoding="utf-8")
+
+
+def test_modules_stay_under_the_size_limit():
+    over = {rel for rel, text in _package_modules() if len(text.splitlines()) > MODULE_LINES}
+    assert over - OVERSIZED_MODULES == set(), f"modules over {MODULE_LINES} lines"
+    assert OVERSIZED_MODULES - over == set(), "now under the limit: take them off the list"
+
+
+def test_functions_stay_under_the_size_limit():
+    import ast
+
+    over = set()
+    for rel, text in _package_modules():
+        for node in ast.walk(ast.parse(text)):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                if node.end_lineno - node.lineno + 1 > FUNCTION_LINES:
+                    over.add(f"{rel}:{node.name}")
+    assert over - OVERSIZED_FUNCTIONS == set(), f"functions over {FUNCTION_LINES} lines"
+    assert OVERSIZED_FUNCTIONS - over == set(), "now under the limit: take them off the list"
