@@ -97,7 +97,6 @@ OVERSIZED_MODULES = {
     "lccopt/config/schema.py",
     "lccopt/degradation/iteration.py",
     "lccopt/optim/strategy.py",
-    "lccopt/report/data.py",
     "lccopt/report/settlement.py",
 }
 OVERSIZED_FUNCTIONS: set[str] = set()

@@ -19,7 +19,6 @@ from .comparison import (
 )
 from .data import (
     OBJECTIVE_DOC,
-    OBJECTIVE_NAMES,
     PHASE_STYLE,
     ZONE_COLOR,
     RunData,
@@ -31,6 +30,7 @@ from .data import (
     var_value,
 )
 from .document import Doc
+from .evaluations import OBJECTIVE_NAMES
 
 
 def _table_unit(k: str) -> tuple[float, str]:
