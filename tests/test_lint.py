@@ -97,13 +97,9 @@ OVERSIZED_MODULES = {
     "lccopt/config/schema.py",
     "lccopt/degradation/iteration.py",
     "lccopt/optim/strategy.py",
-    "lccopt/report/data.py",
     "lccopt/report/settlement.py",
-    "lccopt/report/summary.py",
 }
-OVERSIZED_FUNCTIONS = {
-    "lccopt/report/summary.py:build_summary",
-}
+OVERSIZED_FUNCTIONS: set[str] = set()
 
 
 def _package_modules():

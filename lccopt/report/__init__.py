@@ -52,6 +52,7 @@ from ..errors import printable
 from ..outdir import Output
 from ..terminal import echo
 from .along_track import fig_contact_force, fig_sleeper_energy
+from .comparison import history_facts
 from .data import FIGURES, FORMATS, RunData, _usage, load_run, read_history
 from .design import fig_best_vs_reference, fig_conditions, fig_track_layout
 from .robust import fig_spread, run_spreads, spread_keys
@@ -66,7 +67,7 @@ from .settlement import (
     law_check,
     limit_of,
 )
-from .summary import build_summary, history_facts
+from .summary import build_summary
 
 __all__ = ["Report", "write_report"]
 

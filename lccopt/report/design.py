@@ -10,7 +10,6 @@ import numpy as np
 
 from .data import (
     BEST_COLOR,
-    OBJECTIVE_NAMES,
     OKABE_ITO,
     REF_COLOR,
     TYPE_II_COLOR,
@@ -19,6 +18,7 @@ from .data import (
     obj_display,
     var_value,
 )
+from .evaluations import OBJECTIVE_NAMES
 from .plotting import pyplot, save_figure
 
 

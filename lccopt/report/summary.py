@@ -2,19 +2,23 @@
 
 from __future__ import annotations
 
-import base64
 import datetime as _dt
-import html
 import math
-from pathlib import Path
 
 import numpy as np
 
 from ..config.describe import pad_facts
 from ..vti.response import objective_display, objective_unit
+from .comparison import (
+    bound_sides,
+    bounds_text,
+    kind_text,
+    why_text,
+    worse_objectives,
+    worse_text,
+)
 from .data import (
     OBJECTIVE_DOC,
-    OBJECTIVE_NAMES,
     PHASE_STYLE,
     ZONE_COLOR,
     RunData,
@@ -25,147 +29,13 @@ from .data import (
     pct,
     var_value,
 )
+from .document import Doc
+from .evaluations import OBJECTIVE_NAMES
 
 
 def _table_unit(k: str) -> tuple[float, str]:
     """(scale, unit) of objective k in the report's tables: SI, but lengths in mm."""
     return (1e3, "mm") if objective_unit(k) == "m" else (1.0, objective_unit(k))
-
-
-class Doc:
-    """A tiny document model rendered to Markdown and to self-contained HTML."""
-
-    def __init__(self):
-        self.blocks: list[tuple] = []
-
-    def h(self, level: int, text: str):
-        self.blocks.append(("h", level, text))
-
-    def p(self, text: str):
-        self.blocks.append(("p", text))
-
-    def ul(self, items: list[str]):
-        self.blocks.append(("ul", items))
-
-    def table(self, header: list[str], rows: list[list[str]], align: str | None = None):
-        self.blocks.append(("table", header, rows, align or "l" + "r" * (len(header) - 1)))
-
-    def fig(self, path: Path, caption: str):
-        self.blocks.append(("fig", path, caption))
-
-    def markdown(self) -> str:
-        out = []
-        for b in self.blocks:
-            if b[0] == "h":
-                out.append("#" * b[1] + " " + b[2])
-            elif b[0] == "p":
-                out.append(b[1])
-            elif b[0] == "ul":
-                out.append("\n".join(f"- {i}" for i in b[1]))
-            elif b[0] == "table":
-                _, head, rows, al = b
-                esc = lambda s: str(s).replace("|", "\\|")  # noqa: E731
-                lines = ["| " + " | ".join(esc(c) for c in head) + " |",
-                         "|" + "|".join(":---" if a == "l" else "---:" for a in al) + "|"]
-                lines += ["| " + " | ".join(esc(c) for c in r) + " |" for r in rows]
-                out.append("\n".join(lines))
-            elif b[0] == "fig":
-                out.append(f"![{b[1].stem.replace('-', ' ')}]({b[1].name})\n\n*{b[2]}*")
-        return "\n\n".join(out) + "\n"
-
-    def html(self, title: str) -> str:
-        def inline(s: str) -> str:
-            # the Markdown subset used in the texts: `code` and **bold**
-            t = html.escape(s)
-            import re
-
-            t = re.sub(r"`([^`]+)`", r"<code>\1</code>", t)
-            t = re.sub(r"\*\*([^*]+)\*\*", r"<b>\1</b>", t)
-            return t
-
-        body = []
-        for b in self.blocks:
-            if b[0] == "h":
-                body.append(f"<h{b[1]}>{inline(b[2])}</h{b[1]}>")
-            elif b[0] == "p":
-                body.append(f"<p>{inline(b[1])}</p>")
-            elif b[0] == "ul":
-                body.append("<ul>" + "".join(f"<li>{inline(i)}</li>" for i in b[1]) + "</ul>")
-            elif b[0] == "table":
-                _, head, rows, al = b
-                cls = lambda a: ' class="r"' if a == "r" else ""  # noqa: E731
-                th = "".join(f"<th{cls(a)}>{inline(c)}</th>" for c, a in zip(head, al))
-                t = ["<table><thead><tr>" + th + "</tr></thead><tbody>"]
-                t += ["<tr>" + "".join(f"<td{cls(a)}>{inline(c)}</td>" for c, a in zip(r, al))
-                      + "</tr>" for r in rows]
-                body.append("".join(t) + "</tbody></table>")
-            elif b[0] == "fig":
-                data = base64.b64encode(b[1].read_bytes()).decode("ascii")
-                body.append(f'<figure><img alt="{html.escape(b[1].name)}" '
-                            f'src="data:image/png;base64,{data}">'
-                            f"<figcaption>{inline(b[2])}</figcaption></figure>")
-        style = ("body{font-family:system-ui,-apple-system,Segoe "
-                 "UI,Roboto,sans-serif;max-width:1100px;"
-                 "margin:2em auto;padding:0 1em;color:#222;line-height:1.45}"
-                 "table{border-collapse:collapse;margin:0.8em 0}th,td{border:1px solid "
-                 "#ccc;padding:3px 8px}"
-                 "th{background:#f3f3f3}td.r,th.r{text-align:right}img{max-width:100%;height:auto}"
-                 "figure{margin:1em "
-                 "0}figcaption{color:#555;font-size:0.9em}code{background:#f3f3f3;padding:0 3px}")
-        return ("<!DOCTYPE html>\n<html lang=\"en\"><head><meta "
-                f"charset=\"utf-8\"><title>{html.escape(title)}"
-                f"</title><style>{style}</style></head><body>\n" + "\n".join(body)
-                + "\n</body></html>\n")
-
-
-def history_facts(best: tuple, ref: tuple, condition: str | None = None) -> list[str]:
-    """Sentences on the histories of the best and the reference design (for 'Why it is better'),
-    under ``condition`` (the traffic condition that sets the worst E_max), if given."""
-    (hb, ib), (hr, ir) = best, ref
-    out = []
-    eb = None if hb is None else hb.get("sleeper_energy")
-    er = None if hr is None else hr.get("sleeper_energy")
-    if eb is not None and er is not None and len(eb) and len(er):
-        eb, er = np.asarray(eb, float), np.asarray(er, float)
-        under = (f"In condition {condition} (which sets the best design's worst E_max), u"
-                 if condition else "U")
-        nb, nr = int(np.argmax(eb)) + 1, int(np.argmax(er)) + 1
-        if nb != nr:
-            most = (f"the most loaded zone sleeper is number {nb} ({fnum(eb.max(), 4)} J) instead "
-                    f"of number {nr} ({fnum(er.max(), 4)} J)")
-        elif nb == 1:
-            most = "sleeper 1 stays the most loaded of the zone"
-        else:
-            most = (f"sleeper {nb} stays the most loaded of the zone ({fnum(eb.max(), 4)} J "
-                    f"instead of {fnum(er.max(), 4)} J)")
-        out.append(f"{under}nder sleeper 1, next to the interface, the ballast dissipates "
-                   f"{fnum(eb[0], 4)} J instead of {fnum(er[0], 4)} J ({pct(eb[0], er[0])}); "
-                   f"{most}, and the spread max - min (E_max) is "
-                   f"{fnum(eb.max() - eb.min(), 4)} J instead of {fnum(er.max() - er.min(), 4)} J.")
-    peaks = []
-    for h, i in ((hb, ib), (hr, ir)):
-        if (h is None or "contact_force" not in h or "wheel_position" not in h
-                or "interface_entry" not in i):
-            return out
-        x, f = np.asarray(h["wheel_position"]), np.asarray(h["contact_force"])
-        m = (x >= i["interface_entry"] - 1.0) & (x <= i["interface_entry"] + 3.0)
-        if not m.any():
-            return out
-        k = int(np.argmax(f[m]))
-        # a maximum on the window's first or last sample is no peak: the force is still rising
-        peaks.append((float(f[m][k]), float(x[m][k] - i["interface_entry"]),
-                      k in (0, int(m.sum()) - 1)))
-    (pb, xb, eb), (pr, xr, er) = peaks
-
-    def where(xp: float, edge: bool) -> str:
-        side = "after" if xp >= 0 else "before"
-        return (f"at the window's {'end' if xp >= 0 else 'start'}, {abs(xp):.2f} m {side} the slab "
-                f"edge (still rising there)" if edge else f"{abs(xp):.2f} m {side} the slab edge")
-
-    out.append("Around the interface (1 m before to 3 m after it) the contact force is highest, "
-               f"{fnum(pb / 1e3, 4)} kN, {where(xb, eb)}, against {fnum(pr / 1e3, 4)} kN "
-               f"{where(xr, er)} for the reference design.")
-    return out
 
 
 def build_summary(run: RunData, figs: dict, notes: dict, facts: list[str] | None = None,
@@ -178,6 +48,55 @@ def build_summary(run: RunData, figs: dict, notes: dict, facts: list[str] | None
     bi, ri = run.best_index(), run.ref_index()
     n_failed = int((run.status == "failed").sum())
     restarts = sorted(int(r) for r in np.unique(run.restart) if r > 0)
+    _introduction(doc, run, n_failed, restarts)
+    _searched_section(doc, run)
+    _history_section(doc, run, bi, n_failed, restarts, figs)
+
+    summary = {"run": str(run.path), "name": run.name, "state": run.state, "evaluations": run.n,
+               "budget": run.budget, "failed": n_failed, "restarts": len(restarts),
+               "objectives": run.objectives,
+               "source": run.source, "figures": {k: p.name for k, p in figs.items()},
+               "notes": dict(notes)}
+    if bi is None:
+        doc.h(2, "Best design")
+        doc.p("No evaluation has succeeded yet: there is no best design.")
+        return doc, summary
+
+    sides = _best_section(doc, run, bi, ri, figs)
+
+    if run.conditions and ri is not None:
+        _conditions_section(doc, run, bi, ri, figs)
+    if settlement is not None:
+        _settlement_section(doc, run, *settlement, figs)
+        if len(settlement) > 2 and settlement[2] is not None:
+            check = settlement[2]
+            summary["law_check"] = {k: check[k] for k in ("keys", "n", "beats", "per_key",
+                                                          "within_uncertainty")}
+    if robust:
+        from .robust import robust_section
+
+        summary["realisations"] = robust_section(doc, run, robust, figs)
+
+    worse = _why_section(doc, run, bi, ri, figs, notes, facts)
+    _space_and_sensitivity_sections(doc, run, figs, notes, indices, summary)
+    _files_section(doc, run, bi, ri)
+
+    summary["best"] = {"id": int(run.ids[bi]), "value": float(run.value[bi]),
+                       "x": {n: float(v) for n, v in zip(run.names, run.x[bi])},
+                       "objectives": {k: float(run.obj[k][bi]) for k in run.obj},
+                       "phase": str(run.phase[bi]), "restart": int(run.restart[bi])}
+    summary["reference"] = {"id": int(run.ids[ri]) if ri is not None else None,
+                            "x": {n: float(v) for n, v in zip(run.names, run.ref_x)},
+                            "objectives": {k: float(v) for k, v in run.ref_objectives.items()}}
+    summary["on_bound"] = {v.name: side for v, side in zip(run.variables, sides) if side}
+    summary["worse"] = [k for k, _, _ in worse]
+    summary["change_percent"] = {k: (float(run.obj[k][bi]) - r) / abs(r) * 100
+                                 for k, r in run.ref_objectives.items() if k in run.obj and r}
+    return doc, summary
+
+
+def _introduction(doc: Doc, run: RunData, n_failed: int, restarts: list) -> None:
+    """The title and the run's state."""
     state = {"finished": "finished",
              "running": f"still running ({run.n_pending} evaluation(s) in flight when this was "
                         "read)",
@@ -189,7 +108,9 @@ def build_summary(run: RunData, figs: dict, notes: dict, facts: list[str] | None
     for note in run.notes:
         doc.p(f"Note: {note}")
 
-    # --- what was searched
+
+def _searched_section(doc: Doc, run: RunData) -> None:
+    """What was searched: the objectives, the variables and their bounds, the pads."""
     doc.h(2, "What was searched")
     if run.multi:
         def shown(k, v):
@@ -221,7 +142,10 @@ def build_summary(run: RunData, figs: dict, notes: dict, facts: list[str] | None
     if run.case is None and run.case_note:
         doc.p(f"Note: the run's case could not be loaded ({run.case_note}); bounds are not shown.")
 
-    # --- how the search went
+
+def _history_section(doc: Doc, run: RunData, bi, n_failed: int, restarts: list,
+                     figs: dict) -> None:
+    """How the search went: phases, the best value, restarts, failures, wall time."""
     doc.h(2, "How the search went")
     if "search-history" in figs:
         doc.fig(figs["search-history"],
@@ -259,17 +183,10 @@ def build_summary(run: RunData, figs: dict, notes: dict, facts: list[str] | None
                         else ""))
     doc.ul(items)
 
-    summary = {"run": str(run.path), "name": run.name, "state": run.state, "evaluations": run.n,
-               "budget": run.budget, "failed": n_failed, "restarts": len(restarts),
-               "objectives": run.objectives,
-               "source": run.source, "figures": {k: p.name for k, p in figs.items()},
-               "notes": dict(notes)}
-    if bi is None:
-        doc.h(2, "Best design")
-        doc.p("No evaluation has succeeded yet: there is no best design.")
-        return doc, summary
 
-    # --- best design vs reference
+def _best_section(doc: Doc, run: RunData, bi: int, ri, figs: dict) -> list[str]:
+    """The best design against the reference design; returns which bound each variable
+    sits on."""
     doc.h(2, "Best design against the reference design")
     lab = "chosen compromise (lowest ASF value)" if run.multi else f"lowest {run.objectives[0]}"
     longer = [k for k in run.obj if improvement_sign(k) < 0]
@@ -312,23 +229,14 @@ def build_summary(run: RunData, figs: dict, notes: dict, facts: list[str] | None
         doc.fig(figs["best-vs-reference"],
                 "Change of every objective (left) and where the design variables sit "
                 "within their bounds (right), best against reference.")
+    return sides
 
-    if run.conditions and ri is not None:
-        _conditions_section(doc, run, bi, ri, figs)
-    if settlement is not None:
-        _settlement_section(doc, run, *settlement, figs)
-        if len(settlement) > 2 and settlement[2] is not None:
-            check = settlement[2]
-            summary["law_check"] = {k: check[k] for k in ("keys", "n", "beats", "per_key",
-                                                          "within_uncertainty")}
-    if robust:
-        from .robust import robust_section
 
-        summary["realisations"] = robust_section(doc, run, robust, figs)
-
-    # --- why
+def _why_section(doc: Doc, run: RunData, bi: int, ri, figs: dict, notes: dict,
+                 facts) -> list:
+    """Why it is better, with the histories' figures; returns the objectives it worsens."""
     doc.h(2, "Why it is better")
-    doc.p(_why_text(run, bi, ri, notes))
+    doc.p(why_text(run, bi, ri, notes))
     worse = worse_objectives(run, bi)
     doc.p(worse_text(run, worse))
     for fact in facts or []:
@@ -350,8 +258,12 @@ def build_summary(run: RunData, figs: dict, notes: dict, facts: list[str] | None
                 doc.p(f"Note: {notes[key]}.")
         elif key in notes:
             doc.p(f"No {key.replace('-', ' ')} figure: {notes[key]}.")
+    return worse
 
-    # --- objective space and sensitivity
+
+def _space_and_sensitivity_sections(doc: Doc, run: RunData, figs: dict, notes: dict,
+                                    indices, summary: dict) -> None:
+    """The objective space and the sensitivity indices (into summary.json too)."""
     doc.h(2, "Objective space")
     if "objective-space" in figs:
         doc.fig(figs["objective-space"],
@@ -376,6 +288,9 @@ def build_summary(run: RunData, figs: dict, notes: dict, facts: list[str] | None
                 "interactions (total effect), from a cubic RBF fitted to the run's evaluations.")
     elif notes.get("sensitivity"):
         doc.p(f"No sensitivity figure: {notes['sensitivity']}.")
+
+
+def _files_section(doc: Doc, run: RunData, bi: int, ri) -> None:
     doc.h(2, "Files")
     doc.ul([f"results table: `{run.path / 'results.h5'}`; commit log: "
             f"`{run.path / 'journal.jsonl'}`",
@@ -384,142 +299,6 @@ def build_summary(run: RunData, figs: dict, notes: dict, facts: list[str] | None
             "histories of "
             f"the reference design: `{run.path / run.file[ri]}`" if ri is not None and run.file[ri]
             else "the reference design has no histories file"])
-
-    summary["best"] = {"id": int(run.ids[bi]), "value": float(run.value[bi]),
-                       "x": {n: float(v) for n, v in zip(run.names, run.x[bi])},
-                       "objectives": {k: float(run.obj[k][bi]) for k in run.obj},
-                       "phase": str(run.phase[bi]), "restart": int(run.restart[bi])}
-    summary["reference"] = {"id": int(run.ids[ri]) if ri is not None else None,
-                            "x": {n: float(v) for n, v in zip(run.names, run.ref_x)},
-                            "objectives": {k: float(v) for k, v in run.ref_objectives.items()}}
-    summary["on_bound"] = {v.name: side for v, side in zip(run.variables, sides) if side}
-    summary["worse"] = [k for k, _, _ in worse]
-    summary["change_percent"] = {k: (float(run.obj[k][bi]) - r) / abs(r) * 100
-                                 for k, r in run.ref_objectives.items() if k in run.obj and r}
-    return doc, summary
-
-
-def kind_text(v) -> str:
-    """How a variable is searched, in words: a count, a length in 0.1 m steps, a continuous
-    value (on a log scale)."""
-    if v.integer and v.unit == "m":
-        return f"in {v.scale:g} m steps"
-    if v.integer:
-        return "whole number"
-    return "continuous" + (", log scale" if v.log else "")
-
-
-# A continuous variable within this share of its range (in the optimiser's scale: log for log
-# variables) of a bound counts as on it: the local search stops a hair short of a bound.
-ON_BOUND = 1e-3
-
-
-def bound_sides(run: RunData, bi: int) -> list[str]:
-    """For each design variable of the best design: 'lower', 'upper' or '' (inside)."""
-    out = []
-    for j, v in enumerate(run.variables):
-        x, lo, hi = float(run.x[bi, j]), v.lower, v.upper
-        if not (np.isfinite(lo) and np.isfinite(hi)) or hi <= lo:
-            out.append("")
-            continue
-        if v.log and lo > 0 and x > 0:
-            x, lo, hi = np.log(x), np.log(lo), np.log(hi)
-        tol = 1e-9 if v.integer else ON_BOUND * (hi - lo)
-        out.append("lower" if x <= lo + tol else "upper" if x >= hi - tol else "")
-    return out
-
-
-def _fixed_limit(run: RunData, v, side: str) -> str:
-    """Why a bound cannot be widened ('' if it can): a count of none, a strip over the whole
-    ERS."""
-    if side == "lower" and v.group in ("strengthened_sleepers", "type_ii_strip") and v.lower <= 0:
-        return ("no strengthened sleeper: there cannot be fewer"
-                if v.group == "strengthened_sleepers" else "no Type II strip: it cannot be shorter")
-    if side == "upper" and v.group == "type_ii_strip" and run.case is not None:
-        from ..config.zones import interfaces
-
-        x_a, x_b = interfaces(run.case.data)
-        if v.upper * v.scale >= x_b - x_a - 1e-9:
-            return "the strip covers the whole ERS"
-    return ""
-
-
-def _bounds_why(group: str) -> str:
-    """What the case's schema says of the values a design group may take (e.g. 'railpads are
-    20-2000 MN/m'), or ''."""
-    from ..config.schema import SCHEMA
-
-    try:
-        return SCHEMA.fields["design"].fields[group].fields["bounds"].why or ""
-    except (AttributeError, KeyError):
-        return ""
-
-
-def bounds_text(run: RunData, bi: int, sides: list[str]) -> str:
-    """Every variable of the best design on a bound of the search, and what to do about it:
-    where the bound is the case's choice, widen it (a new run); where it is a fixed limit, say
-    so."""
-    on = [(v, side, float(run.x[bi, j])) for j, (v, side) in enumerate(zip(run.variables, sides))
-          if side]
-    if not on:
-        return ("No design variable of the best design is on a bound of the search: its optimum "
-                "lies inside the design space.")
-    items, widen, fixed = [], {}, []
-    for v, side, x in on:
-        items.append(f"`{v.name}` = {var_value(v, x)}{f' {v.unit}' if v.unit else ''} "
-                     f"({side} bound)")
-        limit = _fixed_limit(run, v, side)
-        if limit:
-            fixed.append(f"`{v.name}` ({limit})")
-        else:
-            widen.setdefault(v.group, []).append(v.name)
-    text = (f"**On a bound:** {len(on)} of the best design's {len(run.variables)} variables sit on "
-            f"a bound of the search: {', '.join(items)}.")
-    if widen:
-        parts = []
-        for group, names in widen.items():
-            why = "; ".join(w for w in (_bounds_why(group), "in 0.1 m elements" if group in (
-                "sleeper_spans", "type_ii_strip") else "") if w)
-            parts.append(f"`design.{group}.bounds` ({', '.join(names)}{f'; {why}' if why else ''})")
-        text += (f" The optimum may lie beyond the bounds the case chose: if the track allows it, "
-                 f"widen {' and '.join(parts)} and start a new run (another name, or "
-                 f"`lccopt optimise CASE --force`).")
-    if fixed:
-        text += f" Fixed limits, which no case can widen: {'; '.join(fixed)}."
-    return text
-
-
-def worse_objectives(run: RunData, bi: int) -> list[tuple[str, float, float]]:
-    """(name, reference, best) of every reported objective the best design makes worse than
-    the reference design (the optimised ones and the others alike)."""
-    out = []
-    for k in run.obj:
-        r = run.ref_objectives.get(k, math.nan)
-        b = float(run.obj[k][bi])
-        if not (np.isfinite(r) and np.isfinite(b)) or abs(b - r) <= UNCHANGED * abs(r):
-            continue
-        if (b - r) * improvement_sign(k) > 0:
-            out.append((k, float(r), b))
-    return out
-
-
-def worse_text(run: RunData, worse: list) -> str:
-    """'What got worse' as a sentence: every reported objective the best design makes worse."""
-    if not worse:
-        return ("Nothing got worse: every reported objective of the best design is at least as "
-                "good as the reference design's.")
-    parts = []
-    for k, r, b in worse:
-        s, u = obj_display(k)
-        word = "rises" if b > r else "falls"
-        parts.append(f"{k} {word} from {fnum(r * s, 4)} to {fnum(b * s, 4)} {u} ({pct(b, r)}"
-                     + ("" if k in run.objectives else ", not an objective of this run") + ")")
-    return "**What got worse:** " + "; ".join(parts) + "."
-
-
-# Relative change below which an objective counts as unchanged (the last digits of a simulation
-# move with the machine: docs/runs.md, reproducibility).
-UNCHANGED = 5e-4
 
 
 def _first_near_best(run: RunData) -> int:
@@ -530,38 +309,6 @@ def _first_near_best(run: RunData) -> int:
     b = bsf[-1]
     tol = 0.01 * abs(b) if b != 0 else 1e-12
     return int(run.ids[order][np.flatnonzero(bsf <= b + tol)[0]])
-
-
-def _why_text(run: RunData, bi: int, ri: int | None, notes: dict) -> str:
-    parts = []
-    for k in run.objectives:
-        r, b = run.ref_objectives.get(k, math.nan), float(run.obj[k][bi])
-        if np.isfinite(r) and r:
-            s, u = obj_display(k)
-            setter = run.setting_condition(k, bi)
-            name = f"{k} (worst case, set by {setter})" if setter and _worst_case(run) else k
-            if abs(b - r) <= UNCHANGED * abs(r):
-                parts.append(f"{name} is unchanged at {fnum(r * s, 4)} {u}")
-            else:
-                word = "falls" if b < r else "rises"
-                parts.append(f"{name} {word} from {fnum(r * s, 4)} to {fnum(b * s, 4)} {u} "
-                             f"({pct(b, r)})")
-    text = "Against the reference design, " + "; ".join(parts) + "." if parts else ""
-    diffs = []
-    for j, v in enumerate(run.variables):
-        xr, xb = run.ref_x[j], run.x[bi, j]
-        if not np.isclose(xr, xb):
-            diffs.append(f"{v.label} {var_value(v, xr)} → {var_value(v, xb)}"
-                         + (f" {v.unit}" if v.unit else ""))
-    if diffs:
-        text += " The design differs in: " + "; ".join(diffs) + "."
-    else:
-        text += " The best design is the reference design."
-    return text.strip()
-
-
-def _worst_case(run: RunData) -> bool:
-    return (run.case.condition_mode if run.case is not None else "worst") == "worst"
 
 
 def _conditions_section(doc: Doc, run: RunData, bi: int, ri: int, figs: dict) -> None:

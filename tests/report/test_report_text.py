@@ -103,7 +103,7 @@ def test_the_summary_names_every_variable_on_a_bound_and_every_objective_made_wo
 def test_the_most_loaded_sleeper_is_named_once_when_it_does_not_change():
     import numpy as np
 
-    from lccopt.report.summary import history_facts
+    from lccopt.report.comparison import history_facts
 
     best = ({"sleeper_energy": np.array([1.0, 0.5, 0.4])}, {})
     ref = ({"sleeper_energy": np.array([2.0, 0.5, 0.1])}, {})
@@ -121,8 +121,8 @@ def test_the_most_loaded_sleeper_is_named_once_when_it_does_not_change():
 def test_a_force_highest_at_the_windows_end_is_not_called_a_peak():
     import numpy as np
 
+    from lccopt.report.comparison import history_facts
     from lccopt.report.data import pct
-    from lccopt.report.summary import history_facts
 
     x = np.linspace(90.0, 110.0, 2001)
     info = {"interface_entry": 100.0}
