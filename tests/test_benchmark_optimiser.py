@@ -1,4 +1,4 @@
-"""benchmarks/optimiser.py --quick runs end to end (lccopt and random only: no pySOT or
+"""benchmarks/optimiser/optimiser.py --quick runs end to end (lccopt and random only: no pySOT or
 Optuna needed) and writes a well-formed table and CSV; --resume reuses the stored runs."""
 
 import csv
@@ -12,12 +12,12 @@ import pytest
 pytestmark = pytest.mark.slow
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-SCRIPT = os.path.join(ROOT, "benchmarks", "optimiser.py")
+SCRIPT = ["-m", "benchmarks.optimiser.optimiser"]
 
 
 def _run(*args):
     env = {**os.environ, "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
-    r = subprocess.run([sys.executable, SCRIPT, *args], capture_output=True, text=True,
+    r = subprocess.run([sys.executable, *SCRIPT, *args], capture_output=True, text=True,
                        timeout=120, env=env, cwd=ROOT)
     assert r.returncode == 0, r.stderr
     return r.stdout
@@ -92,7 +92,7 @@ def test_merge_gathers_parts_and_refuses_conflicts(tmp_path):
     cells[-1] = repr(float(cells[-1]) - 1.0)
     b.write_text("\n".join([lines[0], ",".join(cells)] + lines[2:]) + "\n")
     env = {**os.environ, "OPENBLAS_NUM_THREADS": "1"}
-    r = subprocess.run([sys.executable, SCRIPT, *common, "--merge", str(b), "--out", str(out)],
+    r = subprocess.run([sys.executable, *SCRIPT, *common, "--merge", str(b), "--out", str(out)],
                        capture_output=True, text=True, timeout=120, env=env, cwd=ROOT)
     assert r.returncode != 0 and "|".join(cells[:3]) in r.stderr and "differs" in r.stderr
     assert _values(out) == merged
@@ -103,8 +103,7 @@ def test_paper_others_hands_the_log_scaled_pads_over_as_logarithms():
     # the bounds before the simulation (a design on a pad bound must not fail the case check).
     import numpy as np
 
-    sys.path.insert(0, os.path.join(ROOT, "benchmarks"))
-    import paper_others
+    from benchmarks.paper import paper_others
 
     p, ref, budget = paper_others.paper_problem("single-F_max")
     assert budget == 200

@@ -1,9 +1,11 @@
-"""benchmarks/paper_seeds.py --report-only summarises finished runs as they are stored (results.h5,
-journal.jsonl) and runs nothing: unfinished runs are left out, two folders compare on the seeds
-finished in both against one best-known value, and runs of different models are refused."""
+"""benchmarks/paper/paper_seeds.py --report-only summarises finished runs as they are stored
+(results.h5, journal.jsonl) and runs nothing: unfinished runs are left out, two folders compare
+on the seeds finished in both against one best-known value, and runs of different models are
+refused."""
 
 import csv
 import json
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -35,9 +37,10 @@ def _run(folder: Path, seed: int, fs: list[float], budget: int = 4, wall: float 
 
 
 def _report(tmp_path, *args):
-    return subprocess.run([sys.executable, str(ROOT / "benchmarks" / "paper_seeds.py"),
+    return subprocess.run([sys.executable, "-m", "benchmarks.paper.paper_seeds",
                            "--report-only", "--cases", "single-F_max", *args],
-                          cwd=tmp_path, capture_output=True, text=True, timeout=60)
+                          cwd=tmp_path, env={**os.environ, "PYTHONPATH": str(ROOT)},
+                          capture_output=True, text=True, timeout=60)
 
 
 def test_report_only_compares_finished_runs_side_by_side(tmp_path):

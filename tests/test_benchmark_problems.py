@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from benchmarks import problems as P
+from benchmarks.support import problems as P
 
 
 def _tol(f_opt):

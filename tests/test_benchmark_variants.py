@@ -1,6 +1,6 @@
-"""The experiments of benchmarks/variants.py plug into the strategy through its extension
+"""The experiments of benchmarks/optimiser/variants.py plug into the strategy through its extension
 points (a candidate generator, a restart policy), do what they say, keep the strategy's
-exact resume, and run from benchmarks/optimiser.py --variant."""
+exact resume, and run from benchmarks/optimiser/optimiser.py --variant."""
 
 import csv
 import os
@@ -10,7 +10,8 @@ import sys
 import numpy as np
 import pytest
 
-from benchmarks import problems, variants
+from benchmarks.optimiser import variants
+from benchmarks.support import problems
 from lccopt.optim.settings import Settings
 from lccopt.optim.strategy import Strategy
 from tests.optim.helpers import OFF_SWITCH_SPACE, ShortPhases, off_switch, run_serial, xs
@@ -79,7 +80,7 @@ def test_a_variant_run_resumes_exactly_with_its_extension_passed_again():
 def test_optimiser_benchmark_runs_a_variant_and_records_its_name(tmp_path):
     out = tmp_path / "v.csv"
     env = {**os.environ, "OPENBLAS_NUM_THREADS": "1"}
-    r = subprocess.run([sys.executable, os.path.join(ROOT, "benchmarks", "optimiser.py"),
+    r = subprocess.run([sys.executable, "-m", "benchmarks.optimiser.optimiser",
                         "--quick", "--problems", "gear", "--methods", "lccopt", "--seeds", "0-1",
                         "--variant", "uniform", "--out", str(out)],
                        capture_output=True, text=True, timeout=120, env=env, cwd=ROOT)

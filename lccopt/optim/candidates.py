@@ -7,7 +7,8 @@ adds the bound probes of a phase that goes on from a point (``bound_probes``), d
 candidate that equals a used point, and proposes the best candidate by the merit of Eq. (11).
 Whatever a generator draws it must draw from ``request.rng`` only (the strategy's generator,
 part of its saved state), so that a restored strategy proposes the same points. Experiments
-live in benchmarks/variants.py, e.g. a generator that adds uniform points to the default's::
+live in benchmarks/optimiser/variants.py, e.g. a generator that adds uniform points to the
+default's::
 
     class WithUniform:
         def __init__(self, settings):

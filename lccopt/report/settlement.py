@@ -1,7 +1,7 @@
 """Settlement figures and sentences: a design's settlement prediction (the ``settlement_*``
 histories of :mod:`lccopt.degradation.evaluate`) drawn for ``lccopt report`` (best and
-reference design), ``lccopt simulate`` (one design) and benchmarks/settlement_study.py (the
-study's designs side by side).
+reference design), ``lccopt simulate`` (one design) and benchmarks/settlement/settlement_study.py
+(the study's designs side by side).
 
     settlement-history.png   settlement of every settling sleeper against axle passes, one
                              panel per design; below, the limit's measure and the largest

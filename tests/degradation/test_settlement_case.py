@@ -62,7 +62,7 @@ def test_a_case_evaluation_is_the_simulation_and_the_prediction_it_says(single):
     for k in ("F_rms", "F_max", "E_rms", "E_max"):
         assert ev.objectives[k] == plain.objectives[k]
     np.testing.assert_array_equal(ev.histories["contact_force"], plain.histories["contact_force"])
-    # the prediction by hand, as benchmarks/settlement.py builds it
+    # the prediction by hand, as benchmarks/settlement/settlement.py builds it
     tr = build_track(case.scenario(), case.track_design(case.reference))
     veh = build_vehicle(case.scenario().vehicle)
     x0, _, _, x1 = tr.window

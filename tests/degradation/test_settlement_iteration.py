@@ -1,7 +1,8 @@
 """The settlement iteration (lccopt/degradation/iteration.py) on converged runs: a uniform track
 settles uniformly, the ERS interface makes a dip on the ballast side with hanging sleepers next
 to the slab, a stiffer law parameter settles less, and the 10-year result converges as the
-tolerance shrinks. Short versions (coarse time step and mesh) of benchmarks/settlement.py."""
+tolerance shrinks. Short versions (coarse time step and mesh) of
+benchmarks/settlement/settlement.py."""
 
 import numpy as np
 import pytest

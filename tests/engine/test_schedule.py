@@ -13,7 +13,7 @@ import random
 import numpy as np
 import pytest
 
-from benchmarks import problems
+from benchmarks.support import problems
 from lccopt.engine.replay import Replay
 from lccopt.engine.schedule import batch_size, may_ask, release
 from lccopt.optim.space import DesignSpace

@@ -49,7 +49,7 @@ def xs(s) -> list:
 class ShortPhases(RestartPolicy):
     """The default restart policy, but a phase without an end of its own also ends
     ``length`` proposals after its design: many restarts in a short run (an experiment
-    plugged in as benchmarks/variants.py plugs its own)."""
+    plugged in as benchmarks/optimiser/variants.py plugs its own)."""
 
     def __init__(self, length: int = 15):
         super().__init__()

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from benchmarks import problems
+from benchmarks.support import problems
 from lccopt.optim.candidates import (
     CandidateRequest,
     Dycors,

@@ -5,7 +5,7 @@ import json
 import numpy as np
 import pytest
 
-from benchmarks import problems
+from benchmarks.support import problems
 from lccopt.optim import strategy as strategy_module
 from lccopt.optim.settings import SIGMA_INIT, fail_tol
 from lccopt.optim.strategy import Strategy

@@ -5,7 +5,7 @@ import json
 import numpy as np
 import pytest
 
-from benchmarks import problems
+from benchmarks.support import problems
 from lccopt.optim import context
 from lccopt.optim.candidates import perturb
 from lccopt.optim.sampling import latin_hypercube, to_space

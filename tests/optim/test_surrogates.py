@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from benchmarks import problems
+from benchmarks.support import problems
 from lccopt.optim import surrogates
 from lccopt.optim.rbf import CubicRBF
 from lccopt.optim.scalarise import ASF

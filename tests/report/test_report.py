@@ -176,7 +176,7 @@ def test_missing_or_broken_run_directory_exit_2_one_line(tmp_path, kind):
 
 
 def test_paper_phases_accounts_for_every_evaluation(run_dir):
-    """benchmarks/paper_phases.py on a real run: its phases add up to the run's evaluations
+    """benchmarks/paper/paper_phases.py on a real run: its phases add up to the run's evaluations
     and its best value is results.h5's."""
     import subprocess
     import sys
@@ -187,9 +187,9 @@ def test_paper_phases_accounts_for_every_evaluation(run_dir):
     with h5py.File(run / "results.h5", "r") as f:
         ev = f["evaluations"]
         n, best = len(ev["id"]), float(ev["value"][()][ev["status"][()] == b"ok"].min())
-    proc = subprocess.run([sys.executable, str(REPO / "benchmarks" / "paper_phases.py"), str(run),
+    proc = subprocess.run([sys.executable, "-m", "benchmarks.paper.paper_phases", str(run),
                            "--reference", "1", "--best", str(best)], capture_output=True,
-                           text=True, timeout=120)
+                           text=True, timeout=120, cwd=REPO)
     assert proc.returncode == 0, proc.stderr
     line = proc.stdout.splitlines()[0].split()
     assert line[0] == run.name and float(line[1]) == pytest.approx(best, rel=1e-4)

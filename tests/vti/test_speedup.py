@@ -1,12 +1,16 @@
 """The default settings and integrator give the objectives of the method before issue 11
-(benchmarks/legacy_newmark.py: its integrator at its settings, dt 0.2 ms, 10 m run-in, far
+(benchmarks/support/legacy_newmark.py: its integrator at its settings, dt 0.2 ms, 10 m run-in, far
 elements 0.3 m) within 0.5 %, and the two integrators agree to round-off at the same settings.
-benchmarks/simulate_accuracy.py checks the first on 29 designs; this is a fast subset."""
+benchmarks/model/simulate_accuracy.py checks the first on 29 designs; this is a fast subset."""
 
 import numpy as np
 import pytest
 
-from benchmarks.legacy_newmark import REFERENCE_SETTINGS, evaluate_legacy, integrate_reference
+from benchmarks.support.legacy_newmark import (
+    REFERENCE_SETTINGS,
+    evaluate_legacy,
+    integrate_reference,
+)
 from lccopt.config import load_case
 from lccopt.problem import evaluate
 
