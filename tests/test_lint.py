@@ -96,7 +96,6 @@ OVERSIZED_MODULES = {
     "lccopt/config/case.py",
     "lccopt/degradation/iteration.py",
     "lccopt/optim/strategy.py",
-    "lccopt/report/settlement.py",
 }
 OVERSIZED_FUNCTIONS: set[str] = set()
 

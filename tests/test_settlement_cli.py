@@ -268,6 +268,7 @@ def test_settlement_history_keeps_its_labels_clear_of_the_legend_and_the_limit(r
     panel, and its legend sits below it: no label runs into the legend, the curves or the
     limit line (measured on the drawn figure, in pixels)."""
     from lccopt.report import settlement, write_report
+    from lccopt.report.law_variants import CHECK_FILE
 
     figs = {}
 
@@ -279,8 +280,8 @@ def test_settlement_history_keeps_its_labels_clear_of_the_legend_and_the_limit(r
     monkeypatch.setattr(settlement, "_save", keep)
     # the law check's predictions as the run's report kept them: read back, not predicted anew
     (tmp_path / "rep").mkdir()
-    kept = run[0] / "runs" / "s" / "report" / settlement.CHECK_FILE
-    (tmp_path / "rep" / settlement.CHECK_FILE).write_bytes(kept.read_bytes())
+    kept = run[0] / "runs" / "s" / "report" / CHECK_FILE
+    (tmp_path / "rep" / CHECK_FILE).write_bytes(kept.read_bytes())
     said = []
     write_report(run[0] / "runs" / "s", "md", tmp_path / "rep", True,
                  echo=lambda text, err=False: said.append(text))

@@ -55,16 +55,15 @@ from .along_track import fig_contact_force, fig_sleeper_energy
 from .comparison import history_facts
 from .data import FIGURES, FORMATS, RunData, _usage, load_run, read_history
 from .design import fig_best_vs_reference, fig_conditions, fig_track_layout
+from .law_variants import CHECK_FILE, law_check
 from .robust import fig_spread, run_spreads, spread_keys
 from .search import fig_objective_space, fig_search_history
 from .sensitivity import fig_sensitivity, sensitivity_of
 from .settlement import (
-    CHECK_FILE,
     Design,
     fig_settlement_history,
     fig_settlement_profile,
     has_settlement,
-    law_check,
     limit_of,
 )
 from .summary import build_summary

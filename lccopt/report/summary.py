@@ -343,7 +343,8 @@ def _conditions_section(doc: Doc, run: RunData, bi: int, ri: int, figs: dict) ->
 def _settlement_section(doc: Doc, run: RunData, designs: list, limit, check, figs: dict) -> None:
     """What the settlement prediction assumed, what its objectives mean, what it shows, and
     whether the ranking holds under the law's uncertainty (``check``, or None)."""
-    from .settlement import check_sentences, facts, meaning_items
+    from .law_variants import check_sentences
+    from .settlement import facts, meaning_items
 
     doc.h(2, "Settlement over the horizon")
     info = designs[-1].info

@@ -7,7 +7,7 @@ import pytest
 from lccopt.degradation.laws import LogarithmicLaw, VarandasLaw
 from lccopt.degradation.specs import DegradationSpec, LawSpec
 from lccopt.degradation.variants import law_variants, other_law
-from lccopt.report.settlement import _verdict, check_sentences
+from lccopt.report.law_variants import _verdict, check_sentences
 
 VARANDAS = LawSpec("varandas", (("alpha", 0.6), ("beta", 0.82), ("gamma", 10e-3),
                                 ("f0", 50e3), ("n0", 1e6)))
