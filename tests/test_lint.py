@@ -94,7 +94,6 @@ OVERSIZED_MODULES = {
     "lccopt/safeio.py",
     # Not split yet.
     "lccopt/config/case.py",
-    "lccopt/config/schema.py",
     "lccopt/degradation/iteration.py",
     "lccopt/optim/strategy.py",
     "lccopt/report/settlement.py",

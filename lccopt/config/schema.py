@@ -13,16 +13,15 @@ wrong unit, and the message proposes the unit that fits.
 
 from __future__ import annotations
 
-from dataclasses import replace
-
-from ..degradation.specs import LAW_NAMES, LIMIT_MEASURES, READINGS, SOILS
-from ..uncertainty.fields import DISTRIBUTIONS
 from ..uncertainty.statistics import ObjectiveNames
 from ..vti.irregularity import SPECTRA
 from ..vti.pads import NAMED_PADS
 from ..vti.response import PAPER_OBJECTIVES, REPORTED_ONLY, SETTLEMENT_OBJECTIVES
 from ..vti.specs import ZONE_POINTS
 from ..vti.vehicle import DEFAULT_TYPE, VEHICLE_TYPES
+from .plausible import MASS_WHY, PAD_WHY, RATIO_WHY, SEAT_WHY, SPEED
+from .schema_degradation import DEGRADATION
+from .schema_uncertainty import UNCERTAINTY
 from .spec import (  # noqa: F401
     Items,
     Named,
@@ -42,18 +41,6 @@ from .validate import MAX_MAGNITUDE, SAFE_NAME, check  # noqa: F401  (the schema
 OBJECTIVES = ObjectiveNames(PAPER_OBJECTIVES + SETTLEMENT_OBJECTIVES + REPORTED_ONLY)
 CONDITION_MODES = ("worst", "mean", "each")
 HISTORIES = ("all", "best", "none")
-
-# [m/s] Most of Europe allows no level crossing on a line faster than 160 km/h (Germany's
-# EBO section 11, for one); Britain has some on 125 mph (201 km/h) lines. 250 km/h leaves a
-# margin above all of them and catches a speed in km/h written as m/s (140 -> 504 km/h).
-MAX_SPEED = 250 / 3.6
-_SPEED_WHY = "no level crossing's line speed is higher"
-_SPEED = dict(unit="m/s", shown="km/h", gt=0, le=MAX_SPEED, why=_SPEED_WHY)
-_MASS_WHY = "a mass per wheel is some 100 kg to 15 t"
-_PAD_WHY = "railpads are 20-2000 MN/m"
-_SEAT_WHY = "ballast support per rail seat is some 10-200 MN/m"
-_RATIO_WHY = ("a pad is no softer under the wheel than bought; a ratio above 10 is more likely "
-              "a stiffness written in this field")
 
 
 def _kv(doc_k: str, doc_c: str, unit_k: str, unit_c: str, **bounds) -> Section:
@@ -85,13 +72,13 @@ def _pad_group() -> Section:
     group = _design_group("stiffness of the pads next to the interface, x_r1 farthest .. x_rN "
                           "nearest: under the wheel, or as bought (static) with "
                           "dynamic_to_static", integer=False, counted=True, unit="N/m",
-                          ge=1e7, le=1e10, shown="MN/m", why=_PAD_WHY)
+                          ge=1e7, le=1e10, shown="MN/m", why=PAD_WHY)
     fields = dict(group.fields)
     fields["dynamic_to_static"] = Num(
         "when given, x_r (bounds, reference) are the pads' static (catalogue) stiffness and "
         "the simulation uses x_r times this, the dynamic-to-static ratio of the pad type "
         "searched (its EN 13146-9 test report); absent, x_r is the stiffness under the wheel",
-        ge=1.0, le=10.0, why=_RATIO_WHY, required=False, keep_absent=True)
+        ge=1.0, le=10.0, why=RATIO_WHY, required=False, keep_absent=True)
     return Section(fields, group.doc)
 
 
@@ -103,14 +90,14 @@ _VEHICLE = Section({
                  "suspensions, the second wheelset a fixed point); quarter-car: one primary "
                  "suspension per wheel", tuple(m for t in VEHICLE_TYPES.values() for m in t.models),
                  default="paper", required=False),
-    "speed": Num("running speed; a bare number is in m/s (write 140 km/h for km/h)", **_SPEED),
+    "speed": Num("running speed; a bare number is in m/s (write 140 km/h for km/h)", **SPEED),
     "carbody_mass": Num("carbody mass carried by one wheel (a 4-axle car: 1/8 of the carbody)",
-                        "kg", ge=10, why=_MASS_WHY),
+                        "kg", ge=10, why=MASS_WHY),
     "bogie_mass": Num("bogie mass carried by one wheel (1/4 of a two-axle bogie)", "kg", ge=10,
-                      why=_MASS_WHY),
+                      why=MASS_WHY),
     "wheelset_mass": Num("unsprung mass on one wheel: half a wheelset for bogie and half-car "
                          "(each wheel is one end of its axle); the paper's three-dof reading "
-                         "puts the whole wheelset on its one wheel", "kg", ge=10, why=_MASS_WHY),
+                         "puts the whole wheelset on its one wheel", "kg", ge=10, why=MASS_WHY),
     "primary_stiffness": Num("primary suspension stiffness per wheel (per axle box)", "N/m",
                              ge=1e4, shown="kN/m", why="suspensions are 0.1-10 MN/m per wheel"),
     "primary_damping": Num("primary suspension damping per wheel", "N s/m", ge=0),
@@ -159,14 +146,14 @@ _TRACK = Section({
                     tuple(NAMED_PADS), required=False, keep_absent=True),
         "stiffness": Num("the pad's stiffness under the wheel (dynamic, per rail seat): what "
                          "the simulation uses", "N/m", ge=1e7, le=1e10, shown="MN/m",
-                         why=_PAD_WHY, required=False, keep_absent=True),
+                         why=PAD_WHY, required=False, keep_absent=True),
         "static_stiffness": Num("the pad as bought: its static (catalogue, EN 13146-9) "
                                 "stiffness; with dynamic_to_static instead of stiffness, or "
                                 "beside it (then shown, not used)", "N/m", ge=1e7, le=1e10,
-                                shown="MN/m", why=_PAD_WHY, required=False, keep_absent=True),
+                                shown="MN/m", why=PAD_WHY, required=False, keep_absent=True),
         "dynamic_to_static": Num("the pad's dynamic (EN 13146-9 low-frequency, preloaded) over "
                                  "its static stiffness, from its test report: stiffness = "
-                                 "static_stiffness x this", ge=1.0, le=10.0, why=_RATIO_WHY,
+                                 "static_stiffness x this", ge=1.0, le=10.0, why=RATIO_WHY,
                                  required=False, keep_absent=True),
         "damping": Num("railpad damping per rail seat (the designed pads' scales with their "
                        "stiffness under the wheel)", "N s/m", ge=0, required=False,
@@ -186,12 +173,12 @@ _TRACK = Section({
                             required=False, keep_absent=True)}),
     "support": _kv("ballast/subgrade stiffness per rail seat",
                    "ballast/subgrade damping per rail seat", "N/m", "N s/m", ge=1e6,
-                   shown="MN/m", why=_SEAT_WHY),
+                   shown="MN/m", why=SEAT_WHY),
     "strengthened_sleeper": Section({
         "mass": Num("strengthened sleeper mass per rail", "kg", ge=10,
                     why="a sleeper is some 100-400 kg"),
         "support_stiffness": Num("ballast/subgrade stiffness under it per rail seat", "N/m",
-                                 ge=1e6, shown="MN/m", why=_SEAT_WHY),
+                                 ge=1e6, shown="MN/m", why=SEAT_WHY),
         "support_damping": Num("ballast/subgrade damping under it per rail seat", "N s/m",
                                ge=0),
         "bearing_area": Num("settlement (degradation:) only: its base area per rail seat. "
@@ -355,14 +342,14 @@ _OPTIMISATION = Section({
 _VEHICLES = Named(
     Section({**_VEHICLE.fields,
              "speed": Num("default speed of the vehicle's conditions", required=False,
-                          **_SPEED)}, "a vehicle, with the keys of the vehicle section"),
+                          **SPEED)}, "a vehicle, with the keys of the vehicle section"),
     "named vehicles for the conditions (each with the keys of the vehicle section)")
 _CONDITIONS = Items(Section({
     "name": Str("condition name (letters, digits, '.', '-', '_'); objectives of it are named "
                 "like F_max@name"),
     "vehicle": Str("a name from vehicles:, or case for the case's vehicle section",
                    default="case", required=False),
-    "speed": Num("running speed (default: the vehicle's)", required=False, **_SPEED),
+    "speed": Num("running speed (default: the vehicle's)", required=False, **SPEED),
     "direction": Str("enter: from the designed ballast side into the ERS; leave: from the ERS "
                      "onto the designed side", ("enter", "leave"), default="enter",
                      required=False),
@@ -371,238 +358,6 @@ _CONDITIONS = Items(Section({
     "weight": Num("weight of the condition in the weighted mean (conditions: mean)", gt=0,
                   default=1.0, required=False),
 }), "traffic conditions; without this list the case is one condition: its vehicle section")
-
-# The settlement prediction (lccopt/degradation, docs/settlement.md). Law parameters without a
-# default here get the chosen law's default from lccopt/config/degradation.py (the other law's
-# keys stay absent); sources in docs/settlement.md, "Parameters".
-_ROSE = "(ROSE, Deltares / TU Delft, citing Varandas et al. 2014; not checked against the paper)"
-_LAW = Section({
-    "name": Str("varandas: Varandas, Hölscher & Silva (2014), Proc IMechE F 228(3) 242-259, "
-                "doi:10.1177/0954409712471610, settlement from the load histogram; logarithmic: "
-                "S = s1 (F/F0)^m (1 + C ln N), Hettler's form, strain hardening",
-                LAW_NAMES, default="varandas", required=False),
-    "alpha": Num("varandas: load exponent (settlement grows as F^(alpha+1)). Default 0.6 "
-                 + _ROSE, gt=0, le=10.0, required=False, keep_absent=True),
-    "beta": Num("varandas: cycle exponent (under one load, settlement grows as about "
-                "N^(1-beta)). Default 0.82 " + _ROSE, gt=0, le=0.99, required=False,
-                keep_absent=True),
-    "gamma": Num("varandas: settlement after reference_cycles cycles of reference_force. "
-                 "Default 10 mm " + _ROSE, "m", gt=0, le=1.0, shown="mm", required=False,
-                 keep_absent=True),
-    "reference_force": Num("varandas, logarithmic: reference force F0 per rail seat. Default "
-                           "50 kN " + _ROSE, "N", gt=0, le=1e7, shown="kN", required=False,
-                           keep_absent=True),
-    "reference_cycles": Num("varandas: reference number of cycles N0. Default 1e6 " + _ROSE,
-                            ge=1, le=1e12, required=False, keep_absent=True),
-    "first_cycle": Num("logarithmic: settlement s1 after the first cycle of F0 (required: no "
-                       "published value could be found)", "m", gt=0, le=1.0, shown="mm",
-                       required=False, keep_absent=True),
-    "log_rate": Num("logarithmic: C (required: no published value could be found)", gt=0,
-                    le=1000.0, required=False, keep_absent=True),
-    "exponent": Num("logarithmic: load exponent m. Default 1.6 (Hettler's, as ROSE writes the "
-                    "law)", gt=0, le=10.0, required=False, keep_absent=True),
-}, "the settlement law, driven by the peak ballast force of each axle passing each sleeper",
-   required=False)
-_PASSAGES = dict(unit="1/year", le=1e8, why="a busy line carries some 10^5-10^6 passages a year")
-# Traffic as people count it: trains a day and what each train is, or axle passes a year
-# (lccopt/config/degradation.py turns them into passages of the modelled vehicle).
-_TRAINS = {
-    "trains_per_day": Num("trains a day on the modelled track, each of vehicles_per_train or "
-                          "bogies_per_train (instead of passages_per_year)", gt=0, le=5000.0,
-                          why="a busy track carries some 50-500 trains a day", required=False,
-                          keep_absent=True),
-    "vehicles_per_train": Num("vehicles (cars) of each train, each on two bogies of two axles "
-                              "like the modelled one (a four-car VIRM: 4)", integer=True, ge=1,
-                              le=100, required=False, keep_absent=True),
-    "bogies_per_train": Num("bogies of each train (instead of vehicles_per_train: articulated "
-                            "trains, locomotives and wagons mixed)", integer=True, ge=1, le=400,
-                            required=False, keep_absent=True),
-    "axle_passes_per_year": Num("axle passes a year, every axle of the modelled vehicle's load "
-                                "(instead of trains or passages)", gt=0, le=1e9,
-                                why="a busy line carries some 10^5-10^7 axle passes a year",
-                                required=False, keep_absent=True),
-}
-_DEGRADATION = Section({
-    "horizon_years": Num("the horizon: the settlement objectives are the track's state after "
-                         "this many years of the traffic. Default 10 years (when "
-                         "horizon_axle_passes is not given)", "year", gt=0, le=200.0,
-                         required=False, keep_absent=True),
-    "horizon_axle_passes": Num("the horizon in axle passes of the modelled rail, all "
-                               "conditions together (instead of horizon_years)", gt=0, le=1e10,
-                               required=False, keep_absent=True),
-    "passages_per_year": Num("a case without conditions: passages of its vehicle a year (a "
-                             "bogie: one bogie, 2 axles; a half car: one car, 4 axles; "
-                             "three-dof: one wheelset). Or trains_per_day with "
-                             "vehicles_per_train or bogies_per_train, or axle_passes_per_year",
-                             gt=0, required=False, keep_absent=True, **_PASSAGES),
-    **{k: replace(v, doc="a case without conditions: " + v.doc) for k, v in _TRAINS.items()},
-    "traffic": Named(NumOrSection(
-        "passages of the condition's vehicle a year (0: it counts for the paper's objectives "
-        "only), or its trains",
-        Num("passages a year", ge=0, **_PASSAGES),
-        Section({"passages_per_year": Num("passages of the condition's vehicle a year", ge=0,
-                                          required=False, keep_absent=True, **_PASSAGES),
-                 **_TRAINS})),
-        "a case with conditions: the traffic of each condition, every condition named",
-        keep_absent=True),
-    "law": _LAW,
-    "rail_seats": Num("the law's force = rail_seats x the modelled support force (one rail "
-                      "seat); 1 as ROSE applies the Varandas defaults", gt=0, le=10.0,
-                      default=1.0, required=False),
-    "reading": Str("how a passage loads the ballast: axle, each axle's own peak force is one "
-                   "load cycle; passage, every axle counts with the passage's largest peak "
-                   "(ROSE's reading)", READINGS, default="axle", required=False),
-    "subgrade": Section({
-        "soil": Str("the subgrade's soil class after Li & Selig (1996): ML silt, MH elastic "
-                    "silt, CL lean clay, CH fat clay; none: the ballast law alone",
-                    SOILS + ("none",), default="CL", required=False),
-        "strength": Num("the soil's static (compressive) strength under a support of "
-                        "reference_stiffness. Default 150 kPa: a stiff clay (100-200 kPa, "
-                        "Terzaghi & Peck's consistency classes)", "Pa", gt=0, le=1e8,
-                        shown="kPa", default=150.0e3, required=False),
-        "reference_stiffness": Num("the support stiffness per rail seat (track.support) the "
-                                   "strength is given for: a case's softer support is a weaker "
-                                   "soil, its strength scaled in proportion. Default 45 MN/m "
-                                   "(configs/reference.yaml)", "N/m", ge=1e6, shown="MN/m",
-                                   why=_SEAT_WHY, default=45.0e6, required=False),
-        "depth": Num("from the sleeper's base to the top of the subgrade (ballast and "
-                     "sub-ballast). Default 0.5 m", "m", gt=0, le=10.0, default=0.5,
-                     required=False),
-        "thickness": Num("the subgrade layer whose strain settles the track. Default 2 m",
-                         "m", gt=0, le=50.0, default=2.0, required=False),
-    }, "the subgrade below the ballast (and below the ERS slab): its own law, Li & Selig "
-       "(1996) as ROSE applies it, fed the stress of each sleeper's force (docs/settlement.md)",
-       required=False),
-    "settling_sleepers": Num("entry sleepers nearest the interface that settle by their own "
-                             "loads (at most evaluation.sleepers: the runs pass the whole "
-                             "vehicle over those)", integer=True, ge=1, le=500, default=20,
-                             required=False),
-    "follower_flat": Num("the entry sleepers beyond the settling ones settle as the farthest of "
-                         "them over this length (the open track)", "m", ge=0, le=500.0,
-                         default=10.0, required=False),
-    "follower_taper": Num("beyond follower_flat they taper to no settlement over this length "
-                          "(the rail's pinned end would otherwise hold the settled track up)",
-                          "m", gt=0,
-                          le=500.0, default=20.0, required=False),
-    "tolerance": Num("error allowed in the loads the law is fed between simulations: the "
-                     "accuracy and cost knob (2 kN: the 10-year profile within 0.02 mm of a "
-                     "4x finer run; benchmarks/RESULTS-settlement.md)", "N", gt=0, le=50e3,
-                     shown="kN", default=2.0e3, required=False),
-    "steps_per_decade": Num("blocks of load cycles per decade of cycles, at most", gt=0,
-                            le=100.0, default=8.0, required=False),
-    "max_simulations": Num("the most simulations of each condition in one prediction, the "
-                           "first and last included (the cost cap; about 13 are needed for "
-                           "10^7 axle passes at 2 kN)", integer=True, ge=2, le=1000, default=30,
-                           required=False),
-    "limit": Section({
-        "measure": Str("the measure the limit is on", LIMIT_MEASURES,
-                       default="differential_settlement", required=False),
-        "value": Num("the limit", "m", gt=0, le=1.0, shown="mm", default=3.0e-3,
-                     required=False),
-    }, "the limit that years_to_limit and maintenance_rate count to, and that tamping (if any) "
-       "is done at. Default: differential settlement 3 mm (an assumption, not a standard's "
-       "value)", required=False),
-    "tamping": Section({
-        "unreachable_sleepers": Num("sleepers next to the slab a tamping machine cannot reach "
-                                    "(not lifted). Default 2: the group of hanging sleepers "
-                                    "tamping did not cure next to the level crossing Le Pen et "
-                                    "al. (2014) monitored (an assumption: set your machine's "
-                                    "reach)", integer=True, ge=0, le=500, default=2,
-                                    required=False),
-        "min_interval": Num("the least time between two tampings (and from the new track to the "
-                            "first): the limit reached sooner is tamped then. Default 0.1 year",
-                            "year", gt=0, le=50.0, default=0.1, required=False),
-    }, "tamp when the limit is reached: the reachable settling sleepers are lifted to the "
-       "slab's level and their ballast settles anew (fast at first); objectives interventions, "
-       "years_to_limit (to the first) (docs/settlement.md)", required=False,
-       none_if_absent=True, keep_absent=True),
-}, "predict the settlement of each design under its traffic and judge it by the settlement "
-   "objectives (docs/settlement.md)", required=False, none_if_absent=True, keep_absent=True)
-
-# The track as built rather than as drawn (lccopt/uncertainty, docs/robust.md): random
-# variations over the sleepers, each quantity a field of its own. Defaults and their sources:
-# docs/robust.md, "The quantities".
-MAX_REALISATIONS = 500
-_ROSE_FIELD = ("(ROSE, Deltares / TU Delft: rose/utils/random_field.py and its demo, "
-               "cov 0.25 over 20 m)")
-_CORRELATION_DOC = ("correlation length l along the track: rho(r) = exp(-(pi/4) (r/l)^2) "
-                    "between sleepers r apart (ROSE's Gaussian model); 0: each sleeper on its "
-                    "own")
-
-
-def _variation(doc: str, cov: Num, correlation: float | None, extra: dict | None = None,
-               mean_doc: str | None = None) -> Section:
-    fields = {
-        "distribution": Str("lognormal (positive, skewed: ROSE's) or uniform (a tolerance band; "
-                            "cov at most 0.5)", DISTRIBUTIONS, default="lognormal",
-                            required=False),
-        "cov": cov,
-        "correlation_length": Num(_CORRELATION_DOC + (f". Default {correlation:g} m"
-                                                      if correlation else ""),
-                                  "m", ge=0, le=1000.0, default=correlation or 0.0,
-                                  required=False),
-    }
-    if mean_doc:
-        fields["mean"] = Num(mean_doc, gt=0, le=10.0, default=1.0, required=False)
-    fields.update(extra or {})
-    return Section(fields, doc, required=False, none_if_absent=True, keep_absent=True)
-
-
-_UNCERTAINTY = Section({
-    "realisations": Num("realisations of the track drawn for a run: every design is simulated "
-                        "on each of them (and on the track as drawn), the same ones for every "
-                        "design", integer=True, ge=2, le=MAX_REALISATIONS,
-                        why="a spread needs two; beyond 500 the statistics no longer move"),
-    "seed": Num("seed the realisations are drawn from. Default: optimisation.seed (0 without "
-                "one); another seed draws fresh realisations (to judge designs on tracks "
-                "their optimisation never saw)", integer=True, ge=0, required=False,
-                keep_absent=True),
-    "support_stiffness": _variation(
-        "each sleeper's ballast/subgrade stiffness (a factor on the drawing's, strengthened "
-        "sleepers too); {} takes the defaults",
-        Num("coefficient of variation of the factor. Default 0.25 " + _ROSE_FIELD, ge=0,
-            le=1.0, default=0.25, required=False, why="a factor varying by more than its mean "
-            "is no longer one track"), 20.0),
-    "support_damping": _variation(
-        "each sleeper's ballast/subgrade damping (a factor on the drawing's); {} takes the "
-        "defaults",
-        Num("coefficient of variation of the factor. Default 0.25 " + _ROSE_FIELD, ge=0,
-            le=1.0, default=0.25, required=False, why="a factor varying by more than its mean "
-            "is no longer one track"), 20.0,
-        {"field": Str("stiffness: drawn from support_stiffness's field, so that damping rises "
-                      "with stiffness sleeper by sleeper (ROSE draws both from one seed); own: "
-                      "a field of its own", ("stiffness", "own"), default="stiffness",
-                      required=False)}),
-    "pad_stiffness": _variation(
-        "each railpad's stiffness (a factor on the catalogue's or the design's; pad damping "
-        "follows it): manufacturing tolerance (cov) and ageing (mean)",
-        Num("coefficient of variation of the factor (required: no published spread of pad "
-            "stiffness in track could be found)", ge=0, le=1.0, why="a factor varying by more "
-            "than its mean is no longer one track"), None,
-        mean_doc="mean factor: 1 (the default) for new pads as catalogued; above 1 for pads "
-                 "that stiffened with age"),
-    "settlement_coefficient": _variation(
-        "each settling sleeper's ballast settlement (a factor on the settlement law's "
-        "coefficient: gamma of varandas, first_cycle of logarithmic); needs degradation:",
-        Num("coefficient of variation of the factor (required: no published spread from "
-            "sleeper to sleeper could be found)", ge=0, le=1.0, why="a factor varying by "
-            "more than its mean is no longer one track"), None),
-    "initial_void": Section({
-        "probability": Num("fraction of the ballast sleepers that hang (required: hanging "
-                           "sleepers are common on crossing approaches, Le Pen et al., "
-                           "but no published fraction fits every site)", ge=0, le=1),
-        "gap": Num("mean gap between a hanging sleeper and its ballast (required)", "m", ge=0,
-                   le=0.05, shown="mm", why="a void deeper than 50 mm is a missing sleeper"),
-        "cov": Num("coefficient of variation of the gap (lognormal). Default 0: every hanging "
-                   "sleeper hangs by gap", ge=0, le=2.0, default=0.0, required=False),
-        "correlation_length": Num(_CORRELATION_DOC + " (a length groups hanging sleepers: "
-                                  "they often come in a row, Lazarevic et al. 2016)", "m",
-                                  ge=0, le=1000.0, default=0.0, required=False),
-    }, "sleepers that hang over a void at rest (the unilateral support model)",
-       required=False, none_if_absent=True, keep_absent=True),
-}, "random variations over the sleepers: every design is judged on the same realisations of "
-   "the track (docs/robust.md); robust objectives mean(F_max), q90(F_max), p_worse(F_max)",
-   required=False, none_if_absent=True, keep_absent=True)
 
 SCHEMA = Section({
     "name": Str("case name, also the run directory name (letters, digits, - and _)"),
@@ -615,6 +370,6 @@ SCHEMA = Section({
     "optimisation": _OPTIMISATION,
     "vehicles": _VEHICLES,
     "conditions": _CONDITIONS,
-    "degradation": _DEGRADATION,
-    "uncertainty": _UNCERTAINTY,
+    "degradation": DEGRADATION,
+    "uncertainty": UNCERTAINTY,
 })

@@ -28,7 +28,7 @@ from ..uncertainty import statistics as stats
 from ..vti.response import REPORTED_ONLY, SETTLEMENT_OBJECTIVES
 from ..vti.specs import TrackVariation
 from .checks import MAX_DESIGN_STEP_DOFS, simulation_size
-from .schema import MAX_REALISATIONS
+from .schema_uncertainty import MAX_REALISATIONS
 
 # the quantities of the section, in the order check prints them
 QUANTITIES = ("support_stiffness", "support_damping", "pad_stiffness", "settlement_coefficient",
