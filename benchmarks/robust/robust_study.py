@@ -4,9 +4,9 @@ the case's realisations), the same budget of designs each; then both optima and 
 design judged on FRESH realisations (another seed, many more of them) that neither
 optimisation saw. Prints a Markdown table and writes the spread figure of the first seed.
 
-    nice -n 10 python benchmarks/robust_study.py paper --seeds 1 2 3 --budget 100 \\
+    nice -n 10 python -m benchmarks.robust.robust_study paper --seeds 1 2 3 --budget 100 \\
         --realisations 8 --fresh 100 --out benchmarks/results/robust-paper
-    nice -n 10 python benchmarks/robust_study.py settlement --seeds 1 --budget 40 \\
+    nice -n 10 python -m benchmarks.robust.robust_study settlement --seeds 1 --budget 40 \\
         --realisations 8 --fresh 40 --out benchmarks/results/robust-settlement
 
 Cases: ``paper``, the paper's crossing (configs/reference.yaml) for F_max, on
@@ -33,7 +33,7 @@ from lccopt.report.data import BEST_COLOR, REF_COLOR
 from lccopt.report.robust import NOMINAL_COLOR, Spread, fig_spread
 from lccopt.uncertainty import statistics as stats
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 VARIATION = """\
 uncertainty:
   realisations: {realisations}
