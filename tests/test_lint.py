@@ -93,8 +93,6 @@ OVERSIZED_MODULES = {
     "lccopt/engine/dask_pool.py",
     "lccopt/safeio.py",
     # Not split yet.
-    "lccopt/config/case.py",
-    "lccopt/degradation/iteration.py",
     "lccopt/optim/strategy.py",
 }
 OVERSIZED_FUNCTIONS: set[str] = set()

@@ -32,22 +32,15 @@ from .checks import (
     simulation_size,
 )
 from .degradation import check_degradation, degradation_spec
+from .profile_files import RowCount, profile_rows
 from .profiles import (
-    MAX_CASE_PROFILE_POINTS,
-    MAX_PROFILE_BYTES,
-    ProfileError,
     ProfileText,
-    parse_rows,
-    rows_text,
 )
 from .reading import (
-    check_file_name,
     dotted,
     locate,
     read_case_text,
-    read_input_bytes,
     read_with_base,
-    shown,
 )
 from .schema import SAFE_NAME, SCHEMA, check
 from .uncertainty import check_uncertainty, draw
@@ -384,10 +377,10 @@ def load_case(path: str | Path, overrides=(), text: str | None = None) -> Case:
     variables = _variables(data["design"], lines, file)
     check_design_space(data, variables, err)
     check_optimisation(data, err, len(variables))
-    rows = _RowCount(err)
+    rows = RowCount(err)
     at = ("simulation", "irregularity")
     data["simulation"]["irregularity"] = rows.add(
-        _profile_rows(data["simulation"]["irregularity"], path, lines, err, at), at)
+        profile_rows(data["simulation"]["irregularity"], path, lines, err, at), at)
     check_profile(data, err, at)
     conditions = _conditions(data, path, lines, err, rows)
     sims = [c.data for c in conditions] or [data]
@@ -399,51 +392,8 @@ def load_case(path: str | Path, overrides=(), text: str | None = None) -> Case:
                 overrides=overrides, traffic=conditions, variations=draw(data))
 
 
-def _profile_rows(value, path: Path, lines: dict, err, at: tuple):
-    """The irregularity as the case keeps it: a CSV file named is read (relative to the case
-    file) into ``{source: name, points: rows}``; anything else as it is."""
-    if not isinstance(value, str) or value == "none":
-        return value
-    if not value.strip():
-        raise err(at, "an empty file name (none: a smooth rail)")
-    where = locate(lines, at, str(path))
-    check_file_name(value, where, dotted(at))
-    csv = path.parent / value
-
-    def fail(problem: str) -> CaseError:
-        return err(at, f"{shown(str(csv))}: {problem}")
-
-    data = read_input_bytes(csv, MAX_PROFILE_BYTES, fail)
-    try:
-        text = data.decode("utf-8-sig")
-    except UnicodeDecodeError as exc:
-        line = data[:exc.start].count(b"\n") + 1
-        raise fail(f"line {line}: not UTF-8 text (byte {exc.start})") from None
-    try:
-        rows = parse_rows(text)
-    except ProfileError as exc:
-        raise fail(f"line {exc.line}: {exc}") from None
-    return {"source": value, "points": rows_text(rows)}
-
-
-class _RowCount:
-    """The rows of a case's profiles, counted as they are read: at most
-    MAX_CASE_PROFILE_POINTS in all (case and conditions), refused at the one that passes it."""
-
-    def __init__(self, err):
-        self.err, self.total = err, 0
-
-    def add(self, value, at: tuple):
-        if isinstance(value, dict) and "points" in value:
-            self.total += value["points"].count("\n")
-            if self.total > MAX_CASE_PROFILE_POINTS:
-                raise self.err(at, f"the case's rail profiles hold more than "
-                                   f"{MAX_CASE_PROFILE_POINTS:,} rows in all")
-        return value
-
-
 def _conditions(data: dict, path: Path, lines: dict, err,
-                rows: _RowCount) -> tuple[Condition, ...]:
+                rows: RowCount) -> tuple[Condition, ...]:
     """The traffic conditions of a case (none without a ``conditions:`` list)."""
     vehicles = data.get("vehicles") or {}
     listed = data.get("conditions") or []
@@ -479,7 +429,7 @@ def _conditions(data: dict, path: Path, lines: dict, err,
         sim = dict(data["simulation"])
         sim["direction"] = c["direction"]
         if c["irregularity"] is not None:
-            c["irregularity"] = rows.add(_profile_rows(c["irregularity"], path, lines, err,
+            c["irregularity"] = rows.add(profile_rows(c["irregularity"], path, lines, err,
                                                        at + ("irregularity",)),
                                          at + ("irregularity",))
             sim["irregularity"] = c["irregularity"]
