@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from lccopt.config import load_case
-from lccopt.degradation.iteration import _implicit_block, _Loads, predict_settlement
+from lccopt.degradation.blocks import SleeperLoads, implicit_block
+from lccopt.degradation.iteration import predict_settlement
 from lccopt.degradation.laws import VarandasLaw
 from lccopt.degradation.loading import (
     Axles,
@@ -157,21 +158,21 @@ def test_implicit_blocks_are_stable_where_explicit_ones_make_a_checkerboard(refe
     more sheds its load, settles less in the next block, and the profile zigzags."""
     tr, zone, cond, _ = reference
     law = VarandasLaw()
-    loads = _Loads(ZoneStatics(tr, zone.supports), zone, [cond], 1.0)
+    loads = SleeperLoads(ZoneStatics(tr, zone.supports), zone, [cond], 1.0)
     n = zone.n_settling
     ends = np.unique(np.round(np.logspace(0, 6, 80)))
     implicit, explicit = np.zeros(n), np.zeros(n)
     s_imp, s_exp, done = law.start(n), law.start(n), 0.0
     for end in ends:
         cycles = np.array([end - done])
-        implicit, rows = _implicit_block(law, s_imp, implicit, loads, cycles)
+        implicit, rows = implicit_block(law, s_imp, implicit, loads, cycles)
         np.testing.assert_allclose(implicit, law.settlement(law.add(s_imp, rows, cycles)),
                                    atol=1e-8)
         s_imp = law.add(s_imp, rows, cycles)
         s_exp = law.add(s_exp, loads(explicit, jacobian=False)[0], cycles)
         explicit = law.settlement(s_exp)
         done = end
-    one, _ = _implicit_block(law, law.start(n), np.zeros(n), loads, np.array([done]))
+    one, _ = implicit_block(law, law.start(n), np.zeros(n), loads, np.array([done]))
     assert np.max(np.abs(np.diff(implicit, 2))) < 1e-3          # the dip's own curvature
     assert np.max(np.abs(one - implicit)) < 1e-3
     assert np.max(np.abs(np.diff(explicit, 2))) > 3e-3
