@@ -93,7 +93,6 @@ OVERSIZED_MODULES = {
     "lccopt/engine/dask_pool.py",
     "lccopt/safeio.py",
     # Not split yet.
-    "lccopt/optim/strategy.py",
 }
 OVERSIZED_FUNCTIONS: set[str] = set()
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from benchmarks.support import problems
-from lccopt.optim import strategy as strategy_module
+from lccopt.optim import selection as selection_module
 from lccopt.optim.settings import SIGMA_INIT, fail_tol
 from lccopt.optim.strategy import Strategy
 from tests.optim.helpers import (
@@ -120,10 +120,10 @@ def test_bound_probes_in_a_phase_from_the_best_point_reach_an_off_switch_behind_
     from its best point, the probes put n on 0 and the run ends there. Probes are candidates
     only in phases that go on from a point."""
     probed_in = []
-    real = strategy_module.bound_probes
+    real = selection_module.bound_probes
     for seed in range(3):
         s = Strategy(OFF_SWITCH_SPACE, budget=80, n_initial=10, seed=seed)
-        monkeypatch.setattr(strategy_module, "bound_probes",
+        monkeypatch.setattr(selection_module, "bound_probes",
                             lambda *a, s=s: probed_in.append(s.phase.anchor) or real(*a))
         run_serial(s, off_switch)
         first = [r for r in s.history if r["restart"] == 0 and r["status"] == "ok"]
