@@ -211,7 +211,3 @@ def replay(strategy, ev: dict) -> None:
                                f"since the run started?")
     elif kind == "case_changed":
         strategy.budget = int(ev["budget"])
-
-
-# ------------------------------------------------------------------------------ the loop
-

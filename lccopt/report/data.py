@@ -402,7 +402,3 @@ def value_label(run: RunData) -> tuple[float, str]:
     k = run.objectives[0]
     s, u = obj_display(k)
     return s, f"{k} [{u}]"
-
-
-# ================================================================================ figures
-

@@ -145,6 +145,3 @@ def fig_sensitivity(run: RunData, out: Path, indices: dict) -> Path | None:
                loc="lower center", ncol=2, frameon=False)
     fig.tight_layout(rect=(0, 0.07, 1, 0.94))
     return save_figure(fig, out / "sensitivity.png")
-
-
-# ================================================================================ summary
