@@ -26,9 +26,10 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .config import Case
+from .config import Case, Variable
 from .errors import CaseError
 from .uncertainty import statistics as robust
+from .vti.response import OBJECTIVES
 
 # The ASF's worst values when a case gives none: 1.5 x the reference design's objectives. The
 # paper takes them from the single-objective optima, which cost a run per objective; this
@@ -72,11 +73,7 @@ def evaluate(case: Case, x):
 
 @dataclass(frozen=True)
 class Problem:
-    names: tuple[str, ...]
-    lower: tuple[float, ...]
-    upper: tuple[float, ...]
-    integer: tuple[bool, ...]
-    reference: tuple[float, ...]
+    variables: tuple[Variable, ...]       # the design variables, internal units
     objectives: tuple[str, ...]
     budget: int
     initial_points: int
@@ -88,7 +85,6 @@ class Problem:
     conditions: tuple[str, ...] = ()      # traffic conditions (none: the case's one simulation)
     weights: tuple[float, ...] = ()
     condition_mode: str = "worst"
-    log: tuple[bool, ...] = ()            # variables searched on a log scale (empty: none)
     # conditions simulated inside one evaluation (a settlement prediction's traffic)
     traffic: tuple[str, ...] = ()
     # realisations of the track every design is simulated on (a case with uncertainty:), and
@@ -106,7 +102,7 @@ class Problem:
             if opt.get(key) is None:
                 raise CaseError(f"{case.path}:1: optimisation: missing key '{key}' "
                                 f"('lccopt optimise' needs it)")
-        asf = opt["asf"] or {}
+        asf = opt["asf"]          # rho and improvement: the schema's defaults where absent
         worst = asf.get("worst")
         conditions = tuple(c.name for c in case.conditions)
         mode = case.condition_mode
@@ -116,23 +112,18 @@ class Problem:
                 worst = [w for w in worst for _ in conditions]
             objectives = tuple(robust.at_condition(k, c) for k in objectives for c in conditions)
         return cls(
-            names=tuple(case.names),
-            lower=tuple(float(v) for v in case.lower),
-            upper=tuple(float(v) for v in case.upper),
-            integer=tuple(bool(v) for v in case.integer),
-            reference=tuple(float(v) for v in case.reference),
+            variables=tuple(case.variables),
             objectives=objectives,
             budget=int(opt["budget"]),
             initial_points=int(opt["initial_points"]),
             seed=int(opt["seed"]),
             timeout=float(opt["timeout"]),
-            rho=float(asf.get("rho", 0.05) if asf.get("rho") is not None else 0.05),
-            improvement=float(0.2 if asf.get("improvement") is None else asf["improvement"]),
+            rho=float(asf["rho"]),
+            improvement=float(asf["improvement"]),
             worst=None if worst is None else tuple(float(w) for w in worst),
             conditions=conditions,
             weights=tuple(c.weight for c in case.conditions),
             condition_mode=mode,
-            log=tuple(bool(v) for v in case.log) if case.log.any() else (),
             traffic=(tuple(c.name for c in case.traffic) if case.degradation is not None
                      else ()),
             realisations=case.realisations,
@@ -142,24 +133,36 @@ class Problem:
     # -- design space -----------------------------------------------------------------------
     @property
     def dim(self) -> int:
-        return len(self.names)
+        return len(self.variables)
+
+    # the variables' names, bounds, kinds and reference design, one tuple each
+    names = property(lambda self: tuple(v.name for v in self.variables))
+    lower = property(lambda self: tuple(v.lower for v in self.variables))
+    upper = property(lambda self: tuple(v.upper for v in self.variables))
+    integer = property(lambda self: tuple(v.integer for v in self.variables))
+    reference = property(lambda self: tuple(v.reference for v in self.variables))
+
+    @property
+    def log(self) -> tuple[bool, ...]:
+        """Variables searched on a log scale (empty: none)."""
+        log = tuple(v.log for v in self.variables)
+        return log if any(log) else ()
 
     @property
     def surrogate(self) -> str:
         """What the optimiser's surrogate fits (recorded in the journal's first line):
 
         * ``composite``: two or more objectives, one RBF each, scored by the ASF;
-        * ``sleeper-energies``: E_max alone with no traffic conditions (one simulation's
-          energies), one RBF per zone
-          sleeper's energy, scored by their max - min (E_max itself). Each sleeper's energy
-          is smooth in the design where E_max has a kink wherever another sleeper becomes
-          the highest or the lowest (benchmarks/RESULTS-optimiser.md has the measurement);
+        * the one objective's own choice (``lccopt.vti.response.OBJECTIVES``) when it is
+          minimised on one simulation per design (no traffic conditions): ``sleeper-energies``
+          for E_max, one RBF per zone sleeper's energy, scored by their max - min;
         * ``scalar``: one RBF of the value (F_max, whose high and low are themselves maxima
           over time, measured worse with its parts fitted apart; and every traffic case)."""
         if self.multi:
             return "composite"
-        if self.objectives == ("E_max",) and not self.conditions and len(self.traffic) <= 1:
-            return "sleeper-energies"
+        one = OBJECTIVES.get(self.objectives[0])
+        if one is not None and not self.conditions and len(self.traffic) <= 1:
+            return one.surrogate
         return "scalar"
 
     @property
@@ -180,9 +183,7 @@ class Problem:
     def space(self):
         from .optim.space import DesignSpace
 
-        return DesignSpace(names=list(self.names), lower=list(self.lower), upper=list(self.upper),
-                           integer=list(self.integer), given=[list(self.reference)],
-                           log=list(self.log) or None)
+        return DesignSpace.of(self.variables, given=[list(self.reference)])
 
     def optimiser_settings(self):
         """The optimiser settings of a new run of this problem (``optim.settings.Settings``):

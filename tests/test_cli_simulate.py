@@ -76,12 +76,16 @@ def test_simulate_another_design(run_cli, tmp_path):
     assert not list((tmp_path / "moo").glob("*.png"))
 
 
-def test_simulate_rejects_a_bad_design(run_cli):
-    proc = run_cli("simulate", CONFIGS / "reference.yaml",
-                   "--design", "214,155,50,5,0.6,0.7,0.3,50")
+@pytest.mark.parametrize("design,said", [
+    # 50 read in the old unit (0.1 m elements) is a design of the case: the message says so
+    ("214,155,50,5,0.6,0.7,0.3,50",
+     "x_l = 50 m is outside [0, 12] m (if that counts 0.1 m elements, write 5 m)"),
+    ("214,155,50,5,0.6,0.7,0.3,130", "x_l = 130 m is outside [0, 12] m"),
+])
+def test_simulate_rejects_a_bad_design(run_cli, design, said):
+    proc = run_cli("simulate", CONFIGS / "reference.yaml", "--design", design)
     assert proc.returncode == 2
-    assert proc.stderr.strip().splitlines() == [
-        "lccopt: error: --design: x_l = 50 m is outside [0, 12] m"]
+    assert proc.stderr.strip().splitlines() == [f"lccopt: error: --design: {said}"]
 
 
 def test_check_accepts_a_good_case(run_cli):
@@ -123,7 +127,8 @@ def test_design_is_given_in_mn_per_m_and_checked_in_those_units(run_cli, tmp_pat
                    "--design", "214e6,155,50,5,0.6,0.7,0.3,0", "--out", tmp_path / "x")
     assert proc.returncode == 2
     assert proc.stderr.strip() == (
-        "lccopt: error: --design: x_r1 = 2.14e+08 MN/m is outside [50, 1200] MN/m")
+        "lccopt: error: --design: x_r1 = 2.14e+08 MN/m is outside [50, 1200] MN/m (if that is "
+        "in N/m, write 214 MN/m)")
 
 
 @pytest.mark.slow

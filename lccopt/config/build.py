@@ -29,6 +29,7 @@ from ..vti.specs import (
 )
 from ..vti.vehicle import DEFAULT_TYPE
 from .profiles import profile_array
+from .variables import split
 from .zones import force_zone_end
 
 _VEHICLE_KEYS = ("speed", "carbody_mass", "bogie_mass", "wheelset_mass", "primary_stiffness",
@@ -125,12 +126,9 @@ def scenario(data: dict, variation: TrackVariation | None = None) -> Scenario:
 
 
 def track_design(variables, x, dynamic_to_static: float | None = None) -> TrackDesign:
-    """A design vector (checked) split into its groups; designed pads entered as bought
-    (``dynamic_to_static`` given) become their stiffness under the wheel."""
-    groups: dict[str, list] = {}
-    for v, xi in zip(variables, x):
-        groups.setdefault(v.group, []).append(xi)
-    g = {k: np.asarray(v, dtype=float) for k, v in groups.items()}
+    """A design vector (checked, internal units) split into its groups; designed pads entered
+    as bought (``dynamic_to_static`` given) become their stiffness under the wheel."""
+    g = split(variables, x)
     return TrackDesign(railpad_stiffness=pads.under_wheel(g["railpad_stiffness"],
                                                           dynamic_to_static),
                        strengthened_sleepers=float(g["strengthened_sleepers"][0]),

@@ -18,7 +18,7 @@ import numpy as np
 import yaml
 
 from ..errors import CaseError
-from ..vti.specs import ELEMENT_UNIT, Scenario, TrackDesign
+from ..vti.specs import Scenario, TrackDesign
 from . import build
 from . import overrides as set_values
 from .checks import (
@@ -44,6 +44,8 @@ from .reading import (
 )
 from .schema import SAFE_NAME, SCHEMA, check
 from .uncertainty import check_uncertainty, draw
+from .variables import Variable
+from .variables import variables as design_variables
 from .zones import check_design_space, derive_strip_bounds, resolve_zone
 
 
@@ -54,34 +56,6 @@ class _Dumper(yaml.SafeDumper):
 
 _Dumper.add_representer(ProfileText, lambda dumper, text: dumper.represent_scalar(
     "tag:yaml.org,2002:str", str(text), style="|"))
-
-
-@dataclass(frozen=True)
-class Variable:
-    """One scalar design variable."""
-    name: str        # e.g. x_r1
-    group: str       # design section key
-    integer: bool
-    lower: float
-    upper: float
-    reference: float
-    unit: str
-    log: bool = False  # searched on a log scale (design.<group>.scale: log)
-
-    @property
-    def display(self) -> tuple[str, float]:
-        """(unit, scale) shown to people: pad stiffness in MN/m, spans and the strip (counted
-        in 0.1 m elements) in m, counts as they are."""
-        if self.unit == "N/m":
-            return "MN/m", 1e-6
-        if self.unit == "elements":
-            return "m", ELEMENT_UNIT
-        return "", 1.0
-
-    def show(self, value: float) -> str:
-        """``x_r1=214 MN/m``, ``x_s3=0.3 m``: the value in the units people use."""
-        unit, scale = self.display
-        return f"{self.name}={value * scale:.6g}" + (f" {unit}" if unit else "")
 
 
 @dataclass(frozen=True)
@@ -124,29 +98,14 @@ class Case:
         """The rail profile (N, 2) of the case's own simulation, or None (a smooth rail)."""
         return build.profile(self.data)
 
-    @property
-    def name(self) -> str:
-        return self.data["name"]
-
-    @property
-    def vehicle(self) -> dict:
-        return self.data["vehicle"]
-
-    @property
-    def track(self) -> dict:
-        return self.data["track"]
-
-    @property
-    def evaluation(self) -> dict:
-        return self.data["evaluation"]
-
-    @property
-    def simulation(self) -> dict:
-        return self.data["simulation"]
-
-    @property
-    def optimisation(self) -> dict | None:
-        return self.data["optimisation"]
+    # the case's sections, as validated (SI units)
+    name = property(lambda self: self.data["name"])
+    vehicle = property(lambda self: self.data["vehicle"])
+    track = property(lambda self: self.data["track"])
+    evaluation = property(lambda self: self.data["evaluation"])
+    simulation = property(lambda self: self.data["simulation"])
+    optimisation = property(lambda self: self.data["optimisation"],
+                            doc="the optimisation section, None for a case that only simulates")
 
     @property
     def histories(self) -> str:
@@ -164,26 +123,15 @@ class Case:
     def names(self) -> list[str]:
         return [v.name for v in self.variables]
 
-    @property
-    def reference(self) -> np.ndarray:
-        return np.array([v.reference for v in self.variables], dtype=float)
+    def _column(self, field: str, dtype=float) -> np.ndarray:
+        return np.array([getattr(v, field) for v in self.variables], dtype=dtype)
 
-    @property
-    def lower(self) -> np.ndarray:
-        return np.array([v.lower for v in self.variables], dtype=float)
-
-    @property
-    def upper(self) -> np.ndarray:
-        return np.array([v.upper for v in self.variables], dtype=float)
-
-    @property
-    def integer(self) -> np.ndarray:
-        return np.array([v.integer for v in self.variables], dtype=bool)
-
-    @property
-    def log(self) -> np.ndarray:
-        """Variables the optimiser searches on a log scale."""
-        return np.array([v.log for v in self.variables], dtype=bool)
+    # the variables' reference design, bounds and kinds, in internal units
+    reference = property(lambda self: self._column("reference"))
+    lower = property(lambda self: self._column("lower"))
+    upper = property(lambda self: self._column("upper"))
+    integer = property(lambda self: self._column("integer", bool))
+    log = property(lambda self: self._column("log", bool), doc="searched on a log scale")
 
     @property
     def degradation(self) -> dict | None:
@@ -279,56 +227,6 @@ class Condition:
         return Condition(self.name, self.weight, self.vehicle, self.speed, self.direction, data)
 
 
-_GROUPS = (  # design key, variable name stem, unit
-    ("railpad_stiffness", "x_r", "N/m"),
-    ("strengthened_sleepers", "x_n", "-"),
-    ("sleeper_spans", "x_s", "elements"),
-    ("type_ii_strip", "x_l", "elements"),
-)
-
-
-def _variables(design: dict, lines: dict, file: str) -> tuple[Variable, ...]:
-    out = []
-    for key, stem, unit in _GROUPS:
-        g = design[key]
-        path = ("design", key)
-        lo, hi = g["bounds"]
-        integer = g["kind"] == "integer"
-
-        def at(k, path=path):
-            return f"{lines.get(path + (k,), lines.get(path))}: {dotted(path + (k,))}"
-
-        if lo > hi:
-            raise CaseError(f"{at('bounds')}: lower bound {lo:g} is above upper bound {hi:g}")
-        in_elements = key in ("sleeper_spans", "type_ii_strip")
-        hint = (f" (it counts 0.1 m elements: [{lo * 10:g}, {hi * 10:g}] for "
-                f"{lo:g}-{hi:g} m)" if in_elements else "")
-        if integer and (lo != round(lo) or hi != round(hi)):
-            raise CaseError(f"{at('bounds')}: an integer variable needs whole-number bounds, "
-                            f"got [{lo:g}, {hi:g}]{hint}")
-        if "scale" in g and g["scale"] is None:
-            del g["scale"]  # absent stays absent: the resolved case does not grow a key
-        log = g.get("scale") == "log"
-        if log and not lo > 0:
-            raise CaseError(f"{at('scale')}: a log scale needs positive bounds, "
-                            f"got [{lo:g}, {hi:g}]")
-        refs = g["reference"] if "count" in g else [g["reference"]]
-        if "count" in g and len(refs) != g["count"]:
-            raise CaseError(f"{at('reference')}: expected {g['count']} values (count), "
-                            f"got {len(refs)}")
-        for i, r in enumerate(refs):
-            name = f"{stem}{i + 1}" if "count" in g else stem
-            if integer and r != round(r):
-                raise CaseError(f"{at('reference')}: {name} = {r:g} must be a whole number"
-                                + (f" (0.1 m elements: {r * 10:g} for {r:g} m)"
-                                   if in_elements else ""))
-            if not lo <= r <= hi:
-                raise CaseError(f"{at('reference')}: reference {name} = {r:g} is outside the "
-                                f"bounds [{lo:g}, {hi:g}]")
-            out.append(Variable(name, key, integer, float(lo), float(hi), float(r), unit, log))
-    return tuple(out)
-
-
 def load_case(path: str | Path, overrides=(), text: str | None = None) -> Case:
     """Read and validate a case file.
 
@@ -374,7 +272,9 @@ def load_case(path: str | Path, overrides=(), text: str | None = None) -> Case:
     check_railpad(data, err)
     check_mesh_units(data, err)
     derive_strip_bounds(data)
-    variables = _variables(data["design"], lines, file)
+    variables = design_variables(
+        data["design"], lambda key, k: f"{locate(lines, ('design', key, k), file)}: "
+                                       f"{dotted(('design', key, k))}")
     check_design_space(data, variables, err)
     check_optimisation(data, err, len(variables))
     rows = RowCount(err)
@@ -451,28 +351,22 @@ def _conditions(data: dict, path: Path, lines: dict, err,
 
 def parse_design(text: str, case: Case) -> np.ndarray:
     """Parse ``--design 214,155,50,5,0.6,0.7,0.3,0`` (in the units shown: pads in MN/m, spans
-    and the strip in m, counts as they are) into a checked design vector in SI units
+    and the strip in m, counts as they are) into a checked design vector in internal units
     (raises ValueError)."""
     try:
         x = [float(t) for t in text.replace(" ", "").split(",") if t]
     except ValueError:
         raise ValueError(f"expected comma-separated numbers, got {text!r}") from None
-    if len(x) == len(case.variables):
-        model = []
-        for xi, v in zip(x, case.variables):
-            unit, scale = v.display
-            u = f" {unit}" if unit else ""
-            q = xi / scale if np.isfinite(xi) else np.nan
-            if v.integer and scale != 1.0 and np.isfinite(q):   # a length counted in 0.1 m elements
-                if abs(q - round(q)) > 1e-6:
-                    raise ValueError(f"{v.name} = {xi:g}{u} is not a multiple of {scale:g}{u}")
-                q = float(round(q))
-            tol = 1e-9 * max(abs(v.lower), abs(v.upper), 1.0)
-            if not np.isfinite(q) or not v.lower - tol <= q <= v.upper + tol:
-                raise ValueError(f"{v.name} = {xi:g}{u} is outside "
-                                 f"[{v.lower * scale:g}, {v.upper * scale:g}]{u}")
-            model.append(min(max(q, v.lower), v.upper))
-        x = model
+    return from_user(case, x)
+
+
+def from_user(case: Case, design) -> np.ndarray:
+    """A design in the user's units (pads in MN/m, spans and the strip in m, counts as they
+    are), one value per variable in the case's order, as the checked internal design vector
+    (ValueError naming the variable)."""
+    x = np.asarray(design, dtype=float).ravel()
+    if x.size == len(case.variables):
+        x = [v.from_user(xi) for v, xi in zip(case.variables, x)]
     return case.check_design(x)
 
 

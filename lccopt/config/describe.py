@@ -291,18 +291,8 @@ def traffic_items(case) -> tuple[list[tuple[str, list[str]]], list[str], float]:
 
 
 def traffic_lines(case) -> tuple[list[str], float]:
-    """The traffic as ``lccopt check`` prints it (:func:`traffic_items`).
-
-    Parameters
-    ----------
-    case
-        a loaded case with a ``degradation:`` section.
-
-    Returns
-    -------
-    (list of str, float)
-        lines of at most 80 columns, and the axle passes a year.
-    """
+    """The traffic of a case with ``degradation:`` as ``lccopt check`` prints it
+    (:func:`traffic_items`): lines of at most 80 columns, and the axle passes a year."""
     per, total, axle_passes = traffic_items(case)
     lines = []
     for name, items in per:
@@ -311,18 +301,9 @@ def traffic_lines(case) -> tuple[list[str], float]:
 
 
 def traffic_sentence(case) -> str:
-    """The traffic in one phrase, as ``lccopt check`` counts it (the report's words): the one
-    vehicle's traffic without its condition's name, or each condition's by its name.
-
-    Parameters
-    ----------
-    case
-        a loaded case with a ``degradation:`` section.
-
-    Returns
-    -------
-    str
-    """
+    """The traffic of a case with ``degradation:`` in one phrase, as ``lccopt check`` counts
+    it (the report's words): the one vehicle's traffic without its condition's name, or each
+    condition's by its name."""
     per, total, _ = traffic_items(case)
     if not case.traffic:
         return f"{', '.join(per[0][1])}; {', '.join(total[-2:])}"
@@ -331,19 +312,9 @@ def traffic_sentence(case) -> str:
 
 
 def degradation_lines(case) -> list[str]:
-    """The settlement prediction as ``lccopt check`` prints it: law,
-    traffic (axle passes and gross tonnage a year), horizon, limit and cost cap.
-
-    Parameters
-    ----------
-    case
-        a loaded case with a ``degradation:`` section.
-
-    Returns
-    -------
-    list of str
-        lines of at most 80 columns, indented by two.
-    """
+    """The settlement prediction of a case with ``degradation:`` as ``lccopt check`` prints
+    it, in lines of at most 80 columns indented by two: law, traffic (axle passes and gross
+    tonnage a year), horizon, limit and cost cap."""
     deg = case.degradation
     lines = wrap_items(law_items(deg["law"]), f"  settlement: {deg['law']['name']} law: ")
     lines += _pressure_lines(case)

@@ -13,6 +13,7 @@ wrong unit, and the message proposes the unit that fits.
 
 from __future__ import annotations
 
+from ..optim.scalarise import IMPROVEMENT, RHO
 from ..uncertainty.statistics import ObjectiveNames
 from ..vti.irregularity import SPECTRA
 from ..vti.pads import NAMED_PADS
@@ -324,10 +325,10 @@ _OPTIMISATION = Section({
                      "hold the design, objectives and facts) or none. Default: best",
                      HISTORIES, default="best", required=False, keep_absent=True),
     "asf": Section({
-        "rho": Num("augmentation coefficient of the Chebyshev ASF", ge=0, default=0.05,
+        "rho": Num("augmentation coefficient of the Chebyshev ASF", ge=0, default=RHO,
                    required=False),
         "improvement": Num("reference point = reference design improved by this fraction",
-                           ge=0, le=1, default=0.2, required=False),
+                           ge=0, le=1, default=IMPROVEMENT, required=False),
         "worst": NumList("worst obtainable value of each objective, in its SI unit (N for "
                          "F_*, J for E_*, m for settlements, 1/year for maintenance_rate): "
                          "kappa_i = 1/(worst_i - ref_i). Default: 1.5 x the reference "

@@ -9,8 +9,14 @@ from __future__ import annotations
 
 import numpy as np
 
+# The ASF's settings where a case gives none (the case schema's defaults are these): the
+# augmentation rho, and the reference point's improvement on the reference design, the
+# paper's "20 % better" (Sec. 3.2).
+RHO = 0.05
+IMPROVEMENT = 0.2
 
-def asf(F, ref_point, worst, rho: float = 0.05) -> np.ndarray:
+
+def asf(F, ref_point, worst, rho: float = RHO) -> np.ndarray:
     """Augmented Chebyshev achievement scalarising function, Eq. (7), to be minimised.
 
         g(f) = max_i kappa_i (f_i - f_i^r) + rho * sum_i kappa_i (f_i - f_i^r),
@@ -49,7 +55,7 @@ class ASF:
     # surrogate may median-cap the objectives it fits (Strategy.set_aggregate).
     increasing = True
 
-    def __init__(self, ref_point, worst, rho: float = 0.05):
+    def __init__(self, ref_point, worst, rho: float = RHO):
         self.ref_point = [float(v) for v in ref_point]
         self.worst = [float(v) for v in worst]
         self.rho = float(rho)
@@ -74,7 +80,7 @@ class ASF:
         return f"ASF(ref_point={self.ref_point}, worst={self.worst}, rho={self.rho})"
 
 
-def improvement_target(f_reference, fraction: float = 0.2) -> np.ndarray:
+def improvement_target(f_reference, fraction: float = IMPROVEMENT) -> np.ndarray:
     """Reference point a given fraction better than a reference design's objectives
     (the paper's 20 %: f^r = 0.8 f(x_ref)); assumes positive objectives."""
     return (1.0 - fraction) * np.asarray(f_reference, dtype=float)

@@ -51,6 +51,16 @@ class DesignSpace:
     given: list[list[float]] = field(default_factory=list)
     log: list[bool] | None = None      # per variable: searched on a log scale (None: none)
 
+    @classmethod
+    def of(cls, dimensions, given=()) -> "DesignSpace":
+        """The space of some variables, each an object with ``name``, ``lower``, ``upper``,
+        ``integer`` and ``log`` (``lccopt.config.variables.Variable``)."""
+        dims = list(dimensions)
+        log = [bool(d.log) for d in dims]
+        return cls(names=[d.name for d in dims], lower=[d.lower for d in dims],
+                   upper=[d.upper for d in dims], integer=[d.integer for d in dims],
+                   given=[list(g) for g in given], log=log if any(log) else None)
+
     def __post_init__(self) -> None:
         self.names = [str(n) for n in self.names]
         self.lower = [float(v) for v in np.asarray(self.lower, dtype=float).ravel()]
@@ -99,52 +109,32 @@ class DesignSpace:
         """The number of variables."""
         return len(self.names)
 
-    @property
-    def lb(self) -> np.ndarray:
-        """Lower bounds as an array."""
-        return np.array(self.lower)
-
-    @property
-    def ub(self) -> np.ndarray:
-        """Upper bounds as an array."""
-        return np.array(self.upper)
-
-    @property
-    def int_mask(self) -> np.ndarray:
-        """True for the integer variables."""
-        return np.array(self.integer, dtype=bool)
+    # the bounds and kinds as arrays
+    lb = property(lambda self: np.array(self.lower), doc="Lower bounds.")
+    ub = property(lambda self: np.array(self.upper), doc="Upper bounds.")
+    int_mask = property(lambda self: np.array(self.integer, dtype=bool),
+                        doc="True for the integer variables.")
+    log_mask = property(lambda self: np.array(self.log, dtype=bool),
+                        doc="True for the variables searched on a log scale.")
+    search_lb = property(lambda self: self.to_search(self.lb),
+                         doc="Lower bounds in search coordinates.")
+    search_ub = property(lambda self: self.to_search(self.ub),
+                         doc="Upper bounds in search coordinates.")
 
     @property
     def span(self) -> np.ndarray:
         """Range of each variable; 1 for fixed variables so that scaling never divides by 0."""
-        s = self.ub - self.lb
-        return np.where(s > 0, s, 1.0)
+        return _width(self.lb, self.ub)
+
+    @property
+    def search_span(self) -> np.ndarray:
+        """``span`` in search coordinates (ln ub - ln lb for a log variable)."""
+        return _width(self.search_lb, self.search_ub)
 
     @property
     def given_array(self) -> np.ndarray:
         """The given points as an (n, d) array."""
         return np.array(self.given, dtype=float).reshape(-1, self.dim)
-
-    @property
-    def log_mask(self) -> np.ndarray:
-        """True for the variables searched on a log scale."""
-        return np.array(self.log, dtype=bool)
-
-    @property
-    def search_lb(self) -> np.ndarray:
-        """Lower bounds in search coordinates."""
-        return self.to_search(self.lb)
-
-    @property
-    def search_ub(self) -> np.ndarray:
-        """Upper bounds in search coordinates."""
-        return self.to_search(self.ub)
-
-    @property
-    def search_span(self) -> np.ndarray:
-        """``span`` in search coordinates (ln ub - ln lb for a log variable)."""
-        s = self.search_ub - self.search_lb
-        return np.where(s > 0, s, 1.0)
 
     # -- mapping ----------------------------------------------------------
     def to_search(self, x: np.ndarray) -> np.ndarray:
@@ -230,3 +220,9 @@ class DesignSpace:
         """The space a ``to_dict`` wrote."""
         return cls(names=d["names"], lower=d["lower"], upper=d["upper"],
                    integer=d["integer"], given=d.get("given", []), log=d.get("log"))
+
+
+def _width(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """hi - lo, 1 where that is not positive (a fixed variable: scaling never divides by 0)."""
+    s = hi - lo
+    return np.where(s > 0, s, 1.0)

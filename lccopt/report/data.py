@@ -8,6 +8,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..config.variables import Variable
+from ..config.variables import named as named_variables
 from ..vti.response import OBJECTIVE_DOC, improvement_sign  # noqa: F401 (re-exported)
 from ..vti.response import objective_display as obj_display
 from .evaluations import (
@@ -53,20 +55,6 @@ def _usage(message: str) -> Exception:
 # ================================================================================ reading
 
 @dataclass
-class VarInfo:
-    name: str
-    group: str
-    integer: bool
-    lower: float
-    upper: float
-    reference: float
-    label: str       # what it is, in words
-    unit: str        # display unit
-    scale: float     # display value = SI value * scale
-    log: bool = False  # the optimiser searched it on a log scale (drawn on a log axis)
-
-
-@dataclass
 class RunData:
     path: Path
     rd: object                     # the run directory (engine.rundir.RunDir), held open
@@ -75,7 +63,7 @@ class RunData:
     scalarisation: str
     budget: int
     names: list[str]
-    variables: list[VarInfo]
+    variables: list[Variable]     # their words, units and bounds (lccopt.config.variables)
     ids: np.ndarray
     x: np.ndarray
     obj: dict                      # objective name -> array over evaluations (table order)
@@ -149,33 +137,6 @@ class RunData:
             return int(hit[0])
         same = np.flatnonzero(np.all(np.isclose(self.x, self.ref_x[None, :]), axis=1))
         return int(same[0]) if len(same) else None
-
-
-
-
-def _var_info(name: str, group: str, integer: bool, lo: float, hi: float, ref: float, count: int,
-              index: int) -> VarInfo:
-    """Display label and unit of a design variable (from its group, or its name's stem)."""
-    if not group:
-        group = {"x_r": "railpad_stiffness", "x_n": "strengthened_sleepers", "x_s": "sleeper_spans",
-                 "x_l": "type_ii_strip"}.get(name[:3].rstrip("0123456789"), "")
-    if group == "railpad_stiffness":
-        k = count - index  # x_rN nearest the interface = sleeper 1
-        return VarInfo(name, group, integer, lo, hi, ref,
-                       f"railpad stiffness, sleeper {k} from the interface",
-                       "MN/m", 1e-6)
-    if group == "strengthened_sleepers":
-        return VarInfo(name, group, integer, lo, hi, ref,
-                       "strengthened sleepers next to the interface",
-                       "sleepers", 1.0)
-    if group == "sleeper_spans":
-        k = count - index
-        what = ("slab edge to sleeper 1" if k == 1 else f"sleeper {k - 1} to sleeper {k}")
-        return VarInfo(name, group, integer, lo, hi, ref, f"span {what}", "m", 0.1)
-    if group == "type_ii_strip":
-        return VarInfo(name, group, integer, lo, hi, ref, "Type II strip from the entry slab edge",
-                       "m", 0.1)
-    return VarInfo(name, group, integer, lo, hi, ref, name, "", 1.0)
 
 
 
@@ -280,29 +241,13 @@ def load_run(path: Path) -> RunData:
 
     case, case_note = load_run_case(rd, d.get("resolved"))
     names = list(d["names"])
-    variables = []
     if case is not None and case.names == names:
-        counts = {}
-        for v in case.variables:
-            counts[v.group] = counts.get(v.group, 0) + 1
-        seen: dict = {}
-        for v in case.variables:
-            i = seen.get(v.group, 0)
-            seen[v.group] = i + 1
-            info = _var_info(v.name, v.group, v.integer, v.lower, v.upper, v.reference,
-                             counts[v.group], i)
-            info.log = v.log
-            variables.append(info)
+        variables = list(case.variables)
     else:
         if case is not None:
             case_note = "the run's case.yaml has other design variables than results.h5"
             case = None
-        stems = [n.rstrip("0123456789") for n in names]
-        for i, n in enumerate(names):
-            same = [j for j, s in enumerate(stems) if s == stems[i]]
-            variables.append(_var_info(n, "", False, math.nan, math.nan,
-                                       float(d["ref_x"][i]), len(same),
-                                       same.index(i)))
+        variables = named_variables(names, d["ref_x"])
 
     lock = _lock_state(rd)
     state = "finished" if d["finished"] else ("running" if lock == "running" else "interrupted")
@@ -385,7 +330,7 @@ def pct(new: float, old: float) -> str:
     return "0.0 %" if text in ("+0.0", "-0.0") else f"{text} %"    # rounded to nothing: unsigned
 
 
-def var_value(v: VarInfo, value: float) -> str:
+def var_value(v: Variable, value: float) -> str:
     if not np.isfinite(value):
         return "–"
     if v.group in ("sleeper_spans", "type_ii_strip"):  # counted in 0.1 m elements, shown in m

@@ -12,9 +12,7 @@ import numpy as np
 from ..safeio import h5_open_owned, h5_read
 from ..uncertainty.statistics import is_realisation_key, objective_of
 from ..vti.response import OBJECTIVE_DOC, improvement_sign  # noqa: F401 (re-exported)
-
-OBJECTIVE_NAMES = ("F_rms", "F_max", "E_rms", "E_max")   # the paper's
-
+from ..vti.response import PAPER_OBJECTIVES as OBJECTIVE_NAMES  # always a column
 
 
 def _s(v) -> str:

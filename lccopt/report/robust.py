@@ -130,7 +130,7 @@ def nominal_index(run: RunData) -> int | None:
     """The evaluation a deterministic judgement would pick among the run's: the lowest value
     of the drawing's objectives (the ASF of the paper's rule for two or more: reference point
     and worst values from the reference design's values on the drawing)."""
-    from ..optim.scalarise import asf
+    from ..optim.scalarise import IMPROVEMENT, RHO, asf
     from ..problem import DEFAULT_WORST_FACTOR
 
     bases = list(dict.fromkeys(stats.objective_of(k) for k in run.objectives))
@@ -145,8 +145,9 @@ def nominal_index(run: RunData) -> int | None:
         score = F[:, 0]
     else:
         ref = F[ri]
-        improvement = run.improvement if np.isfinite(run.improvement or np.nan) else 0.2
-        rho = run.rho if np.isfinite(run.rho or np.nan) else 0.05
+        improvement = (run.improvement if np.isfinite(run.improvement or np.nan)
+                       else IMPROVEMENT)
+        rho = run.rho if np.isfinite(run.rho or np.nan) else RHO
         score = np.array([asf(f, (1 - improvement) * ref, DEFAULT_WORST_FACTOR * ref, rho=rho)
                           for f in F])
     score = np.where(ok, score, np.inf)

@@ -8,40 +8,62 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-PAPER_OBJECTIVES = ("F_rms", "F_max", "E_rms", "E_max")
-# Objectives of a settlement prediction over the case's horizon (docs/settlement.md). All are
-# minimised but years_to_limit, which is reported only: its minimisable form is
-# maintenance_rate = 1 / years_to_limit (positive, smaller is better, so the ASF's reference
-# point 0.8 x f(x_ref) and worst values 1.5 x f(x_ref) keep their meaning).
-SETTLEMENT_OBJECTIVES = ("level_d1_max", "level_d1_std", "rail_step", "rail_angle",
-                         "differential_settlement", "max_settlement", "max_void", "level_std",
-                         "force_growth", "maintenance_rate", "interventions")
-REPORTED_ONLY = ("years_to_limit",)
-OBJECTIVE_UNITS = {"F_rms": "N", "F_max": "N", "E_rms": "J", "E_max": "J",
-                   "differential_settlement": "m", "max_settlement": "m", "max_void": "m",
-                   "level_std": "m", "force_growth": "-", "maintenance_rate": "1/year",
-                   "level_d1_max": "m", "level_d1_std": "m", "rail_step": "m",
-                   "rail_angle": "m/m", "interventions": "-",
-                   "years_to_limit": "year"}
-OBJECTIVE_DOC = {  # short enough for one line of `lccopt simulate` on 80 columns
-    "F_rms": "rms of the wheel-rail contact forces in the force zone",
-    "F_max": "max - min of the contact forces in the force zone",
-    "E_rms": "rms of the energy dissipated per zone sleeper",
-    "E_max": "max - min of the energy dissipated per zone sleeper",
-    # settlement (lccopt simulate prints these after 43 columns: at most 37 characters)
-    "level_d1_max": "largest D1 (3-25 m) level deviation",
-    "level_d1_std": "std of the D1 level, approach + ERS",
-    "rail_step": "rail below the slab edge within 3 m",
-    "rail_angle": "rail slope at the interface, mm/m",
-    "interventions": "tampings over the horizon",
-    "differential_settlement": "max - min over the settling sleepers",
-    "max_settlement": "largest of any settling sleeper",
-    "max_void": "largest void under a sleeper",
-    "level_std": "std of the rail level, zone +- 3 m",
-    "force_growth": "wheel force: at the horizon / new",
-    "maintenance_rate": "1 / years_to_limit",
-    "years_to_limit": "until the limit (or the horizon)",
-}
+
+@dataclass(frozen=True)
+class Objective:
+    """One objective an evaluation can return: its SI unit, what it is in words (short enough
+    for one line of ``lccopt simulate`` on 80 columns: a settlement objective's after 43
+    columns, at most 37 characters), what computes it and which surrogate suits it alone."""
+    name: str
+    unit: str
+    doc: str
+    # simulation: one run of the vehicle over the track (the paper's four); settlement: a
+    # settlement prediction over the case's horizon (docs/settlement.md); reported: never
+    # minimised, only reported
+    source: str = "simulation"
+    # What the optimiser fits when this objective is minimised alone on one simulation:
+    # scalar (one RBF of the value), or sleeper-energies (one RBF per zone sleeper's energy,
+    # scored by their max - min: each energy is smooth in the design where the spread has a
+    # kink wherever another sleeper becomes the highest or the lowest;
+    # benchmarks/RESULTS-optimiser.md has the measurement).
+    surrogate: str = "scalar"
+
+
+# Objectives of a settlement prediction are all minimised but years_to_limit, which is
+# reported only: its minimisable form is maintenance_rate = 1 / years_to_limit (positive,
+# smaller is better, so the ASF's reference point 0.8 x f(x_ref) and worst values
+# 1.5 x f(x_ref) keep their meaning).
+OBJECTIVES = {o.name: o for o in (
+    Objective("F_rms", "N", "rms of the wheel-rail contact forces in the force zone"),
+    Objective("F_max", "N", "max - min of the contact forces in the force zone"),
+    Objective("E_rms", "J", "rms of the energy dissipated per zone sleeper"),
+    Objective("E_max", "J", "max - min of the energy dissipated per zone sleeper",
+              surrogate="sleeper-energies"),
+    Objective("level_d1_max", "m", "largest D1 (3-25 m) level deviation", "settlement"),
+    Objective("level_d1_std", "m", "std of the D1 level, approach + ERS", "settlement"),
+    Objective("rail_step", "m", "rail below the slab edge within 3 m", "settlement"),
+    Objective("rail_angle", "m/m", "rail slope at the interface, mm/m", "settlement"),
+    Objective("differential_settlement", "m", "max - min over the settling sleepers",
+              "settlement"),
+    Objective("max_settlement", "m", "largest of any settling sleeper", "settlement"),
+    Objective("max_void", "m", "largest void under a sleeper", "settlement"),
+    Objective("level_std", "m", "std of the rail level, zone +- 3 m", "settlement"),
+    Objective("force_growth", "-", "wheel force: at the horizon / new", "settlement"),
+    Objective("maintenance_rate", "1/year", "1 / years_to_limit", "settlement"),
+    Objective("interventions", "-", "tampings over the horizon", "settlement"),
+    Objective("years_to_limit", "year", "until the limit (or the horizon)", "reported"),
+)}
+
+
+def _named(source: str) -> tuple[str, ...]:
+    return tuple(k for k, o in OBJECTIVES.items() if o.source == source)
+
+
+PAPER_OBJECTIVES = _named("simulation")          # F_rms, F_max, E_rms, E_max: always reported
+SETTLEMENT_OBJECTIVES = _named("settlement")
+REPORTED_ONLY = _named("reported")
+OBJECTIVE_UNITS = {k: o.unit for k, o in OBJECTIVES.items()}
+OBJECTIVE_DOC = {k: o.doc for k, o in OBJECTIVES.items()}
 # Display: (factor from SI, unit) people read each SI unit in.
 _DISPLAY = {"N": (1e-3, "kN"), "J": (1.0, "J"), "m": (1e3, "mm"), "-": (1.0, ""),
             "m/m": (1e3, "mm/m"),

@@ -1,0 +1,210 @@
+"""Design variables: one object per variable, built from the case file's ``design:`` groups.
+
+A :class:`Variable` knows its name, bounds, kind (integer or continuous), scale (linear or
+log), the unit people write and read it in, the internal unit the simulator, the optimiser and
+the run's journal hold it in, and the conversion both ways. The four groups of the design
+section are described once, in :data:`GROUPS` (scikit-optimize's ``Space`` of ``Dimension``
+objects is the model): everything that splits a design vector into its groups, shows a value
+or reads one a person wrote asks them.
+
+Internal units are those of the simulator: pad stiffness in N/m, spans and the Type II strip
+counted in 0.1 m rail elements (whole numbers, so that every design puts sleepers on nodes),
+counts as they are. People write and read pads in MN/m and lengths in m.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..vti.specs import ELEMENT_UNIT
+
+
+@dataclass(frozen=True)
+class Group:
+    """One key of the ``design:`` section: its variables' name stem, units and words."""
+    key: str           # the design section's key
+    stem: str          # variables are stem1..stemN (a group with count:), else stem
+    internal: str      # the unit the simulator, optimiser and journal hold a value in
+    unit: str          # the unit people write and read a value in
+    scale: float       # a value in `unit` = the internal value x scale
+    what: str          # the variable in words (the report's tables)
+    counted: bool      # count: variables in the group (else one)
+    integer: bool      # kind integer (else continuous)
+    first: str = ""    # the words of variable 1 where they differ
+
+    @property
+    def length(self) -> bool:
+        """A length counted internally in 0.1 m elements (spans, the strip)."""
+        return self.internal == "elements"
+
+    def label(self, k: int) -> str:
+        """The words of the group's variable k, counted from the interface (1: nearest)."""
+        return self.first if k == 1 and self.first else self.what.format(k=k, k_1=k - 1)
+
+
+GROUPS = (
+    Group("railpad_stiffness", "x_r", "N/m", "MN/m", 1e-6,
+          "railpad stiffness, sleeper {k} from the interface", True, False),
+    Group("strengthened_sleepers", "x_n", "-", "", 1.0,
+          "strengthened sleepers next to the interface", False, True),
+    Group("sleeper_spans", "x_s", "elements", "m", ELEMENT_UNIT,
+          "span sleeper {k_1} to sleeper {k}", True, True, "span slab edge to sleeper 1"),
+    Group("type_ii_strip", "x_l", "elements", "m", ELEMENT_UNIT,
+          "Type II strip from the entry slab edge", False, True),
+)
+GROUP = {g.key: g for g in GROUPS}
+_UNKNOWN = Group("", "", "-", "", 1.0, "", False, False)   # a name no group's stem gives
+_BY_STEM = {g.stem: g for g in GROUPS}
+
+
+@dataclass(frozen=True)
+class Variable:
+    """One scalar design variable; bounds and reference in its internal unit."""
+    name: str          # e.g. x_r1
+    group: str         # its design section key (GROUP)
+    integer: bool
+    lower: float
+    upper: float
+    reference: float
+    log: bool = False  # searched on a log scale (design.<group>.scale: log)
+    label: str = ""    # in words (the report's tables)
+
+    @property
+    def kind(self) -> Group:
+        return GROUP.get(self.group, _UNKNOWN)
+
+    @property
+    def internal_unit(self) -> str:
+        """``N/m``, ``-`` or ``elements`` (0.1 m)."""
+        return self.kind.internal
+
+    @property
+    def unit(self) -> str:
+        """The unit people read the variable in (the report's tables: a count of sleepers)."""
+        return self.kind.unit or "sleepers"
+
+    @property
+    def scale(self) -> float:
+        """A value in ``unit`` = the internal value x scale."""
+        return self.kind.scale
+
+    @property
+    def display(self) -> tuple[str, float]:
+        """(unit, scale) of the command line: pads in MN/m, spans and the strip in m, counts
+        as they are (no unit)."""
+        return self.kind.unit, self.kind.scale
+
+    def to_user(self, value: float) -> float:
+        """An internal value in the user's unit."""
+        return float(value) * self.scale
+
+    def show(self, value: float) -> str:
+        """``x_r1=214 MN/m``, ``x_s3=0.3 m``: an internal value in the units people use."""
+        unit = self.kind.unit
+        return f"{self.name}={self.to_user(value):.6g}" + (f" {unit}" if unit else "")
+
+    def from_user(self, value: float) -> float:
+        """A value in the user's unit (MN/m, m, a count) as the internal value, checked
+        against the bounds (ValueError naming the variable; a value that reads as the old
+        internal unit says so)."""
+        unit = self.kind.unit
+        u = f" {unit}" if unit else ""
+        value = float(value)
+        q = value / self.scale if np.isfinite(value) else np.nan
+        if self.kind.length and np.isfinite(q):
+            if abs(q - round(q)) > 1e-6:
+                raise ValueError(f"{self.name} = {value:g}{u} is not a multiple of "
+                                 f"{self.scale:g}{u}{self._old_hint(value)}")
+            q = float(round(q))
+        tol = 1e-9 * max(abs(self.lower), abs(self.upper), 1.0)
+        if not np.isfinite(q) or not self.lower - tol <= q <= self.upper + tol:
+            raise ValueError(f"{self.name} = {value:g}{u} is outside "
+                             f"[{self.to_user(self.lower):g}, {self.to_user(self.upper):g}]{u}"
+                             f"{self._old_hint(value)}")
+        if self.integer and q != round(q):
+            raise ValueError(f"{self.name} = {value:g}{u} must be a whole number")
+        return min(max(q, self.lower), self.upper)
+
+    def _old_hint(self, value: float) -> str:
+        """`` (if that is in N/m, write 214 MN/m)`` when the value, read in the internal unit,
+        lies within the bounds: a design written as lccopt took it before (pads in N/m,
+        lengths in 0.1 m elements)."""
+        if self.scale == 1.0 or not np.isfinite(value) or not self.lower <= value <= self.upper:
+            return ""
+        what = "counts 0.1 m elements" if self.kind.length else f"is in {self.internal_unit}"
+        return f" (if that {what}, write {self.to_user(value):g} {self.kind.unit})"
+
+
+def variables(design: dict, where) -> tuple[Variable, ...]:
+    """The design variables of a checked ``design:`` section, in GROUPS order.
+
+    ``where(key, field)`` names the place of a group's field (``file:line: key.path``) for a
+    message; a group's bounds and reference are in internal units."""
+    from ..errors import CaseError
+
+    out = []
+    for g in GROUPS:
+        section = design[g.key]
+        lo, hi = section["bounds"]
+        if lo > hi:
+            raise CaseError(f"{where(g.key, 'bounds')}: lower bound {lo:g} is above upper bound "
+                            f"{hi:g}")
+        if "scale" in section and section["scale"] is None:
+            del section["scale"]  # absent stays absent: the resolved case does not grow a key
+        if g.integer and (lo != round(lo) or hi != round(hi)):
+            raise CaseError(f"{where(g.key, 'bounds')}: an integer variable needs whole-number "
+                            f"bounds, got [{lo:g}, {hi:g}]{_elements(g, lo, hi)}")
+        log = section.get("scale") == "log"
+        if log and not lo > 0:
+            raise CaseError(f"{where(g.key, 'scale')}: a log scale needs positive bounds, "
+                            f"got [{lo:g}, {hi:g}]")
+        refs = section["reference"] if g.counted else [section["reference"]]
+        if g.counted and len(refs) != section["count"]:
+            raise CaseError(f"{where(g.key, 'reference')}: expected {section['count']} values "
+                            f"(count), got {len(refs)}")
+        for i, r in enumerate(refs):
+            name = f"{g.stem}{i + 1}" if g.counted else g.stem
+            if g.integer and r != round(r):
+                raise CaseError(f"{where(g.key, 'reference')}: {name} = {r:g} must be a whole "
+                                f"number{_elements(g, r)}")
+            if not lo <= r <= hi:
+                raise CaseError(f"{where(g.key, 'reference')}: reference {name} = "
+                                f"{r * g.scale:g}{' ' + g.unit if g.unit else ''} is outside "
+                                f"the bounds [{lo * g.scale:g}, {hi * g.scale:g}]"
+                                f"{' ' + g.unit if g.unit else ''}")
+            k = len(refs) - i       # x_rN, x_sM: the nearest the interface is sleeper 1
+            out.append(Variable(name, g.key, g.integer, float(lo), float(hi), float(r), log,
+                                g.label(k)))
+    return tuple(out)
+
+
+def _elements(g: Group, *values) -> str:
+    """`` (it counts 0.1 m elements: [3, 7] for 0.3-0.7 m)`` for a length group."""
+    if not g.length:
+        return ""
+    if len(values) == 1:
+        return f" (0.1 m elements: {values[0] * 10:g} for {values[0]:g} m)"
+    lo, hi = values
+    return f" (it counts 0.1 m elements: [{lo * 10:g}, {hi * 10:g}] for {lo:g}-{hi:g} m)"
+
+
+def named(names, reference) -> list[Variable]:
+    """Variables known by their names only (a run whose case cannot be read): group, unit
+    and words from the name's stem, bounds unknown (NaN)."""
+    stems = [n.rstrip("0123456789") for n in names]
+    out = []
+    for i, (n, s) in enumerate(zip(names, stems)):
+        g = _BY_STEM.get(s)
+        same = [j for j, t in enumerate(stems) if t == s]
+        label = g.label(len(same) - same.index(i)) if g else n
+        out.append(Variable(n, g.key if g else "", bool(g and g.integer), np.nan, np.nan,
+                            float(reference[i]), label=label))
+    return out
+
+
+def split(variables, x) -> dict[str, np.ndarray]:
+    """A design vector as {group key: its values} (internal units)."""
+    x = np.asarray(x, dtype=float)
+    return {g.key: x[[i for i, v in enumerate(variables) if v.group == g.key]] for g in GROUPS}
