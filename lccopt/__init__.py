@@ -109,8 +109,10 @@ def simulate(case, design=None):
     case : str, pathlib.Path or lccopt.config.Case
         the case, or its file.
     design : sequence of float, optional
-        the design vector in the case's order and SI units (pad stiffness in N/m, spans and
-        the strip in 0.1 m elements); default the case's reference design.
+        the design in the case's order (``case.names``) and the units people write it in,
+        as ``--design`` and the case file's ``reference`` take it: pad stiffness in MN/m,
+        spans and the Type II strip in m (multiples of 0.1 m), counts as they are; default
+        the case's reference design.
 
     Returns
     -------
@@ -127,6 +129,7 @@ def simulate(case, design=None):
     """
     import numpy as np
 
+    from .config.case import from_user
     from .problem import evaluate
 
     case = _case_arg(case)
@@ -140,7 +143,7 @@ def simulate(case, design=None):
             raise TypeError(f"design must be a sequence of numbers, one per design variable "
                             f"({', '.join(case.names)}), not {design!r}"[:200]) from None
         try:
-            x = case.check_design(x)
+            x = from_user(case, x)
         except ValueError as exc:
             raise ValueError(f"design: {exc}") from None
     if case.conditions:

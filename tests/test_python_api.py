@@ -23,8 +23,8 @@ def test_simulate_a_case_file_and_a_design(tmp_path):
     ref = lccopt.simulate(case)
     assert set(ref.objectives) == {"F_rms", "F_max", "E_rms", "E_max"}
     assert all(np.isfinite(v) and v > 0 for v in ref.objectives.values())
-    other = case.reference.copy()
-    other[:3] = 200e6                                # softer pads, N/m
+    other = case.to_user()                           # the reference design, MN/m and m
+    other[:3] = 200.0                                # softer pads, MN/m
     assert lccopt.simulate(case, other).objectives != ref.objectives
     again = lccopt.simulate(tmp_path / "api.yaml")   # a path works too
     assert again.objectives == ref.objectives

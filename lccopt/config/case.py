@@ -44,7 +44,7 @@ from .reading import (
 )
 from .schema import SAFE_NAME, SCHEMA, check
 from .uncertainty import check_uncertainty, draw
-from .variables import Variable
+from .variables import Variable, read_lengths
 from .variables import variables as design_variables
 from .zones import check_design_space, derive_strip_bounds, resolve_zone
 
@@ -179,6 +179,12 @@ class Case:
         return Case(self.path, self.text, self.traffic[i].data, self.variables,
                     variations=self.variations, realisation=self.realisation)
 
+    def to_user(self, x=None) -> np.ndarray:
+        """Design x (internal units; default the reference design) in the units people
+        write it in: what ``--design`` and ``lccopt.simulate(case, design)`` take."""
+        x = self.reference if x is None else np.asarray(x, dtype=float)
+        return np.array([v.to_user(xi) for v, xi in zip(self.variables, x)])
+
     def check_design(self, x) -> np.ndarray:
         """Return x as floats if it is a valid design vector, else raise ValueError."""
         x = np.asarray(x, dtype=float).ravel()
@@ -227,7 +233,8 @@ class Condition:
         return Condition(self.name, self.weight, self.vehicle, self.speed, self.direction, data)
 
 
-def load_case(path: str | Path, overrides=(), text: str | None = None) -> Case:
+def load_case(path: str | Path, overrides=(), text: str | None = None,
+              resolved: bool | None = None) -> Case:
     """Read and validate a case file.
 
     Parameters
@@ -240,6 +247,10 @@ def load_case(path: str | Path, overrides=(), text: str | None = None) -> Case:
     text
         the case file's text, when the caller has read it already (a run's copy, read
         through the run directory it holds open); else it is read from ``path``.
+    resolved
+        the file is a case as lccopt resolved it (``Case.resolved``, a run's copy), whose
+        design lengths are bare counts of 0.1 m elements; a case file a person writes gives
+        them with their unit (0.6 m). Default: when ``text`` is given.
 
     Returns
     -------
@@ -253,10 +264,12 @@ def load_case(path: str | Path, overrides=(), text: str | None = None) -> Case:
     """
     path = Path(path)
     file = str(path)
+    resolved = text is not None if resolved is None else resolved
     text = read_case_text(path) if text is None else text
     raw, lines = read_with_base(path, text)
     overrides = tuple(overrides)
     raw = set_values.apply(raw, lines, overrides)
+    read_lengths(raw, lambda at: f"{locate(lines, at, file)}: {dotted(at)}", resolved)
     data = check(raw, SCHEMA, (), lines, file)
 
     def err(at: tuple, msg: str) -> CaseError:

@@ -53,7 +53,8 @@ def _kv(doc_k: str, doc_c: str, unit_k: str, unit_c: str, **bounds) -> Section:
 def _design_group(doc: str, integer: bool, counted: bool, unit: str = "-",
                   bounds_doc: str = "", **bounds) -> Section:
     fields = {
-        "kind": Str("continuous or integer", ("integer",) if integer else ("continuous",)),
+        "kind": Str("continuous or integer (a length: whole 0.1 m steps)",
+                    ("integer",) if integer else ("continuous",)),
         "bounds": NumList("[lower, upper]" + bounds_doc, unit, length=2,
                           required=not bounds_doc, **bounds),
         "reference": (NumList("reference value of each variable", unit, **bounds) if counted
@@ -225,13 +226,16 @@ _DESIGN = Section({
     "railpad_stiffness": _pad_group(),
     "strengthened_sleepers": _design_group("number of strengthened sleepers next to the "
                                            "interface", integer=True, counted=False),
-    "sleeper_spans": _design_group("spans next to the interface in 0.1 m elements, x_s1 "
-                                   "farthest .. x_sM from the slab edge to the first sleeper",
-                                   integer=True, counted=True),
-    "type_ii_strip": _design_group("length of Type II strip from the entry slab edge, in 0.1 m "
-                                   "elements (at most the ERS)", integer=True, counted=False,
-                                   bounds_doc=". Default: [0, the ERS in 0.1 m elements], so "
-                                              "that the strip may cover the whole crossing"),
+    # lengths: written with their unit, held as whole 0.1 m elements (config/variables.py)
+    "sleeper_spans": _design_group("spans next to the interface, x_s1 farthest .. x_sM from "
+                                   "the slab edge to the first sleeper; lengths with their unit "
+                                   "(0.6 m), in steps of 0.1 m (the rail's elements)",
+                                   integer=True, counted=True, unit="m"),
+    "type_ii_strip": _design_group("length of Type II strip from the entry slab edge (at most "
+                                   "the ERS), with its unit (1.2 m), in steps of 0.1 m",
+                                   integer=True, counted=False, unit="m",
+                                   bounds_doc=". Default: [0 m, the ERS's length], so that "
+                                              "the strip may cover the whole crossing"),
 })
 
 # amplitude_scale <= 10: ten times a standard spectrum is beyond any class of track it

@@ -19,6 +19,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..vti.specs import ELEMENT_UNIT
+from .units import UnitError, to_si
+from .units import split as split_quantity
 
 
 @dataclass(frozen=True)
@@ -208,3 +210,83 @@ def split(variables, x) -> dict[str, np.ndarray]:
     """A design vector as {group key: its values} (internal units)."""
     x = np.asarray(x, dtype=float)
     return {g.key: x[[i for i, v in enumerate(variables) if v.group == g.key]] for g in GROUPS}
+
+
+def read_lengths(raw: dict, where, resolved: bool = False) -> None:
+    """The lengths of the raw design section (the spans, the Type II strip's bounds and
+    reference), written with their unit (``0.6 m``, ``60 cm``), replaced by the whole 0.1 m
+    elements the case holds them in, before the schema checks them.
+
+    ``where(path)`` names the place of a key path (``file:line: key.path``). A bare number
+    other than 0 is refused with the value to write: it counted 0.1 m elements before (a
+    whole number), or it was meant in m. A case lccopt resolved (``resolved``: a run's own
+    copy) holds its lengths in elements, as bare numbers: they are read as they are."""
+    design = raw.get("design") if isinstance(raw, dict) else None
+    if not isinstance(design, dict):
+        return
+    for g in GROUPS:
+        section = design.get(g.key)
+        if not g.length or not isinstance(section, dict):
+            continue
+        for k in ("bounds", "reference"):
+            value = section.get(k)
+            items = value if isinstance(value, list) else [value]
+            if value is None or any(_number(v) is None and _length(v) is None for v in items):
+                continue                       # not numbers: the schema says what is wrong
+            bare = [v for v in items if _number(v) is not None and _number(v) != 0]
+            if bare and not resolved:
+                raise _bare_length(where(("design", g.key, k)), k, value)
+            out = [_element_count(v, where(("design", g.key, k))) for v in items]
+            section[k] = out if isinstance(value, list) else out[0]
+
+
+def _number(v) -> float | None:
+    """A bare number (a YAML number, or text that is one), else None."""
+    if isinstance(v, bool):
+        return None
+    if isinstance(v, (int, float)):
+        return float(v)
+    parts = split_quantity(v) if isinstance(v, str) else None
+    return parts[0] if parts is not None and not parts[1] else None
+
+
+def _length(v) -> tuple[float, str] | None:
+    """(number, unit) of a quantity written with a unit, else None."""
+    parts = split_quantity(v) if isinstance(v, str) else None
+    return parts if parts is not None and parts[1] else None
+
+
+def _element_count(v, where: str) -> float:
+    """A length (or a resolved copy's bare element count) as whole 0.1 m elements."""
+    from ..errors import CaseError
+
+    number = _number(v)
+    if number is not None:
+        return number                          # 0, or a resolved copy's element count
+    value, unit = _length(v)
+    try:
+        metres = to_si(value, unit, "m")
+    except UnitError as exc:
+        raise CaseError(f"{where}: {exc}") from None
+    q = metres / ELEMENT_UNIT
+    if abs(q - round(q)) > 1e-6:
+        raise CaseError(f"{where}: {v} is not a multiple of {ELEMENT_UNIT:g} m (the rail's "
+                        f"elements: every sleeper sits on a node)")
+    return float(round(q))
+
+
+def _bare_length(where: str, key: str, value):
+    """The one-line refusal of a length written without its unit, with what to write: a
+    whole number counted 0.1 m elements (lccopt's convention before), else it meant m."""
+    from ..errors import CaseError
+
+    items = value if isinstance(value, list) else [value]
+    numbers = [_number(v) for v in items]
+    whole = all(n is None or n == round(n) for n in numbers)
+    shown = [v if n is None else f"{n * ELEMENT_UNIT if whole else n:g} m"
+             for v, n in zip(items, numbers)]
+    text = f"[{', '.join(shown)}]" if isinstance(value, list) else shown[0]
+    was = ("a bare number counted 0.1 m elements before" if whole else "a bare number is not "
+           "read as m here, so that an old count of 0.1 m elements is never misread")
+    return CaseError(f"{where}: a length is written with its unit ({was}): did you mean "
+                     f"`{key}: {text}`?")

@@ -96,10 +96,9 @@ def check_design_space(data: dict, variables, err) -> None:
     x_a, x_b = interfaces(data)
     strip = groups["type_ii_strip"][0]
     if strip.upper * ELEMENT_UNIT > x_b - x_a + 1e-9:
-        most = int(round((x_b - x_a) / ELEMENT_UNIT))
         raise err(("design", "type_ii_strip", "bounds"),
-                  f"upper bound {strip.upper:g} ({strip.upper * ELEMENT_UNIT:g} m) is longer "
-                  f"than the {x_b - x_a:g} m ERS: at most {most}")
+                  f"upper bound {strip.upper * ELEMENT_UNIT:g} m is longer than the "
+                  f"{x_b - x_a:g} m ERS: at most {x_b - x_a:g} m")
     spans = sum(upper[v.name] for v in groups["sleeper_spans"]) * ELEMENT_UNIT
     n_spans = len(groups["sleeper_spans"])
     n_sleepers = int((layout["entry_length"] - spans) // layout["sleeper_spacing"]) + n_spans

@@ -37,10 +37,20 @@ BAD = [  # (replace this, with this, key path in the message, words in the messa
     ("  speed: 140 km/h", "  speed: -5.0", "vehicle.speed", "must be > 0"),
     ("    reference: 8\n", "    reference: 25\n", "design.strengthened_sleepers.reference",
      "outside the bounds"),
-    ("    bounds: [3, 7]", "    bounds: [3, 7.5]", "design.sleeper_spans.bounds",
-     "whole-number bounds"),
-    ("    reference: [6, 6, 4]", "    reference: [6, 6]", "design.sleeper_spans.reference",
-     "expected 3 values"),
+    ("    bounds: [0.3 m, 0.7 m]", "    bounds: [0.3 m, 0.75 m]", "design.sleeper_spans.bounds",
+     "0.75 m is not a multiple of 0.1 m"),
+    ("    reference: [0.6 m, 0.6 m, 0.4 m]", "    reference: [0.6 m, 0.6 m]",
+     "design.sleeper_spans.reference", "expected 3 values"),
+    # a case written before lengths took their unit: the count of 0.1 m elements it meant
+    ("    bounds: [0.3 m, 0.7 m]", "    bounds: [3, 7]", "design.sleeper_spans.bounds",
+     "did you mean `bounds: [0.3 m, 0.7 m]`?"),
+    ("    reference: [0.6 m, 0.6 m, 0.4 m]", "    reference: [6, 6, 4]",
+     "design.sleeper_spans.reference", "(a bare number counted 0.1 m elements before): did "
+     "you mean `reference: [0.6 m, 0.6 m, 0.4 m]`?"),
+    ("    reference: 0 m", "    reference: 20", "design.type_ii_strip.reference",
+     "did you mean `reference: 2 m`?"),
+    ("    reference: [0.6 m, 0.6 m, 0.4 m]", "    reference: [0.6, 0.6, 0.4]",
+     "design.sleeper_spans.reference", "did you mean `reference: [0.6 m, 0.6 m, 0.4 m]`?"),
     ("    bounds: [0, 20]", "    bounds: [0, 200]", "design.strengthened_sleepers.bounds",
      "the entry side holds 166 sleepers"),
     ("  sleepers: 20", "  sleepers: 400", "evaluation.sleepers", "entry side holds 166"),
@@ -49,8 +59,8 @@ BAD = [  # (replace this, with this, key path in the message, words in the messa
      "must be one of"),
     ("  gravity: 9.8", "  gravity: [9.8]", "vehicle.gravity", "expected a number"),
     ("  time_step: 5.0e-4", "  time_step: .nan", "simulation.time_step", "finite"),
-    ("    # bounds: by default", "    bounds: [0, 200]\n    # bounds: by default",
-     "design.type_ii_strip.bounds", "longer than the 12 m ERS: at most 120"),
+    ("    # bounds: by default", "    bounds: [0 m, 20 m]\n    # bounds: by default",
+     "design.type_ii_strip.bounds", "upper bound 20 m is longer than the 12 m ERS: at most 12 m"),
 ]
 
 
@@ -171,7 +181,7 @@ def test_bad_scale_names_file_line_and_key(tmp_path, extra, where, key, words):
     else:
         text = with_pad_lines(extra)
         if where == "pads-bounds":  # the group's own bounds line comes later: drop it
-            text = text.replace("    bounds: [50.0e6, 1200.0e6]", "", 1)
+            text = text.replace("    bounds: [50 MN/m, 1200 MN/m]", "", 1)
     p = tmp_path / "bad.yaml"
     p.write_text(text)
     with pytest.raises(CaseError) as exc:

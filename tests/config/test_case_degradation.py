@@ -90,7 +90,7 @@ def test_a_horizon_in_axle_passes_becomes_years_of_the_traffic(tmp_path):
     # the resolved copy (what a run keeps, and report loads again) gives it once, in years
     again = tmp_path / "resolved.yaml"
     again.write_text(case.resolved, encoding="utf-8")
-    assert load_case(again).degradation_spec().horizon_years == pytest.approx(30.0)
+    assert load_case(again, resolved=True).degradation_spec().horizon_years == pytest.approx(30.0)
 
 
 def test_the_logarithmic_law_takes_its_own_parameters(tmp_path):

@@ -17,19 +17,19 @@ FAKE = "tests.engine.fakesim:evaluate"
 
 def test_values_are_set_as_if_written_in_a_file(tmp_path):
     case = load_case(REFERENCE, ["vehicle.speed=160 km/h", "track.ers.slab_lengths=[9.0]",
-                                 "design.type_ii_strip.bounds=[0, 80]",
+                                 "design.type_ii_strip.bounds=[0 m, 8 m]",
                                  "evaluation.force_zone_end={offset: -1.5}"])
     assert case.vehicle["speed"] == pytest.approx(160 / 3.6)
     assert case.track["ers"]["slab_lengths"] == [9.0]
     # a mapping merges into the section it names, as extends does
     assert case.evaluation["force_zone_end"] == {"at": "exit_interface", "offset": -1.5}
     assert case.overrides == ("vehicle.speed=160 km/h", "track.ers.slab_lengths=[9.0]",
-                              "design.type_ii_strip.bounds=[0, 80]",
+                              "design.type_ii_strip.bounds=[0 m, 8 m]",
                               "evaluation.force_zone_end={offset: -1.5}")
     written = tmp_path / "c.yaml"
     written.write_text(f"extends: {REFERENCE}\nname: reference\nvehicle:\n  speed: 160 km/h\n"
                        "track:\n  ers:\n    slab_lengths: [9.0]\ndesign:\n  type_ii_strip:\n"
-                       "    bounds: [0, 80]\nevaluation:\n  force_zone_end: {offset: -1.5}\n")
+                       "    bounds: [0 m, 8 m]\nevaluation:\n  force_zone_end: {offset: -1.5}\n")
     assert load_case(written).resolved == case.resolved
 
 

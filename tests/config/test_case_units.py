@@ -139,10 +139,30 @@ def test_traffic_conditions_show_each_vehicle_and_speed(run_cli):
 
 
 @pytest.mark.parametrize("body, fix", [
-    ("design:\n  sleeper_spans: {bounds: [0.3, 0.7]}\n", "[3, 7] for 0.3-0.7 m"),
-    ("design:\n  sleeper_spans: {reference: [6, 6, 0.4]}\n", "4 for 0.4 m"),
+    # a bare number: a whole one counted 0.1 m elements before, any other meant m
+    ("design:\n  sleeper_spans: {bounds: [3, 7]}\n", "did you mean `bounds: [0.3 m, 0.7 m]`?"),
+    ("design:\n  sleeper_spans: {bounds: [0.3, 0.7]}\n", "did you mean `bounds: [0.3 m, 0.7 m]`?"),
+    ("design:\n  sleeper_spans: {reference: [6, 6, 0.4 m]}\n",
+     "did you mean `reference: [0.6 m, 0.6 m, 0.4 m]`?"),
+    ("design:\n  type_ii_strip: {reference: 5}\n", "did you mean `reference: 0.5 m`?"),
+    ("design:\n  sleeper_spans: {reference: [60 cm, 0.65 m, 0.4 m]}\n",
+     "0.65 m is not a multiple of 0.1 m"),
+    ("design:\n  type_ii_strip: {reference: 2 ft}\n", "unknown unit 'ft'"),
 ])
-def test_spans_written_in_metres_are_refused_with_the_elements_they_meant(tmp_path, body, fix):
-    """Spans and the strip count 0.1 m elements: a length in m is refused with its count."""
+def test_a_length_of_the_design_needs_its_unit(tmp_path, body, fix):
+    """Spans and the strip are written with their unit, in steps of 0.1 m (the rail's
+    elements); a bare number is refused with what to write."""
     msg = error(case_with(tmp_path, body))
-    assert fix in msg and "0.1 m elements" in msg
+    assert fix in msg and "\n" not in msg
+
+
+def test_a_length_in_any_unit_is_the_same_design(tmp_path):
+    metres = load_case(case_with(tmp_path, "design:\n  sleeper_spans: {reference: "
+                                           "[0.6 m, 0.6 m, 0.4 m]}\n  type_ii_strip: "
+                                           "{bounds: [0 m, 8 m], reference: 1.2 m}\n"))
+    other = load_case(case_with(tmp_path, "design:\n  sleeper_spans: {reference: "
+                                          "[60 cm, 600 mm, 0.4 m]}\n  type_ii_strip: "
+                                          "{bounds: [0, 8000 mm], reference: 120 cm}\n"))
+    assert metres.resolved == other.resolved
+    assert metres.reference[4:].tolist() == [6.0, 6.0, 4.0, 12.0]    # 0.1 m elements inside
+    assert metres.upper[-1] == 80.0

@@ -27,7 +27,8 @@ def lines(path: Path) -> list[dict]:
 def check(name: str) -> None:
     prefix = lines(GOLDEN / name / "journal.jsonl")
     events = prefix + lines(GOLDEN / name / "continuation.jsonl")
-    pb = Problem.from_case(load_case(GOLDEN / name / "case.yaml"))
+    copy = GOLDEN / name / "case.yaml"     # the run's own copy: its lengths in 0.1 m elements
+    pb = Problem.from_case(load_case(copy, text=copy.read_text(encoding="utf-8")))
     stopped, _ = restore(pb, prefix, None)
     snapshot = {"seq": len(prefix) - 1, "mark": line_mark(prefix[-1]),
                 "strategy": json.loads(json.dumps(stopped.state_dict()))}

@@ -170,7 +170,7 @@ def test_a_journal_that_says_optimiser_12_resumes_with_the_default_settings():
     for name, composite in (("scalar-F_max", False), ("composite-asf", True)):
         prefix = _lines(GOLDEN / name / "journal.jsonl")
         assert prefix[0]["optimiser"] == 12
-        pb = Problem.from_case(load_case(GOLDEN / name / "case.yaml"))
+        pb = Problem.from_case(load_case(GOLDEN / name / "case.yaml", resolved=True))
         assert recorded_settings(pb, prefix[0]) == Settings.default(composite=composite)
 
 
