@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from ..uncertainty.fields import DISTRIBUTIONS
-from .spec import (
+from .kinds import (
     Num,
     Section,
     Str,
