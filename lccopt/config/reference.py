@@ -11,21 +11,8 @@ from __future__ import annotations
 import sys
 from dataclasses import replace
 
-from . import units
-from .schema import (
-    DEFAULT_FORCE_ZONE_END,
-    SCHEMA,
-    Items,
-    Named,
-    Num,
-    NumList,
-    NumOrSection,
-    Rows,
-    Section,
-    Str,
-    StrList,
-    TextOrSection,
-)
+from . import kinds, units
+from .schema import DEFAULT_FORCE_ZONE_END, SCHEMA
 
 INTRO = """\
 # Case-file reference
@@ -60,23 +47,23 @@ def _num(v: float) -> str:
 
 def _range(spec) -> str:
     """``> 0, <= 250 km/h (why)``; ``one of a, b``; ``-``."""
-    if isinstance(spec, StrList):
+    if isinstance(spec, kinds.StrList):
         return "some of " + ", ".join(spec.choices)
-    if isinstance(spec, Str) and spec.choices:
+    if isinstance(spec, kinds.Str) and spec.choices:
         return "one of " + ", ".join(spec.choices)
-    if not isinstance(spec, (Num, NumList)):
+    if not isinstance(spec, (kinds.Num, kinds.NumList)):
         return "-"
     shown = spec.shown or spec.unit
     parts = [f"{rel} {_num(units.from_si(b, shown, spec.unit))}"
              for rel, b in ((">", spec.gt), (">=", spec.ge), ("<=", spec.le)) if b is not None]
-    if isinstance(spec, Num) and spec.integer:
+    if isinstance(spec, kinds.Num) and spec.integer:
         parts.insert(0, "whole number")
-    if isinstance(spec, NumList):
+    if isinstance(spec, kinds.NumList):
         n = (f"{spec.length} values" if spec.length else
              f"{spec.min_length}-{spec.max_length} values")
         parts.insert(0, n)
     text = ", ".join(parts) + (f" {shown}" if parts and shown != "-" and not
-                               (isinstance(spec, Num) and spec.integer) else "")
+                               (isinstance(spec, kinds.Num) and spec.integer) else "")
     return (text or "-") + (f" ({spec.why})" if spec.why else "")
 
 
@@ -96,10 +83,10 @@ def _default(spec, path: str) -> str:
         return _DEFAULTS[path]
     default = getattr(spec, "default", None)
     if default is None:
-        if isinstance(spec, Section) and not spec.none_if_absent:
+        if isinstance(spec, kinds.Section) and not spec.none_if_absent:
             return "its keys' defaults"
         return "see description" if "Default" in getattr(spec, "doc", "") else "(none)"
-    if isinstance(spec, Num) and spec.unit != "-":
+    if isinstance(spec, kinds.Num) and spec.unit != "-":
         return f"{_num(default)} {spec.unit}"
     return str(default) if default != "" else '""'
 
@@ -115,35 +102,35 @@ def _row(path: str, spec, note: str = "") -> str:
 
 def _rows(spec, path: str) -> list[str]:
     """The table rows of a key and, for a section, of every key inside it."""
-    if isinstance(spec, Section):
+    if isinstance(spec, kinds.Section):
         out = [_row(path, spec)] if path and spec.doc else []
         for key, sub in spec.fields.items():
             out += _rows(sub, f"{path}.{key}" if path else key)
         return out
-    if isinstance(spec, Named) and isinstance(spec.item, NumOrSection):
+    if isinstance(spec, kinds.Named) and isinstance(spec.item, kinds.NumOrSection):
         return _rows(replace(spec.item, doc=f"{spec.doc}: {spec.item.doc}", required=False),
                      f"{path}.<name>")
-    if isinstance(spec, Named) and not isinstance(spec.item, Section):   # names -> values
+    if isinstance(spec, kinds.Named) and not isinstance(spec.item, kinds.Section):   # name->value
         return [_row(f"{path}.<name>", replace(spec.item, doc=f"{spec.doc}: {spec.item.doc}",
                                                 required=False))]
-    if isinstance(spec, Named):
+    if isinstance(spec, kinds.Named):
         return [_row(f"{path}.<name>", spec)] + [
             r for k, s in spec.item.fields.items() for r in _rows(s, f"{path}.<name>.{k}")]
-    if isinstance(spec, Items):
+    if isinstance(spec, kinds.Items):
         return [_row(f"{path}[]", spec)] + _rows(spec.item, f"{path}[]")
-    if isinstance(spec, NumOrSection):
+    if isinstance(spec, kinds.NumOrSection):
         out = [_row(path, replace(spec.number, doc=f"{spec.doc}. A number: "
                                                    f"{spec.number.doc}", required=False))]
         out += [f"| *{path} as a section:* | | | | | | |"]
         return out + [r for k, s in spec.section.fields.items()
                       for r in _rows(s, f"{path}.{k}")]
-    if isinstance(spec, TextOrSection):
+    if isinstance(spec, kinds.TextOrSection):
         out = [_row(path, spec, " Text: a file name, or none.")]
         for key, sub in spec.sections.items():
             out += [f"| *{path} as {key}:* | | | | | | |"]
             out += _rows(sub, path)
         return out
-    if isinstance(spec, (Num, NumList, Str, StrList, Rows)):
+    if isinstance(spec, (kinds.Num, kinds.NumList, kinds.Str, kinds.StrList, kinds.Rows)):
         return [_row(path, spec)]
     raise TypeError(spec)
 
@@ -156,13 +143,13 @@ def render() -> str:
     """The whole reference as Markdown."""
     parts = [INTRO, "## Top level\n", HEAD]
     parts += [_row(k, s) for k, s in SCHEMA.fields.items()
-              if not isinstance(s, (Section, Named, Items))]
+              if not isinstance(s, (kinds.Section, kinds.Named, kinds.Items))]
     for key, spec in SCHEMA.fields.items():
-        if not isinstance(spec, (Section, Named, Items)):
+        if not isinstance(spec, (kinds.Section, kinds.Named, kinds.Items)):
             continue
         doc = getattr(spec, "doc", "")
         parts += ["", f"## {key}\n", *([doc[0].upper() + doc[1:] + ".\n"] if doc else []), HEAD]
-        parts += _rows(spec, key) if not isinstance(spec, Section) else [
+        parts += _rows(spec, key) if not isinstance(spec, kinds.Section) else [
             r for k, s in spec.fields.items() for r in _rows(s, f"{key}.{k}")]
     parts += ["", "## Units\n", "| SI unit | accepted units |", "|---|---|"]
     parts += [f"| {si} | {', '.join(u)} |" for si, u in units.UNITS.items()]

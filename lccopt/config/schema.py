@@ -1,6 +1,6 @@
 """The case schema: every key of a case file, once, with its doc, unit, bounds and default.
 
-``SCHEMA`` is written in the spec language of ``lccopt.config.spec`` and drives
+``SCHEMA`` is written in the spec language of ``lccopt.config.kinds`` and drives
 :func:`lccopt.config.validate.check`, which turns the raw mapping into typed values (floats in
 SI units, ints, lists) or raises a :class:`~lccopt.errors.CaseError` of one line naming the
 file, the line and the key. docs/case-reference.md is generated from it
@@ -19,21 +19,20 @@ from ..vti.pads import NAMED_PADS
 from ..vti.response import PAPER_OBJECTIVES, REPORTED_ONLY, SETTLEMENT_OBJECTIVES
 from ..vti.specs import ZONE_POINTS
 from ..vti.vehicle import DEFAULT_TYPE, VEHICLE_TYPES
-from .plausible import MASS_WHY, PAD_WHY, RATIO_WHY, SEAT_WHY, SPEED
-from .schema_degradation import DEGRADATION
-from .schema_uncertainty import UNCERTAINTY
-from .spec import (  # noqa: F401
+from .kinds import (
     Items,
     Named,
     Num,
     NumList,
-    NumOrSection,
     Rows,
     Section,
     Str,
     StrList,
     TextOrSection,
 )
+from .plausible import MASS_WHY, PAD_WHY, RATIO_WHY, SEAT_WHY, SPEED
+from .schema_degradation import DEGRADATION
+from .schema_uncertainty import UNCERTAINTY
 from .validate import MAX_MAGNITUDE, SAFE_NAME, check  # noqa: F401  (the schema's validator)
 
 # years_to_limit is listed so that asking to minimise it gets its own message (checks)

@@ -5,14 +5,14 @@ from __future__ import annotations
 from dataclasses import replace
 
 from ..degradation.specs import LAW_NAMES, LIMIT_MEASURES, READINGS, SOILS
-from .plausible import SEAT_WHY
-from .spec import (
+from .kinds import (
     Named,
     Num,
     NumOrSection,
     Section,
     Str,
 )
+from .plausible import SEAT_WHY
 
 # The settlement prediction (lccopt/degradation, docs/settlement.md). Law parameters without a
 # default here get the chosen law's default from lccopt/config/degradation.py (the other law's

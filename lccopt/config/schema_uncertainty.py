@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from ..uncertainty.fields import DISTRIBUTIONS
-from .spec import (
+from .kinds import (
     Num,
     Section,
     Str,
@@ -18,6 +18,8 @@ _ROSE_FIELD = ("(ROSE, Deltares / TU Delft: rose/utils/random_field.py and its d
 _CORRELATION_DOC = ("correlation length l along the track: rho(r) = exp(-(pi/4) (r/l)^2) "
                     "between sleepers r apart (ROSE's Gaussian model); 0: each sleeper on its "
                     "own")
+# both bounds of a coefficient of variation, one reason: messages name the bound broken
+_COV_WHY = "a spread is 0 or more; one above the mean is no longer one track"
 
 
 def _variation(doc: str, cov: Num, correlation: float | None, extra: dict | None = None,
@@ -51,14 +53,12 @@ UNCERTAINTY = Section({
         "each sleeper's ballast/subgrade stiffness (a factor on the drawing's, strengthened "
         "sleepers too); {} takes the defaults",
         Num("coefficient of variation of the factor. Default 0.25 " + _ROSE_FIELD, ge=0,
-            le=1.0, default=0.25, required=False, why="a factor varying by more than its mean "
-            "is no longer one track"), 20.0),
+            le=1.0, default=0.25, required=False, why=_COV_WHY), 20.0),
     "support_damping": _variation(
         "each sleeper's ballast/subgrade damping (a factor on the drawing's); {} takes the "
         "defaults",
         Num("coefficient of variation of the factor. Default 0.25 " + _ROSE_FIELD, ge=0,
-            le=1.0, default=0.25, required=False, why="a factor varying by more than its mean "
-            "is no longer one track"), 20.0,
+            le=1.0, default=0.25, required=False, why=_COV_WHY), 20.0,
         {"field": Str("stiffness: drawn from support_stiffness's field, so that damping rises "
                       "with stiffness sleeper by sleeper (ROSE draws both from one seed); own: "
                       "a field of its own", ("stiffness", "own"), default="stiffness",
@@ -67,16 +67,14 @@ UNCERTAINTY = Section({
         "each railpad's stiffness (a factor on the catalogue's or the design's; pad damping "
         "follows it): manufacturing tolerance (cov) and ageing (mean)",
         Num("coefficient of variation of the factor (required: no published spread of pad "
-            "stiffness in track could be found)", ge=0, le=1.0, why="a factor varying by more "
-            "than its mean is no longer one track"), None,
+            "stiffness in track could be found)", ge=0, le=1.0, why=_COV_WHY), None,
         mean_doc="mean factor: 1 (the default) for new pads as catalogued; above 1 for pads "
                  "that stiffened with age"),
     "settlement_coefficient": _variation(
         "each settling sleeper's ballast settlement (a factor on the settlement law's "
         "coefficient: gamma of varandas, first_cycle of logarithmic); needs degradation:",
         Num("coefficient of variation of the factor (required: no published spread from "
-            "sleeper to sleeper could be found)", ge=0, le=1.0, why="a factor varying by "
-            "more than its mean is no longer one track"), None),
+            "sleeper to sleeper could be found)", ge=0, le=1.0, why=_COV_WHY), None),
     "initial_void": Section({
         "probability": Num("fraction of the ballast sleepers that hang (required: hanging "
                            "sleepers are common on crossing approaches, Le Pen et al., "

@@ -1,4 +1,4 @@
-"""Validating a raw case mapping against its schema (``lccopt.config.spec`` classes).
+"""Validating a raw case mapping against its schema (``lccopt.config.kinds`` classes).
 
 :func:`check` turns the raw mapping into typed values (floats in SI units, ints, lists) or
 raises a :class:`~lccopt.errors.CaseError` of one line naming the file, the line and the key
@@ -16,22 +16,9 @@ from typing import Any
 import numpy as np
 
 from ..errors import CaseError
-from . import units
+from . import kinds, units
 from .profiles import ProfileError, ProfileText, pairs_rows, parse_rows, rows_text
 from .reading import dotted, locate
-from .spec import (
-    Items,
-    Named,
-    Num,
-    NumList,
-    NumOrSection,
-    Rows,
-    Section,
-    Str,
-    StrList,
-    TextOrSection,
-    _Collection,
-)
 
 MAX_MAGNITUDE = 1e13        # no quantity of a case comes near it (Young's modulus of steel: 2.1e11)
 # A name is one path component of the run directory: never ".", "..", empty or hidden.
@@ -49,12 +36,12 @@ def check(value: Any, spec: Any, path: tuple, lines: dict, file: str) -> Any:
     def sub(v: Any, s: Any, key) -> Any:
         return check(v, s, path + (key,), lines, file)
 
-    if isinstance(spec, Section):
+    if isinstance(spec, kinds.Section):
         return _section(value, spec, sub, fail, lambda k: lines.get(path + (k,), file + ":1"),
                         path)
-    if isinstance(spec, (Named, Items)):
+    if isinstance(spec, (kinds.Named, kinds.Items)):
         return _collection(value, spec, sub, fail, path)
-    if isinstance(spec, TextOrSection):
+    if isinstance(spec, kinds.TextOrSection):
         if isinstance(value, dict):
             keys = [k for k in spec.sections if k in value]
             if len(keys) != 1:
@@ -64,15 +51,15 @@ def check(value: Any, spec: Any, path: tuple, lines: dict, file: str) -> Any:
         if not isinstance(value, str):
             raise fail(f"expected a file name or a mapping, got {value!r:.60}")
         return value
-    if isinstance(spec, NumOrSection):
+    if isinstance(spec, kinds.NumOrSection):
         if isinstance(value, dict):
             return check(value, spec.section, path, lines, file)
         return check(value, spec.number, path, lines, file)
-    if isinstance(spec, Rows):
+    if isinstance(spec, kinds.Rows):
         return _rows(value, fail)
-    if isinstance(spec, Num):
+    if isinstance(spec, kinds.Num):
         return _number(value, spec, fail, _key_name(path))
-    if isinstance(spec, Str):
+    if isinstance(spec, kinds.Str):
         if value is None and not spec.required:
             return None
         if not isinstance(value, str):
@@ -81,9 +68,9 @@ def check(value: Any, spec: Any, path: tuple, lines: dict, file: str) -> Any:
             raise fail(f"must be one of {', '.join(spec.choices)}, got '{value}'"
                        + _did_you_mean(value, spec.choices))
         return value
-    if isinstance(spec, NumList):
+    if isinstance(spec, kinds.NumList):
         return _numbers(value, spec, fail, path)
-    if isinstance(spec, StrList):
+    if isinstance(spec, kinds.StrList):
         return _names(value, spec, fail)
     raise TypeError(spec)
 
@@ -112,7 +99,7 @@ def unknown_key(key: str, known, path: tuple) -> str:
     return f"unknown key (the keys of {where}: docs/case-reference.md)"
 
 
-def _section(value: Any, spec: Section, sub, fail, line_of, path: tuple) -> dict:
+def _section(value: Any, spec: kinds.Section, sub, fail, line_of, path: tuple) -> dict:
     """A section: no unknown key, every required key, defaults for the others."""
     if not isinstance(value, dict):
         raise fail(f"expected a section (mapping), got {type(value).__name__}")
@@ -127,7 +114,7 @@ def _section(value: Any, spec: Section, sub, fail, line_of, path: tuple) -> dict
                 raise fail(f"missing key '{key}'")
             if getattr(field_spec, "keep_absent", False):
                 continue
-            optional_only = isinstance(field_spec, Section) \
+            optional_only = isinstance(field_spec, kinds.Section) \
                 and not field_spec.none_if_absent and not any(
                 getattr(f, "required", True) for f in field_spec.fields.values())
             out[key] = (sub({}, field_spec, key) if optional_only
@@ -137,16 +124,16 @@ def _section(value: Any, spec: Section, sub, fail, line_of, path: tuple) -> dict
     return out
 
 
-def _collection(value: Any, spec: _Collection, sub, fail, path: tuple):
-    """Named (a mapping of names) or Items (a list), each value of ``spec.item``."""
-    if isinstance(spec, Named):
+def _collection(value: Any, spec: kinds._Collection, sub, fail, path: tuple):
+    """kinds.Named (a mapping of names) or kinds.Items (a list), each value of ``spec.item``."""
+    if isinstance(spec, kinds.Named):
         if not isinstance(value, dict) or not value:
             raise fail("expected a mapping of names to sections")
     elif not isinstance(value, list) or not value:
         raise fail("expected a list")
     if len(value) > spec.max_items:
         raise fail(f"{len(value)} entries; at most {spec.max_items}")
-    if isinstance(spec, Items):
+    if isinstance(spec, kinds.Items):
         return [sub(v, spec.item, i) for i, v in enumerate(value)]
     for k in value:
         if not isinstance(k, str) or not SAFE_NAME.fullmatch(k):
@@ -155,7 +142,7 @@ def _collection(value: Any, spec: _Collection, sub, fail, path: tuple):
     return {k: sub(v, spec.item, k) for k, v in value.items()}
 
 
-def _numbers(value: Any, spec: NumList, fail, path: tuple) -> list:
+def _numbers(value: Any, spec: kinds.NumList, fail, path: tuple) -> list:
     if not isinstance(value, list):
         raise fail(f"expected a list of numbers, got {value!r:.60}")
     if spec.length is not None and len(value) != spec.length:
@@ -164,14 +151,14 @@ def _numbers(value: Any, spec: NumList, fail, path: tuple) -> list:
         raise fail(f"expected at least {spec.min_length} value(s)")
     if len(value) > spec.max_length:
         raise fail(f"{len(value)} values; at most {spec.max_length}")
-    item = Num(spec.doc, spec.unit, gt=spec.gt, ge=spec.ge, le=spec.le, shown=spec.shown,
+    item = kinds.Num(spec.doc, spec.unit, gt=spec.gt, ge=spec.ge, le=spec.le, shown=spec.shown,
                why=spec.why)
     key = _key_name(path)
     return [_number(v, item, lambda m, i=i: fail(m, path + (i,)), key)
             for i, v in enumerate(value)]
 
 
-def _names(value: Any, spec: StrList, fail) -> list:
+def _names(value: Any, spec: kinds.StrList, fail) -> list:
     if isinstance(value, str):
         value = [value]
     if not isinstance(value, list) or not value:
@@ -201,7 +188,7 @@ def _rows(value: Any, fail) -> ProfileText:
     return rows_text(rows)
 
 
-def _number(value: Any, spec: Num, fail, key: str = "") -> float | int:
+def _number(value: Any, spec: kinds.Num, fail, key: str = "") -> float | int:
     """A number checked against ``spec``: an int for an integer spec, else a float (in SI
     units: a quantity written with a unit is converted)."""
     if isinstance(value, int) and not isinstance(value, bool) and abs(value) > MAX_MAGNITUDE:
@@ -234,7 +221,7 @@ def _number(value: Any, spec: Num, fail, key: str = "") -> float | int:
     return value
 
 
-def _bound_problem(value: float, spec: Num) -> tuple[str, float] | None:
+def _bound_problem(value: float, spec: kinds.Num) -> tuple[str, float] | None:
     """The first bound ``value`` breaks, as (relation, bound), or None."""
     for rel, bound, ok in ((">", spec.gt, lambda v, b: v > b), (">=", spec.ge, lambda v, b: v >= b),
                            ("<=", spec.le, lambda v, b: v <= b)):
@@ -243,7 +230,7 @@ def _bound_problem(value: float, spec: Num) -> tuple[str, float] | None:
     return None
 
 
-def _bound_message(value: float, spec: Num, problem: tuple[str, float], written: str | None,
+def _bound_message(value: float, spec: kinds.Num, problem: tuple[str, float], written: str | None,
                    key: str) -> str:
     """``must be <= 250 km/h (why), got 504 km/h``; for a bare number that another unit of
     the key brings within the bounds: ``140 m/s is 504 km/h, above 250 km/h (why): did you

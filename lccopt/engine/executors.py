@@ -106,6 +106,32 @@ def default_workers() -> int:
 MAX_KILLS = 3
 
 
+def _stopped(pid: int) -> str:
+    """"SIGSTOP" if the worker ``pid`` or one of its children (the evaluation it forked) is
+    stopped by a signal, "traced" if under a debugger, else "". Read from Linux's /proc
+    (where there is none the answer is "": a frozen worker's design is timed out)."""
+    pids, seen = [pid], set()
+    while pids:
+        p = pids.pop()
+        if p in seen:
+            continue
+        seen.add(p)
+        try:
+            with open(f"/proc/{p}/stat", "rb") as f:
+                stat = f.read()
+        except OSError:
+            continue
+        # the state follows the command name, which is in parentheses and may hold any byte
+        state = stat[stat.rfind(b")") + 2:stat.rfind(b")") + 3]
+        if state in (b"T", b"t"):
+            return "SIGSTOP" if state == b"T" else "traced"
+        with contextlib.suppress(OSError):
+            for tid in os.listdir(f"/proc/{p}/task"):
+                with open(f"/proc/{p}/task/{tid}/children", "rb") as f:
+                    pids.extend(int(c) for c in f.read().split())
+    return ""
+
+
 def _ignore_stop_signals() -> None:
     """Run in the worker between fork and exec: the ignored disposition survives exec, so
     Ctrl-C or SIGTERM to the process group during the worker's start-up cannot kill it."""
@@ -284,11 +310,19 @@ class LocalPool:
         now = awake.now()
         for s in self._slots:
             if s.task is not None and now - s.started > self.timeout:
-                task = s.task
+                # a worker stopped from outside (SIGSTOP to its process, a debugger) has not
+                # run the design for the timeout: it runs again, like one killed by a signal
+                frozen = _stopped(s.proc.pid)
                 self._kill(s)
-                out.append(Outcome.of(task, wall_time=now - s.started, worker=f"local-{s.index}",
-                                      error=f"timed out after {self.timeout:g} s (worker killed)"))
-                s.task = None
+                if frozen:
+                    self._lost(s, f"worker process stopped ({frozen}) past the timeout", True,
+                               out)
+                else:
+                    out.append(Outcome.of(s.task, wall_time=now - s.started,
+                                          worker=f"local-{s.index}",
+                                          error=f"timed out after {self.timeout:g} s "
+                                                f"(worker killed)"))
+                    s.task = None
                 self._spawn(s)
         return out
 

@@ -20,6 +20,7 @@ from .events import ASKED, CASE_CHANGED, EXHAUSTED, REFERENCE, RESULTS, SCHEDULE
 from .journal import JournalError, line_mark
 from .run import Run
 from .schedule import release
+from .upgrade import settings_unrecorded
 
 
 def restore(problem: Problem, events: list[dict], snapshot: dict | None):
@@ -91,11 +92,6 @@ def _restore(problem: Problem, events: list[dict], snapshot: dict | None):
     return strategy, run
 
 
-# A first line with "optimiser": 12 (a number instead of the settings) was written by the last
-# lccopt that did not record its settings; today's defaults make the proposals of its runs.
-_UNRECORDED_DEFAULTS = 12
-
-
 def recorded_settings(problem: Problem, first: dict):
     """The optimiser settings of the run whose journal's first line is ``first``.
 
@@ -112,7 +108,7 @@ def recorded_settings(problem: Problem, first: dict):
         except ValueError as exc:
             raise JournalError(f"{_made_by(first)} with optimiser settings this lccopt does not "
                                f"have ({exc}): resume it with that version") from None
-    if type(rec) is int and rec == _UNRECORDED_DEFAULTS:
+    if settings_unrecorded(rec):
         return Settings.default(composite=first.get("surrogate", "scalar") != "scalar")
     what = ("no optimiser settings" if rec is None
             else f"\"optimiser\": {rec!r} instead of its settings")

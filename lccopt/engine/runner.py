@@ -22,7 +22,8 @@ from .replay import restore
 from .results import write_results
 from .run import Recorder, Run, eval_name
 from .rundir import JOURNAL, RunDir, RunError, sha256_text, versions
-from .worker import RENAMED_EVALUATORS, evaluator_spec
+from .upgrade import evaluator_name
+from .worker import evaluator_spec
 
 
 def _usage_error(message: str) -> Exception:
@@ -274,7 +275,7 @@ def resume(run, workers: int | None = None, scheduler=None, case=None,
         # never the evaluator run.json names: a run directory from elsewhere must not choose
         # code to run; the testing hook ($LCCOPT_EVALUATOR) or the simulator
         spec = evaluator_spec(evaluator)
-        started = RENAMED_EVALUATORS.get(meta.get("evaluator"), meta.get("evaluator"))
+        started = evaluator_name(meta.get("evaluator"))
         if isinstance(spec, str) and isinstance(started, str) and started != spec:
             out.log(f"the run was started with evaluator {meta['evaluator'][:60]!r}; carrying on "
                     f"with {spec!r}")

@@ -27,8 +27,6 @@ from .. import machine  # no numpy at import: the thread settings below still co
 from ..errors import STOP_SIGNALS  # the parent handles these; a worker ignores them
 
 DEFAULT_EVALUATOR = "lccopt.problem:evaluate"
-# the simulator under the name older runs recorded in run.json
-RENAMED_EVALUATORS = {"lccopt.vti.simulate:evaluate": DEFAULT_EVALUATOR}
 ENV_EVALUATOR = "LCCOPT_EVALUATOR"
 # Imported by a local worker before it forks its first evaluation: what every evaluation
 # needs (the evaluation file's writer, h5py; the simulator and its solvers). Imported in each

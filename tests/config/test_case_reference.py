@@ -9,9 +9,9 @@ import sys
 import pytest
 
 from lccopt.config import load_case
+from lccopt.config.kinds import Items, Named, Section, TextOrSection
 from lccopt.config.reference import render
 from lccopt.config.schema import SCHEMA
-from lccopt.config.spec import Items, Named, Section, TextOrSection
 from lccopt.errors import CaseError
 from tests.conftest import CONFIGS, ROOT
 

@@ -4,6 +4,7 @@ and a run that was stopped resumes to the table of an uninterrupted one."""
 
 from __future__ import annotations
 
+import contextlib
 import os
 import signal
 import subprocess
@@ -406,6 +407,46 @@ def test_a_driver_stopped_longer_than_the_timeout_charges_nothing_to_the_designs
     r = _done(p)
     assert r.returncode == 0, r.stderr
     assert "FAILED" not in r.stderr, r.stderr
+    assert_same_evaluations(reference, read_table(run))
+
+
+def _children(pid: int) -> list[int]:
+    out = []
+    for tid in os.listdir(f"/proc/{pid}/task"):
+        with open(f"/proc/{pid}/task/{tid}/children") as f:
+            out += [int(c) for c in f.read().split()]
+    return out
+
+
+def test_one_worker_stopped_longer_than_the_timeout_charges_nothing_to_its_design(tmp_path):
+    """SIGSTOP to one local worker and the evaluation it runs (not to the driver) for 2.5 times
+    the timeout: its design is not recorded as timed out but runs again on a fresh worker, and
+    the table is the uninterrupted run's. A design that hangs while its worker runs is still
+    timed out (test_engine's faulty-simulations test)."""
+    from .conftest import n_done
+
+    case = write_case(tmp_path, "frozen", budget=8, initial=4, seed=5, timeout=2.0)
+    reference = read_table(optimise(case, workers=2, runs=tmp_path / "whole", evaluator=FAKE,
+                                    progress=False))
+    p = _lccopt("optimise", case, "--workers", "2", "--runs", tmp_path / "runs",
+                env={**ENV, "LCCOPT_FAKE_DELAY": "1.0"})
+    run = tmp_path / "runs" / "frozen"
+    deadline = time.monotonic() + 120
+    while n_done(run) < 2:
+        assert time.monotonic() < deadline and p.poll() is None
+        time.sleep(0.05)
+    time.sleep(0.3)              # evaluations in flight
+    worker = _children(p.pid)[0]
+    frozen = [worker] + _children(worker)
+    for pid in frozen:
+        os.kill(pid, signal.SIGSTOP)
+    time.sleep(5.0)
+    for pid in frozen:           # the driver has killed them by now; a live one goes on
+        with contextlib.suppress(ProcessLookupError):
+            os.kill(pid, signal.SIGCONT)
+    r = _done(p)
+    assert r.returncode == 0, r.stderr
+    assert "FAILED" not in r.stderr and "timed out" not in r.stderr, r.stderr
     assert_same_evaluations(reference, read_table(run))
 
 

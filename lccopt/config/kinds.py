@@ -12,78 +12,72 @@ before the key existed; code reads such a key with ``.get`` and its documented d
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import KW_ONLY, dataclass, field
 from typing import Any
 
 
-@dataclass(frozen=True)
-class Num:
-    """A number with optional bounds (``gt``: strictly greater), in SI ``unit`` (``-``: none).
-
-    ``shown``: the unit messages and the reference show it in (``km/h`` for a speed); ``why``:
-    the reason for the bounds, said when a value falls outside them."""
-    doc: str
-    unit: str = "-"
-    integer: bool = False
-    ge: float | None = None
-    gt: float | None = None
-    le: float | None = None
+@dataclass(frozen=True, kw_only=True)
+class _Key:
+    """What every spec has (keyword-only, after the spec's own fields)."""
     default: Any = None
     required: bool = True
-    shown: str | None = None
-    why: str = ""
     keep_absent: bool = False
 
 
 @dataclass(frozen=True)
-class Str:
+class _Quantity(_Key):
+    """A number or a list of numbers in SI ``unit`` (``-``: none), each within optional bounds
+    (``gt``: strictly greater). ``shown``: the unit messages and the reference show it in
+    (``km/h`` for a speed); ``why``: the reason for the bounds, said when a value falls
+    outside them."""
+    doc: str
+    unit: str = "-"
+    _: KW_ONLY
+    ge: float | None = None
+    gt: float | None = None
+    le: float | None = None
+    shown: str | None = None
+    why: str = ""
+
+
+@dataclass(frozen=True)
+class Num(_Quantity):
+    """A number (``integer``: a whole one)."""
+    integer: bool = False
+
+
+@dataclass(frozen=True)
+class Str(_Key):
     """Text, one of ``choices`` when given."""
     doc: str
     choices: tuple | None = None
-    default: Any = None
-    required: bool = True
-    keep_absent: bool = False
 
 
 @dataclass(frozen=True)
-class NumList:
-    """A list of numbers (``length`` fixed when given), each in SI ``unit``."""
-    doc: str
-    unit: str = "-"
+class NumList(_Quantity):
+    """A list of numbers (``length`` fixed when given)."""
     length: int | None = None
     min_length: int = 1
     max_length: int = 50
-    le: float | None = None
-    gt: float | None = None
-    ge: float | None = None
-    default: Any = None
-    required: bool = True
-    shown: str | None = None
-    why: str = ""
-    keep_absent: bool = False
 
 
 @dataclass(frozen=True)
-class Section:
+class Section(_Key):
     """A mapping of fixed keys, each with its own spec (``fields``). An absent optional
     section whose keys are all optional is built from their defaults, unless
     ``none_if_absent`` (then it is None: ``optimisation:`` of a case that only simulates)."""
     fields: dict
     doc: str = ""
-    required: bool = True
-    keep_absent: bool = False
     none_if_absent: bool = False
 
 
 @dataclass(frozen=True)
-class _Collection:
+class _Collection(_Key):
     """Several values of one spec (``item``), at most ``max_items``."""
     item: Any
     doc: str = ""
     max_items: int = 50
-    required: bool = False
-    default: Any = None
-    keep_absent: bool = False
+    required: bool = field(default=False, kw_only=True)
 
 
 class Named(_Collection):
@@ -95,42 +89,30 @@ class Items(_Collection):
 
 
 @dataclass(frozen=True)
-class TextOrSection:
+class TextOrSection(_Key):
     """Text (e.g. a file name) or a mapping, checked against the one of ``sections``
     (``{key: Section}``) whose key it holds."""
     doc: str
     sections: dict
-    default: Any = None
-    required: bool = True
-    keep_absent: bool = False
 
 
 @dataclass(frozen=True)
-class NumOrSection:
+class NumOrSection(_Key):
     """A number (checked against ``number``) or a mapping checked against ``section``."""
     doc: str
     number: Num
     section: Section
-    default: Any = None
-    required: bool = True
-    keep_absent: bool = False
 
 
 @dataclass(frozen=True)
-class Rows:
+class Rows(_Key):
     """The rows of a rail profile: text, one ``position, dip`` per line, or a list of
     [position, dip] pairs (lccopt.config.profiles); checked and kept as canonical text."""
     doc: str
-    default: Any = None
-    required: bool = True
-    keep_absent: bool = False
 
 
 @dataclass(frozen=True)
-class StrList:
+class StrList(_Key):
     """A list of distinct names from ``choices`` (one name alone is a list of one)."""
     doc: str
     choices: tuple
-    default: Any = None
-    required: bool = True
-    keep_absent: bool = False
