@@ -329,7 +329,8 @@ def _variables(design: dict, lines: dict, file: str) -> tuple[Variable, ...]:
     return tuple(out)
 
 
-def load_case(path: str | Path, overrides=(), text: str | None = None) -> Case:
+def load_case(path: str | Path, overrides=(), text: str | None = None,
+              budget: int | None = None) -> Case:
     """Read and validate a case file.
 
     Parameters
@@ -342,6 +343,9 @@ def load_case(path: str | Path, overrides=(), text: str | None = None) -> Case:
     text
         the case file's text, when the caller has read it already (a run's copy, read
         through the run directory it holds open); else it is read from ``path``.
+    budget
+        ``optimisation.budget`` given on the command line (``resume --budget``), applied after
+        the overrides; the initial design's default follows it as it follows a file's.
 
     Returns
     -------
@@ -359,6 +363,8 @@ def load_case(path: str | Path, overrides=(), text: str | None = None) -> Case:
     raw, lines = read_with_base(path, text)
     overrides = tuple(overrides)
     raw = set_values.apply(raw, lines, overrides)
+    if budget is not None:
+        raw = set_values.put(raw, lines, ("optimisation", "budget"), int(budget))
     data = check(raw, SCHEMA, (), lines, file)
 
     def err(at: tuple, msg: str) -> CaseError:
