@@ -37,7 +37,7 @@ import numpy as np
 from lccopt.config import load_case
 from lccopt.degradation.iteration import predict_settlement
 from lccopt.degradation.laws import LogarithmicLaw, VarandasLaw
-from lccopt.degradation.loading import entry_zone, vti_condition
+from lccopt.degradation.loading import entry_zone, vti_passage_kind
 from lccopt.vti.evaluate import build_vehicle
 from lccopt.vti.newmark import integrate
 from lccopt.vti.track import build_track
@@ -70,7 +70,7 @@ def setup(x=None, vehicle="bogie", speed=None):
 
 def condition(x=None, name="virm-bogie", per_year=PASSAGES, speed=None):
     _, tr, veh, dt, x0, n = setup(x, speed=speed)
-    return tr, vti_condition(name, per_year, tr, veh, dt=dt, speed=veh.speed, x_start=x0,
+    return tr, vti_passage_kind(name, per_year, tr, veh, dt=dt, speed=veh.speed, x_start=x0,
                              n_steps=n)
 
 

@@ -33,7 +33,7 @@ from ..vti.track import build_track
 from ..vti.vehicle import build_vehicle
 from .iteration import SettlementResult, Tamping, predict_settlement
 from .laws import LAWS, SlabSettlement, SleeperLaw, SubgradeLaw
-from .loading import Condition, entry_zone, vti_condition
+from .loading import PassageKind, entry_zone, vti_passage_kind
 from .specs import DegradationSpec, LawSpec, Limit, SubgradeSpec, Traffic
 
 
@@ -90,7 +90,7 @@ def predict(spec: DegradationSpec, design: TrackDesign) -> SettlementResult:
     for t in spec.settling_traffic:
         track = build_track(t.scenario, design)
         tracks.append(track)
-        conditions.append(_condition(t, track, spec))
+        conditions.append(_passage_kind(t, track, spec))
     track = tracks[0]
     zone = entry_zone(track, spec.settling_sleepers, spec.follower_flat, spec.follower_taper)
     support = spec.settling_traffic[0].scenario.track.support.stiffness
@@ -208,7 +208,7 @@ def law(spec: LawSpec):
     return LAWS[spec.name](**dict(spec.parameters))
 
 
-def _condition(traffic: Traffic, track, spec: DegradationSpec) -> Condition:
+def _passage_kind(traffic: Traffic, track, spec: DegradationSpec) -> PassageKind:
     """A condition of the prediction: ``traffic``'s passage over ``track`` (run as
     :func:`lccopt.vti.evaluate.evaluate` runs it), on the gaps the iteration gives for the
     settling zone, applied to this track's own supports of the same sleepers."""
@@ -226,7 +226,7 @@ def _condition(traffic: Traffic, track, spec: DegradationSpec) -> Condition:
             return float(np.interp(pos, px, pr, left=0.0, right=0.0))
     own = entry_zone(track, spec.settling_sleepers, spec.follower_flat,
                      spec.follower_taper).supports
-    base = vti_condition(traffic.name, traffic.passages_per_year, track, vehicle, dt=dt,
+    base = vti_passage_kind(traffic.name, traffic.passages_per_year, track, vehicle, dt=dt,
                          speed=speed, x_start=x_start, n_steps=n_steps,
                          irregularity=irregularity)
 
@@ -235,7 +235,7 @@ def _condition(traffic: Traffic, track, spec: DegradationSpec) -> Condition:
             raise ValueError(f"condition {traffic.name}: its track's settling sleepers are "
                              f"not those of the prediction's zone")
         return base.simulate(own.with_gaps(supports.gap))
-    return Condition(base.name, base.passes_per_year, simulate, base.axles)
+    return PassageKind(base.name, base.passes_per_year, simulate, base.axles)
 
 
 def _paper_objectives(spec: DegradationSpec, per_condition: list[dict]) -> dict:

@@ -19,7 +19,7 @@ from lccopt.degradation.evaluate import (
 )
 from lccopt.degradation.iteration import predict_settlement
 from lccopt.degradation.laws import LI_SELIG, VarandasLaw
-from lccopt.degradation.loading import entry_zone, vti_condition
+from lccopt.degradation.loading import entry_zone, vti_passage_kind
 from lccopt.problem import Problem, evaluate
 from lccopt.vti.evaluate import build_vehicle
 from lccopt.vti.evaluate import evaluate as simulate
@@ -67,7 +67,7 @@ def test_a_case_evaluation_is_the_simulation_and_the_prediction_it_says(single):
     veh = build_vehicle(case.scenario().vehicle)
     x0, _, _, x1 = tr.window
     dt = case.simulation["time_step"]
-    cond = vti_condition("vehicle", 5.0e5, tr, veh, dt=dt, speed=veh.speed, x_start=x0,
+    cond = vti_passage_kind("vehicle", 5.0e5, tr, veh, dt=dt, speed=veh.speed, x_start=x0,
                          n_steps=int(np.ceil((x1 - x0) / (veh.speed * dt))))
     spec = case.degradation_spec()
     law = sleeper_law(spec, tr, case.data["track"]["support"]["stiffness"])
