@@ -1,5 +1,5 @@
 """Settlement figures and sentences: a design's settlement prediction (the ``settlement_*``
-histories of :mod:`lccopt.degradation.evaluate`) drawn for ``lccopt report`` (best and
+histories of :mod:`lccopt.degradation.assessment`) drawn for ``lccopt report`` (best and
 reference design), ``lccopt simulate`` (one design) and benchmarks/settlement/settlement_study.py
 (the study's designs side by side).
 

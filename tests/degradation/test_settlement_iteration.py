@@ -20,10 +20,10 @@ from lccopt.degradation.loading import (
     vti_passage_kind,
 )
 from lccopt.degradation.statics import ZoneStatics
-from lccopt.vti.evaluate import build_vehicle
 from lccopt.vti.newmark import integrate
 from lccopt.vti.track import build_track
 from lccopt.vti.unilateral import sleeper_supports
+from lccopt.vti.vehicle import build_vehicle
 from tests.vti.test_voids import discrete_track
 
 # seconds a test: settlement predictions over many blocks of simulations

@@ -1,10 +1,10 @@
 """One design judged by its settlement under its traffic: the evaluation of a case with a
 ``degradation:`` section (docs/settlement.md).
 
-``evaluate(spec, design)`` runs, for one design,
+``assess_settlement(spec, design)`` runs, for one design,
 
 * the paper's simulation of every traffic condition on the new track
-  (:func:`lccopt.vti.evaluate.evaluate`): F_rms, F_max, E_rms and E_max, combined over the
+  (:func:`lccopt.vti.passage.simulate_passage`): F_rms, F_max, E_rms and E_max, combined over the
   conditions by the case's rule (worst or weighted mean), and the time histories of the first
   condition's (the report's contact-force and sleeper-energy figures);
 * one settlement prediction (:func:`~lccopt.degradation.iteration.predict_settlement`) in
@@ -26,7 +26,7 @@ import time
 
 import numpy as np
 
-from ..vti.evaluate import evaluate as simulate_passage
+from ..vti.passage import simulate_passage
 from ..vti.response import PAPER_OBJECTIVES, REPORTED_ONLY, SETTLEMENT_OBJECTIVES, Evaluation
 from ..vti.specs import TrackDesign
 from ..vti.track import build_track
@@ -37,7 +37,7 @@ from .loading import PassageKind, entry_zone, vti_passage_kind
 from .specs import DegradationSpec, LawSpec, Limit, SubgradeSpec, Traffic
 
 
-def evaluate(spec: DegradationSpec, design: TrackDesign) -> Evaluation:
+def assess_settlement(spec: DegradationSpec, design: TrackDesign) -> Evaluation:
     """The paper's objectives on the new track and the settlement of ``design`` over
     ``spec``'s horizon.
 
@@ -210,7 +210,7 @@ def law(spec: LawSpec):
 
 def _passage_kind(traffic: Traffic, track, spec: DegradationSpec) -> PassageKind:
     """A condition of the prediction: ``traffic``'s passage over ``track`` (run as
-    :func:`lccopt.vti.evaluate.evaluate` runs it), on the gaps the iteration gives for the
+    :func:`lccopt.vti.passage.simulate_passage` runs it), on the gaps the iteration gives for the
     settling zone, applied to this track's own supports of the same sleepers."""
     sc = traffic.scenario
     vehicle = build_vehicle(sc.vehicle)
