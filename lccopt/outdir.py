@@ -134,9 +134,7 @@ class Output:
                 if st is not None and not (stat.S_ISREG(st.st_mode) or stat.S_ISLNK(st.st_mode)):
                     raise UsageError(f"{out / n} is {kind_of(st.st_mode)}, where lccopt {command} "
                                      f"writes a file: remove it")
-            name = target.make_temp_dir(f"{STAGING}{command}-")
-            staging = target.sub(name)
-            staging.try_lock()
+            name, staging = _new_staging(target, command)
         except BaseException:
             target.close()
             raise
@@ -154,9 +152,7 @@ class Output:
         _lock(parent, shown, whole=True)
         try:
             _clean_staging(parent)
-            tmp = parent.make_temp_dir(f"{STAGING}{command}-")
-            staging = parent.sub(tmp)
-            staging.try_lock()
+            tmp, staging = _new_staging(parent, command)
         except BaseException:
             parent.unlock()
             raise
@@ -280,6 +276,15 @@ def _merge(src: Folder, dst: Folder, force: bool, shown: Path) -> None:
 def _taken(path: Path) -> UsageError:
     return UsageError(f"{path} appeared while lccopt wrote its files there; nothing replaced: "
                       f"choose another --out, or add --force to replace it")
+
+
+def _new_staging(folder: Folder, command: str) -> tuple[str, Folder]:
+    """A staging folder for ``command``'s files made and locked inside ``folder``: its name
+    and the folder."""
+    name = folder.make_temp_dir(f"{STAGING}{command}-")
+    staging = folder.sub(name)
+    staging.try_lock()
+    return name, staging
 
 
 def _lock(folder: Folder, shown: Path, whole: bool = False) -> None:

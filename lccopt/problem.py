@@ -43,7 +43,7 @@ DEFAULT_WORST_FACTOR = 1.5
 def evaluate(case: Case, x):
     """Simulate design ``x`` of ``case``: one simulation (a case with traffic conditions gives
     each condition's case by ``case.condition_case(i)``), or for a case with ``degradation:``
-    one settlement prediction under all its traffic (:mod:`lccopt.degradation.evaluate`).
+    one settlement prediction under all its traffic (:mod:`lccopt.degradation.assessment`).
 
     Parameters
     ----------
@@ -63,10 +63,10 @@ def evaluate(case: Case, x):
         x is not a valid design of the case.
     """
     if case.degradation is not None:
-        from .degradation.evaluate import evaluate as predict
+        from .degradation.assessment import assess_settlement as predict
 
         return predict(case.degradation_spec(), case.track_design(x))
-    from .vti.evaluate import evaluate as simulate
+    from .vti.passage import simulate_passage as simulate
 
     return simulate(case.scenario(), case.track_design(x))
 

@@ -17,7 +17,7 @@ from lccopt.errors import CaseError
 from lccopt.problem import evaluate
 from lccopt.uncertainty import fields
 from lccopt.uncertainty import statistics as stats
-from lccopt.vti.evaluate import evaluate as simulate
+from lccopt.vti.passage import simulate_passage as simulate
 from lccopt.vti.specs import TrackVariation
 from lccopt.vti.track import build_track
 from tests.conftest import CHEAP_SIMULATION, REFERENCE, lccopt_command, subprocess_env

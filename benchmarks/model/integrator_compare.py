@@ -101,7 +101,7 @@ def identity_outputs(path: str, settlement: bool) -> None:
 
     from lccopt.config import load_case
     from lccopt.problem import evaluate
-    from lccopt.vti import evaluate as vti
+    from lccopt.vti import passage as vti
     from lccopt.vti.specs import TrackVariation
     from lccopt.vti.track import WinklerBeam, build_track
     from lccopt.vti.unilateral import sleeper_supports
@@ -131,7 +131,7 @@ def identity_outputs(path: str, settlement: bool) -> None:
         sc = case.scenario()
         entry = _voids(400, [1, 2, 4, 7], [1.5e-3, 0.3e-3, 0.1e-3, 0.2e-3])
         variation = TrackVariation(void=(entry, _voids(400, [3], [0.4e-3])))
-        _evaluation(out, name, vti.evaluate(dataclasses.replace(sc, variation=variation),
+        _evaluation(out, name, vti.simulate_passage(dataclasses.replace(sc, variation=variation),
                                             case.track_design(case.reference)))
 
     # a moving force from a given state, a vehicle off its rest shape, a force over voids
@@ -168,7 +168,7 @@ def timings(repeat: int) -> None:
 
     from lccopt.config import load_case
     from lccopt.problem import evaluate
-    from lccopt.vti import evaluate as vti
+    from lccopt.vti import passage as vti
     from lccopt.vti.specs import TrackVariation
 
     ref = load_case(CASES / "reference.yaml")
@@ -179,7 +179,7 @@ def timings(repeat: int) -> None:
     runs = {
         "reference": lambda: evaluate(ref, ref.reference),
         "half-car": lambda: evaluate(half, half.reference),
-        "voids": lambda: vti.evaluate(voided, ref.track_design(ref.reference)),
+        "voids": lambda: vti.simulate_passage(voided, ref.track_design(ref.reference)),
     }
     result = {}
     for name, run in runs.items():

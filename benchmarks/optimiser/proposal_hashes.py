@@ -50,7 +50,7 @@ from lccopt.optim.space import DesignSpace  # noqa: E402
 from lccopt.optim.strategy import Strategy  # noqa: E402
 
 FAKE = "tests.engine.fakesim:evaluate"
-REAL = "lccopt.vti.simulate:evaluate"
+REAL = "lccopt.problem:evaluate"
 ASF_FOR_FAKE = "  asf:\n    worst: [60000.0, 5.0]\n"
 CHEAP = ("simulation:\n  time_step: 1.0e-3\n  element_length: 0.1\n  far_element_length: 0.1\n"
          "  run_in: 3.0\n  run_out: 1.0\n")

@@ -37,7 +37,7 @@ ROOT = Path(__file__).resolve().parents[2]
 from lccopt.config import load_case  # noqa: E402
 from lccopt.config.zones import force_zone_end, interfaces, zone_end_x  # noqa: E402
 from lccopt.problem import evaluate  # noqa: E402
-from lccopt.vti.statics import static_rail_deflection  # noqa: E402
+from lccopt.vti.deflection import static_rail_deflection  # noqa: E402
 from lccopt.vti.track import build_track  # noqa: E402
 from lccopt.vti.vehicle import build_vehicle  # noqa: E402
 

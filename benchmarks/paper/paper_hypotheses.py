@@ -36,7 +36,7 @@ import scipy.sparse as sp
 
 ROOT = Path(__file__).resolve().parents[2]
 
-import lccopt.vti.evaluate as vti_evaluate  # noqa: E402
+import lccopt.vti.passage as vti_passage  # noqa: E402
 from benchmarks.paper import paper_fidelity as pf  # noqa: E402
 from lccopt.config import load_case  # noqa: E402
 from lccopt.vti.newmark import integrate  # noqa: E402
@@ -158,7 +158,7 @@ def pad_damping_law(law):
     if law is None:
         yield
         return
-    original = vti_evaluate.build_track
+    original = vti_passage.build_track
 
     def build(scenario, design):
         track = original(scenario, design)
@@ -175,11 +175,11 @@ def pad_damping_law(law):
         track.C = (track.C + sp.csr_matrix((vals, (rows, cols)), shape=track.C.shape)).tocsr()
         return track
 
-    vti_evaluate.build_track = build
+    vti_passage.build_track = build
     try:
         yield
     finally:
-        vti_evaluate.build_track = original
+        vti_passage.build_track = original
 
 
 def energies_with_pads(scenario, design) -> np.ndarray:
@@ -215,7 +215,7 @@ def run(case, h: Hypothesis) -> tuple[dict, dict]:
             pads = x[:3] if h.pads is None else np.array([h.pads(k) for k in x[:3]])
             design = TrackDesign(railpad_stiffness=pads, strengthened_sleepers=x[3],
                                  sleeper_spans=x[4:7], type_ii_strip=x[7])
-            ev = vti_evaluate.evaluate(scenario, design)
+            ev = vti_passage.simulate_passage(scenario, design)
             obj, e = dict(ev.objectives), ev.histories["sleeper_energy"]
             if h.pad_energy:
                 e = energies_with_pads(scenario, design)

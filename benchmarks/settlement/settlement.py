@@ -37,10 +37,10 @@ import numpy as np
 from lccopt.config import load_case
 from lccopt.degradation.iteration import predict_settlement
 from lccopt.degradation.laws import LogarithmicLaw, VarandasLaw
-from lccopt.degradation.loading import entry_zone, vti_condition
-from lccopt.vti.evaluate import build_vehicle
+from lccopt.degradation.loading import entry_zone, vti_passage_kind
 from lccopt.vti.newmark import integrate
 from lccopt.vti.track import build_track
+from lccopt.vti.vehicle import build_vehicle
 
 # One bogie side of the VIRM (configs/traffic.yaml's values): two wheels, no fixed point, so a
 # settled track does not change its static wheel loads (the paper's 3-dof vehicle rests half
@@ -70,7 +70,7 @@ def setup(x=None, vehicle="bogie", speed=None):
 
 def condition(x=None, name="virm-bogie", per_year=PASSAGES, speed=None):
     _, tr, veh, dt, x0, n = setup(x, speed=speed)
-    return tr, vti_condition(name, per_year, tr, veh, dt=dt, speed=veh.speed, x_start=x0,
+    return tr, vti_passage_kind(name, per_year, tr, veh, dt=dt, speed=veh.speed, x_start=x0,
                              n_steps=n)
 
 
@@ -184,7 +184,7 @@ def designs():
 def tamping():
     """configs/settlement.yaml (tamping at 2 mm of D1 deviation) on the reference design, at
     the default budget and at larger ones: the tampings' count and times."""
-    from lccopt.degradation.evaluate import predict
+    from lccopt.degradation.assessment import predict
 
     for sets in ([], ["degradation.max_simulations=80"],
                  ["degradation.max_simulations=200", "degradation.tolerance=1000"]):
@@ -204,7 +204,7 @@ def tamping():
 def tamping_designs():
     """The designs tamped most often (configs/settlement.yaml, the paper's MOO and min E_max
     designs): do their counts of tampings hold at a larger simulation budget?"""
-    from lccopt.degradation.evaluate import predict
+    from lccopt.degradation.assessment import predict
 
     for name in ("MOO (Table 7)", "min E_max (Table 7)"):
         x = np.asarray(DESIGNS[name], float)    # as benchmarks/settlement/settlement_variants.py's
@@ -225,7 +225,7 @@ def subgrade():
     with the Li & Selig subgrade (docs/settlement.md, "A softer subgrade is a weaker one")."""
     import dataclasses
 
-    from lccopt.degradation.evaluate import predict, settlement_objectives
+    from lccopt.degradation.assessment import predict, settlement_objectives
 
     soft = ["track.support.stiffness=22.5e6",
             "track.strengthened_sleeper.support_stiffness=28.125e6"]

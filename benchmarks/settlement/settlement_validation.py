@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from lccopt.config import load_case
-from lccopt.degradation.evaluate import predict
+from lccopt.degradation.assessment import predict
 from lccopt.degradation.loading import entry_zone
 from lccopt.degradation.statics import ZoneStatics
 from lccopt.vti.track import build_track

@@ -33,7 +33,7 @@ from pathlib import Path
 import numpy as np
 
 from lccopt.config import load_case
-from lccopt.degradation.evaluate import predict, settlement_objectives
+from lccopt.degradation.assessment import predict, settlement_objectives
 from lccopt.degradation.variants import law_variants
 
 REF = [1120e6, 1120e6, 1120e6, 8, 6, 6, 4, 0]

@@ -31,10 +31,16 @@ from ..vti.response import (
 )
 
 
-def _echo_design(case, case_path: Path, x) -> None:
-    """The case and the design simulated, in lines that fit an 80-column terminal."""
+def _echo_setting(case, case_path: Path, x) -> None:
+    """The case and the design simulated, its traffic conditions (or its one vehicle) and the
+    force evaluation zone, in lines that fit an 80-column terminal."""
     typer.echo(f"case '{case.name}' ({case_path})")
     typer.echo("\n".join(wrap_items(design_items(case, x), "  design ")))
+    if case.traffic:
+        typer.echo("\n".join(line[2:] for line in condition_lines(case)))
+    else:
+        typer.echo(f"vehicle: {vehicle_line(case.vehicle)}")
+    typer.echo(zone_line(case))
 
 
 def run_simulate(case_path: Path, design: str | None, out: Path | None, plots: bool,
@@ -88,9 +94,7 @@ def _simulate_one(case, case_path: Path, x, out, plots: bool, evaluate) -> Evalu
     wall = time.perf_counter() - t0
     _check_finite(ev.objectives, case, x)
     info = ev.info
-    _echo_design(case, case_path, x)
-    typer.echo(f"vehicle: {vehicle_line(case.vehicle)}")
-    typer.echo(zone_line(case))
+    _echo_setting(case, case_path, x)
     typer.echo(f"Hertz spring linearised at P = {info['hertz_load'] / 1e3:.1f} kN: "
                f"k_w = {info['contact_stiffness'] / 1e9:.3f} GN/m")
     edge = info.get("interface_entry", 0.0)   # positions from the entry slab edge, as plotted
@@ -133,9 +137,7 @@ def _simulate_conditions(case, case_path: Path, x, out: Path, plots: bool, evalu
     from ..store import write_condition_evaluations
 
     names = [c.name for c in case.conditions]
-    _echo_design(case, case_path, x)
-    typer.echo("\n".join(line[2:] for line in condition_lines(case)))
-    typer.echo(zone_line(case))
+    _echo_setting(case, case_path, x)
     keys = list(PAPER_OBJECTIVES)
     head = "".join(f"{k + ' [' + objective_display(k)[1] + ']':>12}" for k in keys)
     typer.echo(f"{'condition':<22}{head}{'time':>7}")
@@ -175,12 +177,7 @@ def _simulate_settlement(case, case_path: Path, x, out: Path, plots: bool, evalu
     prediction of the design; its histories and, with plots, the settlement figures."""
     from ..config.describe import degradation_lines
 
-    _echo_design(case, case_path, x)
-    if case.traffic:
-        typer.echo("\n".join(line[2:] for line in condition_lines(case)))
-    else:
-        typer.echo(f"vehicle: {vehicle_line(case.vehicle)}")
-    typer.echo(zone_line(case))
+    _echo_setting(case, case_path, x)
     typer.echo("\n".join(line[2:] for line in degradation_lines(case)))
     t0 = time.perf_counter()
     ev = evaluate(case, x)
@@ -253,12 +250,7 @@ def _simulate_realisations(case, case_path: Path, x, out: Path, plots: bool,
 
     problem = Problem.from_case(case) if _optimisable(case) else None
     keys = _spread_keys(case)
-    _echo_design(case, case_path, x)
-    if case.traffic:
-        typer.echo("\n".join(line[2:] for line in condition_lines(case)))
-    else:
-        typer.echo(f"vehicle: {vehicle_line(case.vehicle)}")
-    typer.echo(zone_line(case))
+    _echo_setting(case, case_path, x)
     typer.echo("\n".join(line[2:] for line in uncertainty_lines(case, budget=False)))
     head = "".join(f"{k[:13]:>14}" for k in keys)
     units = "".join(f"{'[' + (objective_display(k)[1] or '-') + ']':>14}" for k in keys)

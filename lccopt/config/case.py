@@ -234,7 +234,7 @@ class Condition:
 
 
 def load_case(path: str | Path, overrides=(), text: str | None = None,
-              resolved: bool | None = None) -> Case:
+              resolved: bool | None = None, budget: int | None = None) -> Case:
     """Read and validate a case file.
 
     Parameters
@@ -251,6 +251,9 @@ def load_case(path: str | Path, overrides=(), text: str | None = None,
         the file is a case as lccopt resolved it (``Case.resolved``, a run's copy), whose
         design lengths are bare counts of 0.1 m elements; a case file a person writes gives
         them with their unit (0.6 m). Default: when ``text`` is given.
+    budget
+        ``optimisation.budget`` given on the command line (``resume --budget``), applied after
+        the overrides; the initial design's default follows it as it follows a file's.
 
     Returns
     -------
@@ -269,6 +272,8 @@ def load_case(path: str | Path, overrides=(), text: str | None = None,
     raw, lines = read_with_base(path, text)
     overrides = tuple(overrides)
     raw = set_values.apply(raw, lines, overrides)
+    if budget is not None:
+        raw = set_values.put(raw, lines, ("optimisation", "budget"), int(budget))
     read_lengths(raw, lambda at: f"{locate(lines, at, file)}: {dotted(at)}", resolved)
     data = check(raw, SCHEMA, (), lines, file)
 

@@ -288,12 +288,11 @@ def check_optimisation(data: dict, err, n_variables: int) -> None:
     budget_at, points_at = ("optimisation", "budget"), ("optimisation", "initial_points")
     if budget is not None and opt["initial_points"] is not None \
             and opt["initial_points"] > budget:
-        if _typed(err, budget_at, points_at):
-            raise err(budget_at, f"{budget} is below the {opt['initial_points']} initial points "
-                                 f"({_where(err, points_at)}): give at least "
-                                 f"{opt['initial_points']}, or set initial_points too")
-        raise err(points_at,
-                  f"{opt['initial_points']} initial points exceed the budget of {budget}")
+        raise _disagree(err, budget_at, points_at,
+                        f"{budget} is below the {opt['initial_points']} initial points "
+                        f"({_where(err, points_at)}): give at least {opt['initial_points']}, "
+                        f"or set initial_points too",
+                        f"{opt['initial_points']} initial points exceed the budget of {budget}")
     worst = opt["asf"]["worst"]
     if worst is None or not opt["objectives"]:
         return
@@ -303,12 +302,10 @@ def check_optimisation(data: dict, err, n_variables: int) -> None:
         also = (f" or {n_obj * n_each} (one per objective and condition)"
                 if n_each > 1 else "")
         objectives_at, worst_at = ("optimisation", "objectives"), ("optimisation", "asf", "worst")
-        if _typed(err, objectives_at, worst_at):
-            raise err(objectives_at, f"{n_obj} objective(s), but asf.worst "
-                                     f"({_where(err, worst_at)}) gives {len(worst)} values: set "
-                                     f"asf.worst too")
-        raise err(worst_at,
-                  f"expected {n_obj} values (one per objective){also}, got {len(worst)}")
+        raise _disagree(err, objectives_at, worst_at,
+                        f"{n_obj} objective(s), but asf.worst ({_where(err, worst_at)}) gives "
+                        f"{len(worst)} values: set asf.worst too",
+                        f"expected {n_obj} values (one per objective){also}, got {len(worst)}")
 
 
 # Objectives that are a spread (max - min) over a set of sleepers: with one sleeper they are 0
@@ -349,10 +346,13 @@ def _where(err, at: tuple) -> str:
     return where(at) if where is not None else ".".join(at)
 
 
-def _typed(err, first: tuple, second: tuple) -> bool:
-    """Whether of two keys that disagree ``first`` came from the command line (--set) and
-    ``second`` did not: the message then names what the user typed."""
-    return _where(err, first) == "--set" and _where(err, second) != "--set"
+def _disagree(err, first: tuple, second: tuple, on_first: str, on_second: str):
+    """The error of two keys that disagree: on ``first`` (``on_first``) when it came from the
+    command line (--set) and ``second`` did not, so that the message names what the user
+    typed; else on ``second`` (``on_second``)."""
+    if _where(err, first) == "--set" and _where(err, second) != "--set":
+        return err(first, on_first)
+    return err(second, on_second)
 
 
 def check_design_size(sizes: list[tuple[int, int]], err) -> None:

@@ -1,5 +1,5 @@
 """The ``degradation:`` section of a case: its checks, its defaults filled in, and the
-settlement prediction's typed inputs (:class:`lccopt.degradation.evaluate.DegradationSpec`).
+settlement prediction's typed inputs (:class:`lccopt.degradation.assessment.DegradationSpec`).
 
 A case with this section is judged by the settlement of its design under its traffic over a
 horizon (docs/settlement.md): the traffic is the case's one vehicle (``passages_per_year``) or

@@ -82,10 +82,17 @@ def apply(raw: dict, lines: dict, items) -> dict:
     them at --set). Raises CaseError for an item that cannot be applied."""
     for item in items:
         path, value = parse(item)
-        raw = _set(raw, path, value, item)
-        for k in range(1, len(path)):  # sections the item made (nosuch.key=3 makes nosuch)
-            lines.setdefault(path[:k], WHERE)
-        _mark(value, path, lines)
+        raw = put(raw, lines, path, value, item)
+    return raw
+
+
+def put(raw: dict, lines: dict, path: tuple, value: Any, item: str = "") -> dict:
+    """The raw case with ``value`` at key ``path``, a value given on the command line (a --set
+    item, or an option's typed value such as ``resume --budget``): located at --set."""
+    raw = _set(raw, path, value, item or dotted(path))
+    for k in range(1, len(path)):  # sections the item made (nosuch.key=3 makes nosuch)
+        lines.setdefault(path[:k], WHERE)
+    _mark(value, path, lines)
     return raw
 
 

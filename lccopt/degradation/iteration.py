@@ -36,7 +36,7 @@ import numpy as np
 
 from .blocks import SleeperLoads, implicit_block
 from .laws import SlabSettlement, SleeperLaw, VarandasLaw
-from .loading import Condition, SettlementZone
+from .loading import PassageKind, SettlementZone
 from .rail import MEASURES, RailGrid
 from .statics import ZoneStatics
 
@@ -146,7 +146,7 @@ class Tamping:
     min_interval: float = 0.1
 
 
-def predict_settlement(track, zone: SettlementZone, conditions: Sequence[Condition], *,
+def predict_settlement(track, zone: SettlementZone, conditions: Sequence[PassageKind], *,
                        horizon_years: float, law=None, tolerance: float = 2.0e3,
                        steps_per_decade: float = 8.0, max_simulations: int = 30,
                        rail_seats: float = 1.0, reading: str = "axle",

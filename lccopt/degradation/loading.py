@@ -3,9 +3,9 @@ traffic conditions that cause them, and the settlement zone of a built transitio
 (which sleepers settle, which follow).
 
 The settlement iteration (:mod:`lccopt.degradation.iteration`) sees a traffic condition as a
-:class:`Condition`: how often it passes, ``simulate(supports) -> Loading`` and its axles
+:class:`PassageKind`: how often it passes, ``simulate(supports) -> Loading`` and its axles
 (static wheel loads and spacing, for the iteration's quasi-static load model);
-:func:`vti_condition` builds one from a track, a vehicle and a run, so that the iteration
+:func:`vti_passage_kind` builds one from a track, a vehicle and a run, so that the iteration
 itself knows nothing of how the passage is simulated.
 """
 
@@ -54,7 +54,7 @@ class Axles:
 
 
 @dataclass(frozen=True)
-class Condition:
+class PassageKind:
     """One kind of passage: ``passes_per_year`` passages simulated by ``simulate``, with the
     axles ``axles``."""
     name: str
@@ -63,10 +63,10 @@ class Condition:
     axles: Axles
 
 
-def vti_condition(name: str, passes_per_year: float, track, vehicle, *, dt: float,
+def vti_passage_kind(name: str, passes_per_year: float, track, vehicle, *, dt: float,
                   speed: float, x_start: float, n_steps: int,
-                  irregularity: Callable[[float], float] | None = None) -> Condition:
-    """A :class:`Condition`: ``vehicle`` running over ``track`` (the arguments of
+                  irregularity: Callable[[float], float] | None = None) -> PassageKind:
+    """A :class:`PassageKind`: ``vehicle`` running over ``track`` (the arguments of
     :func:`~lccopt.vti.newmark.integrate`) ``passes_per_year`` times a year."""
     def simulate(supports: SleeperSupports) -> Loading:
         h = integrate(track, dt, speed, x_start, n_steps, vehicle=vehicle,
@@ -75,7 +75,7 @@ def vti_condition(name: str, passes_per_year: float, track, vehicle, *, dt: floa
     axles = Axles(np.asarray(vehicle.wheel_offsets, dtype=float),
                   np.asarray(vehicle.static_wheel_loads, dtype=float),
                   -1.0 if speed < 0 else 1.0)
-    return Condition(name, float(passes_per_year), simulate, axles)
+    return PassageKind(name, float(passes_per_year), simulate, axles)
 
 
 @dataclass(frozen=True)

@@ -1,8 +1,8 @@
 """What a settlement prediction of a design takes: typed, immutable inputs in SI units.
 
 The config layer builds them from a case's ``degradation:`` section (lccopt/config/
-degradation.py); :func:`lccopt.degradation.evaluate.evaluate` reads them. Nothing here knows
-about YAML or files, and importing it loads no numerics.
+degradation.py); :func:`lccopt.degradation.assessment.assess_settlement` reads them. Nothing
+here knows about YAML or files, and importing it loads no numerics.
 """
 
 from __future__ import annotations

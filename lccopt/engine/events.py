@@ -1,4 +1,8 @@
-"""What each journal line must hold, checked as the journal is read.
+"""The journal's event kinds, and what each journal line must hold, checked as it is read.
+
+Every kind of line lccopt writes is named here once (``RUN``, ``ASKED``, ...): the writer
+(``run.Recorder``), the one place that applies lines in order (``run.Run.apply``), the
+optimiser's replay and this check compare against these names, never against text of their own.
 
 A journal is a file anyone can edit: a line that parses as JSON but holds a string where a
 number belongs, an evaluation of a design never asked for, or a list where a name belongs
@@ -15,6 +19,21 @@ from __future__ import annotations
 import math
 
 MAX_DIMENSION = 10_000      # design variables: far beyond any case (the paper's has 8)
+
+# The kinds of journal line. Their text is what the journal holds, so it never changes: runs
+# made by every earlier lccopt are read with these.
+RUN = "run"                    # line 0: what the run is (budget, objectives, seed, settings)
+SCHEDULE = "schedule"          # a session's lag (workers) and block of proposals per fit
+ASKED = "asked"                # a proposal (id, x, phase, restart)
+EXHAUSTED = "exhausted"        # an ask that gave nothing: the design space is used up
+EVALUATED = "evaluated"        # a proposal's objectives and value
+FAILED = "failed"              # a proposal that gave no objectives, and why
+REFERENCE = "reference"        # the reference design's objectives: the ASF's reference point
+CASE_CHANGED = "case_changed"  # a resume with another budget, timeout or ASF worst values / rho
+RESTORED = "restored"          # a lost evaluation file simulated again (no budget spent)
+SESSION = "session"            # the end of one command's work on the run, with its timings
+FINISHED = "finished"          # every evaluation of the budget has its result
+RESULTS = (EVALUATED, FAILED)  # the lines that end a proposal
 
 
 def _int(v, name: str, least: int = 0) -> int:
@@ -74,14 +93,14 @@ class EventCheck:
     def __call__(self, ev: dict) -> None:
         kind = ev.get("event")
         _str(kind, "event")
-        if ev["seq"] == 0 and kind == "run":
+        if ev["seq"] == 0 and kind == RUN:
             _optional(ev, "budget", _int)
             if "objectives" in ev and not (isinstance(ev["objectives"], list) and all(
                     isinstance(k, str) for k in ev["objectives"])):
                 raise ValueError(f"objectives must be a list of names, not "
                                  f"{_show(ev['objectives'])}")
             _optional(ev, "seed", _int)
-        elif kind == "asked":
+        elif kind == ASKED:
             i = _int(ev.get("id"), "id")
             if i in self.asked:
                 raise ValueError(f"evaluation #{i} is asked twice")
@@ -95,7 +114,7 @@ class EventCheck:
             _int(ev.get("restart"), "restart")
             self.asked.add(i)
             self.pending.add(i)
-        elif kind in ("evaluated", "failed"):
+        elif kind in RESULTS:
             i = _int(ev.get("id"), "id")
             if i not in self.pending:
                 raise ValueError(f"a result of evaluation #{i}, which "
@@ -106,32 +125,32 @@ class EventCheck:
                 _optional(ev, key, _number)
             for key in ("worker", "file"):
                 _optional(ev, key, _str)
-            if kind == "evaluated":
+            if kind == EVALUATED:
                 _number(ev.get("value"), "value")
                 _objectives(ev.get("objectives"), "objectives")
                 _optional(ev, "parts", _numbers)
             else:
                 _str(ev.get("reason"), "reason")
-        elif kind == "reference":
+        elif kind == REFERENCE:
             _objectives(ev.get("objectives"), "objectives")
             _optional(ev, "point", _numbers)
             _optional(ev, "worst", _numbers)
             for key in ("rho", "improvement"):
                 _optional(ev, key, _number)
-        elif kind == "schedule":
+        elif kind == SCHEDULE:
             _int(ev.get("lag"), "lag", 1)
             _optional(ev, "batch", _int, 1)
-        elif kind == "case_changed":
+        elif kind == CASE_CHANGED:
             _int(ev.get("budget"), "budget")
             _optional(ev, "worst", _numbers)
             _optional(ev, "rho", _number)
-        elif kind == "exhausted":
+        elif kind == EXHAUSTED:
             _optional(ev, "n_asked", _int)
-        elif kind == "restored":
+        elif kind == RESTORED:
             i = _int(ev.get("id"), "id")
             if i not in self.asked:
                 raise ValueError(f"evaluation #{i} restored but never asked")
-        elif kind == "session":
+        elif kind == SESSION:
             for key in ("wall_time", "evaluations", "optimiser_time", "bookkeeping_time",
                         "held_time"):
                 _optional(ev, key, _number)

@@ -83,13 +83,17 @@ def read_journal(src) -> tuple[list[dict], int, bool]:
     return events, pos, torn
 
 
+def encode(ev: dict) -> bytes:
+    """One journal line as written (its JSON, compact, and the newline)."""
+    return (json.dumps(ev, allow_nan=True, separators=(",", ":")) + "\n").encode("utf-8")
+
+
 def line_mark(ev: dict) -> str:
     """A fingerprint of one committed line (its JSON as written): what a snapshot records of the
     line it reflects, so that a snapshot of another run or another state is never trusted."""
     import hashlib
 
-    line = json.dumps(ev, allow_nan=True, separators=(",", ":"))
-    return hashlib.sha256(line.encode("utf-8")).hexdigest()[:32]
+    return hashlib.sha256(encode(ev)[:-1]).hexdigest()[:32]
 
 
 def lock_for_writing(fh, shown) -> None:
@@ -160,9 +164,8 @@ class Journal:
         """Write one event (``seq`` added) and return it; with ``sync`` also wait until it,
         and every line before it, is on disk."""
         ev = {"seq": self.next_seq, "event": event, **fields}
-        line = json.dumps(ev, allow_nan=True, separators=(",", ":")) + "\n"
         try:
-            self._fh.write(line.encode("utf-8"))
+            self._fh.write(encode(ev))
         except OSError as exc:
             raise named(exc, self.path) from None
         self.next_seq += 1

@@ -47,14 +47,9 @@ from ..terminal import PipeGuard
 from .executors import ExecutorLost
 from .journal import Journal, line_mark
 from .progress import Progress, summary_lines
-from .rundir import (
-    RunDir,
-    Table,
-    eval_name,
-    now_iso,
-    versions,
-    write_results,
-)
+from .results import write_results
+from .run import Recorder, Run, eval_name
+from .rundir import RunDir
 from .schedule import batch_size, may_ask, release
 from .stopping import StopSignals
 from .worker import Outcome, Task
@@ -71,10 +66,11 @@ def environment_fault(exc: BaseException, rd: RunDir) -> EnvironmentFault:
 
 
 class Engine:
-    def __init__(self, rd: RunDir, case: Case, problem: Problem, journal: Journal, table: Table,
+    def __init__(self, rd: RunDir, case: Case, problem: Problem, journal: Journal, table: Run,
                  strategy, executor, progress: Progress):
         self.rd, self.case, self.problem = rd, case, problem
         self.journal, self.table, self.strategy = journal, table, strategy
+        self.log = Recorder(journal, table)   # every line this process writes, applied to table
         self.progress = progress
         self.meta = rd.meta()
         self.parts = 1           # tasks per design: its conditions x tracks (conditions.py)
@@ -84,7 +80,6 @@ class Engine:
             executor = ConditionPool(executor, case, problem, rd)
             self.parts = executor.m
         self.executor = executor
-        self.strategy.budget = problem.budget
         self.ref_point = (table.reference or {}).get("point")
         if self.ref_point is not None:  # as the replay of the journal set it (restore)
             self.problem = problem = problem.with_reference(table.reference["objectives"])
@@ -149,8 +144,7 @@ class Engine:
             p.log(f"minimising {what}; {self.executor.description}")
             p.start(self.table, self.parts)
             if self.table.lag != self.lag or self.table.batch != self.batch:
-                self.table.apply(self.journal.append("schedule", lag=self.lag, batch=self.batch,
-                                                     time=now_iso()))
+                self.log.schedule(self.lag, self.batch)
             self._release()
             requeue = self.table.pending_ids()
             if requeue:
@@ -221,15 +215,12 @@ class Engine:
 
     def _close_session(self, wall: float, n_start: int) -> None:
         self._snapshot()
-        self.table.apply(self.journal.append(
-            "session", time=now_iso(), wall_time=wall,
-            evaluations=self.table.n_done - n_start,
-            optimiser_time=self.t_optimiser, bookkeeping_time=self.t_bookkeeping,
-            held_time=self.t_held, workers=self.lag,
-            executor=self.executor.description, versions=versions()))
+        self.log.session(wall_time=wall, evaluations=self.table.n_done - n_start,
+                         optimiser_time=self.t_optimiser, bookkeeping_time=self.t_bookkeeping,
+                         held_time=self.t_held, workers=self.lag,
+                         executor=self.executor.description)
         if self.strategy.done and not self.table.pending_ids() and not self.table.finished:
-            self.table.apply(self.journal.append("finished", time=now_iso(),
-                                                 evaluations=self.table.n_done))
+            self.log.finished()
         self._write_results()
 
     def _best_lacks_histories(self) -> bool:
@@ -304,25 +295,18 @@ class Engine:
         self.t_optimiser += t1 - t0
         if not props:
             if self.strategy.exhausted and not exhausted:  # replayed as a call that gives nothing
-                self.table.apply(self.journal.append("exhausted", n_asked=self.strategy.n_asked))
+                self.log.exhausted(self.strategy.n_asked)
             self.t_bookkeeping += time.perf_counter() - t1
             self._release()  # no more proposals: every result may be told
             return None
         pr = props[0]
-        ev = self.journal.append("asked", sync=False, id=int(pr.id), x=[float(v) for v in pr.x],
-                                 phase=pr.phase, restart=int(pr.restart))
-        self.table.apply(ev)
+        self.log.asked(pr.id, pr.x, pr.phase, pr.restart)
         self.t_bookkeeping += time.perf_counter() - t1
         self._release()
         return self.table.rows[pr.id]
 
     def _result(self, i: int):
-        r = self.table.rows.get(i)
-        if r is None or r["status"] == "pending":
-            return None
-        if r["status"] != "ok":
-            return ("failed", r["reason"])
-        return ("ok", r["value"], self.problem.outputs(r["objectives"], r.get("parts")))
+        return self.table.told(i, self.problem.outputs)
 
     def _release(self) -> None:
         """Tell the optimiser the results it may see now (in id order; see schedule.py)."""
@@ -360,7 +344,7 @@ class Engine:
                 and o.error.startswith("worker process died (killed by")):
             return  # stopped along with lccopt by a signal: pending, runs again on resume
         t0 = time.perf_counter()
-        pb, j = self.problem, self.journal
+        pb = self.problem
         error = o.error
         objectives = o.objectives
         if objectives is not None and pb.statistics:   # the robust statistics of its tracks
@@ -396,18 +380,16 @@ class Engine:
                 except CaseError as exc:
                     raise CaseError(f"{self.case.path}: {exc}") from None
                 self.problem = pb = pb.with_reference(objectives)  # worst: the case's or default
-                self.table.apply(j.append("reference", sync=False, id=0, x=row["x"],
-                                          objectives=objectives, point=point,
-                                          worst=list(pb.worst) if pb.worst else None, rho=pb.rho,
-                                          improvement=pb.improvement))
+                self.log.reference(row["x"], objectives, point,
+                                   list(pb.worst) if pb.worst else None, pb.rho, pb.improvement)
                 self.ref_point = point
                 self.strategy.set_aggregate(pb.aggregate(point))
             value = pb.value(objectives, self.ref_point)
             if pb.surrogate == "sleeper-energies" and o.parts is not None:
                 common["parts"] = o.parts  # what the composite surrogate fits (and a replay tells)
-            self.table.apply(j.append("evaluated", sync=False, value=value, **common))
+            self.log.evaluated(value, common)
         else:
-            self.table.apply(j.append("failed", sync=False, reason=error, **common))
+            self.log.failed(error, common)
         self.t_bookkeeping += time.perf_counter() - t0
         self._release()  # told when its turn comes, not when it arrives (schedule.py)
         self.progress.update(self.table, last=row)
@@ -433,8 +415,7 @@ class Engine:
         same = all(abs(o.objectives[k] - v) <= 1e-9 * max(1.0, abs(v))
                    for k, v in row["objectives"].items() if k in o.objectives)
         why = "histories" if o.id in self._histories_done else "lost"
-        self.table.apply(self.journal.append("restored", id=o.id, file=eval_name(o.id), same=same,
-                                             why=why))
+        self.log.restored(o.id, same, why)
         if not same:
             self.progress.log(f"#{o.id} simulated again gives other objectives than the journal's "
                               f"(another machine or library version?); the journal's values are "

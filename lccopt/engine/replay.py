@@ -16,16 +16,16 @@ import re
 import numpy as np
 
 from ..problem import Problem
+from .events import ASKED, CASE_CHANGED, EXHAUSTED, REFERENCE, RESULTS, SCHEDULE
 from .journal import JournalError, line_mark
-from .rundir import (
-    Table,
-)
+from .run import Run
 from .schedule import release
 from .upgrade import settings_unrecorded
 
 
 def restore(problem: Problem, events: list[dict], snapshot: dict | None):
-    """Optimiser and table after the journal's events (snapshot + replay of the rest).
+    """Optimiser and run (``run.Run``) after the journal's events (snapshot + replay of the
+    rest).
 
     The optimiser is built with the settings the run recorded (``recorded_settings``). The
     snapshot is a cache: one made with other settings, or that does not replay (stale,
@@ -42,7 +42,7 @@ def restore(problem: Problem, events: list[dict], snapshot: dict | None):
     return _restore(problem, events, None)
 
 
-def _agrees(strategy, table: Table) -> bool:
+def _agrees(strategy, table: Run) -> bool:
     """The optimiser restored from a snapshot holds exactly the journal's proposals, and the
     results it was told are the journal's (a snapshot that claims a line it does not reflect
     would otherwise carry on from another state)."""
@@ -62,19 +62,12 @@ def _agrees(strategy, table: Table) -> bool:
 def _restore(problem: Problem, events: list[dict], snapshot: dict | None):
     from ..optim.strategy import Strategy
 
-    table = Table(list(problem.names), list(problem.objectives))
-    for ev in events:
-        try:
-            table.apply(ev)
-        except (KeyError, TypeError, ValueError, IndexError) as exc:
-            seq = ev.get("seq")
-            line = seq + 1 if isinstance(seq, int) else "?"
-            raise JournalError(f"journal line {line} is not a valid event "
-                               f"({type(exc).__name__}: {exc}); the journal was changed by "
-                               f"something other than lccopt") from None
-    first = events[0] if events else {}
-    settings = recorded_settings(problem, first) if events else problem.optimiser_settings()
-    strategy, start = None, 0
+    run = Run(problem.names, problem.objectives)
+    replayer = Replay(None, problem.reference_first, problem, run)
+    if events:  # the run's first line: its budget and settings build the optimiser
+        replayer._apply(events[0])
+    settings = recorded_settings(problem, events[0]) if events else problem.optimiser_settings()
+    strategy, start = None, 1
     if snapshot is not None and 0 <= snapshot["seq"] < len(events):
         try:
             strategy = Strategy.from_state(snapshot["strategy"])
@@ -84,16 +77,19 @@ def _restore(problem: Problem, events: list[dict], snapshot: dict | None):
         if strategy is not None and strategy.settings != settings:
             strategy = None
     if strategy is None:
-        strategy = problem.strategy(budget=first.get("budget", problem.budget), settings=settings)
-        start = 0
+        budget = problem.budget if run.budget is None else run.budget
+        strategy = problem.strategy(budget=budget, settings=settings)
+        start = 1
     elif not problem.multi:  # not part of the state (for E_max alone: sleeper_energy_spread)
         strategy.set_aggregate(problem.aggregate(None))
-    replayer = Replay(strategy, problem.reference_first, problem)
-    for ev in events[:start]:  # what the snapshot already reflects: results held back, the lag
+    replayer.strategy = strategy
+    if events:
+        replayer._follow(events[0])
+    for ev in events[1:start]:  # what the snapshot already reflects: results held back, the lag
         replayer.note(ev)
     for ev in events[start:]:
         replayer(ev)
-    return strategy, table
+    return strategy, run
 
 
 def recorded_settings(problem: Problem, first: dict):
@@ -137,73 +133,80 @@ class Replay:
     results are told in id order, each once the proposal ``lag`` ids later has been made;
     the lag is the one of the session's ``schedule`` line).
 
-    With the problem given, results are told with their objective vectors, and the optimiser's
-    aggregate (the ASF, for a composite surrogate) is set as the engine set it: from the
-    ``reference`` line (point, worst, rho) and from any ``case_changed`` line that records
-    other worst values or rho."""
+    Each line is applied to ``run`` (a fresh ``run.Run`` unless given), and the calls follow
+    from it: the results told are the run's, the budget is the run's after a ``case_changed``
+    line. With the problem given, results are told with their objective vectors, and the
+    optimiser's aggregate (the ASF, for a composite surrogate) is set as the engine set it:
+    from the run's ASF in force after a ``reference`` line, or a ``case_changed`` line that
+    records other worst values or rho."""
 
-    def __init__(self, strategy, multi: bool, problem=None):
+    def __init__(self, strategy, multi: bool, problem=None, run: Run | None = None):
         self.strategy, self.multi, self.problem = strategy, multi, problem
-        self.lag: int | None = None  # until the first schedule line
-        self.results: dict[int, tuple] = {}
-        self.asf: dict | None = None  # point, worst, rho of the aggregate in force
+        self.run = Run() if run is None else run
 
     def outputs(self, ev: dict):
         if self.problem is None:
             return None
         return self.problem.outputs(ev.get("objectives") or {}, ev.get("parts"))
 
-    def note(self, ev: dict) -> None:
-        kind = ev["event"]
-        if kind == "evaluated":
-            self.results[ev["id"]] = ("ok", ev["value"], self.outputs(ev))
-        elif kind == "failed":
-            self.results[ev["id"]] = ("failed", ev.get("reason", ""))
-        elif kind == "schedule":
-            self.lag = int(ev["lag"])
-            self.strategy.set_batch(int(ev.get("batch", 1)))
-        elif kind == "reference" and self.problem is not None:
-            self.asf = {"point": ev["point"], "worst": ev.get("worst"), "rho": ev.get("rho")}
-            self._set_aggregate()
-        elif kind == "case_changed" and self.asf is not None and ("worst" in ev or "rho" in ev):
-            self.asf.update({k: ev[k] for k in ("worst", "rho") if k in ev})
-            self._set_aggregate()
+    def _told(self, i: int):
+        return self.run.told(i, None if self.problem is None else self.problem.outputs)
 
-    def _set_aggregate(self) -> None:
-        a = self.asf
-        self.strategy.set_aggregate(self.problem.aggregate(a["point"], a["worst"], a["rho"]))
+    def _apply(self, ev: dict) -> None:
+        try:
+            self.run.apply(ev)
+        except (KeyError, TypeError, ValueError, IndexError) as exc:
+            seq = ev.get("seq")
+            line = seq + 1 if isinstance(seq, int) else "?"
+            raise JournalError(f"journal line {line} is not a valid event "
+                               f"({type(exc).__name__}: {exc}); the journal was changed by "
+                               f"something other than lccopt") from None
+
+    def note(self, ev: dict) -> None:
+        """Apply a line the optimiser's state already reflects (a snapshot's): the run, the
+        block size and the aggregate follow it, no call is made."""
+        self._apply(ev)
+        self._follow(ev)
+
+    def _follow(self, ev: dict) -> None:
+        kind = ev["event"]
+        if kind == SCHEDULE:
+            self.strategy.set_batch(self.run.batch)
+        elif self.problem is None or self.run.asf is None:
+            return
+        elif kind == REFERENCE or (kind == CASE_CHANGED and ("worst" in ev or "rho" in ev)):
+            a = self.run.asf
+            self.strategy.set_aggregate(self.problem.aggregate(a["point"], a["worst"], a["rho"]))
 
     def __call__(self, ev: dict) -> None:
         kind = ev["event"]
-        if self.lag is None and kind in ("asked", "exhausted", "evaluated", "failed"):
+        if self.run.lag is None and kind in (ASKED, EXHAUSTED, *RESULTS):
             raise JournalError(f"journal line {ev['seq'] + 1}: {kind} before the journal's "
                                f"first schedule line; the journal was changed by something "
                                f"other than lccopt")
-        if kind in ("asked", "exhausted", "case_changed"):
+        self._apply(ev)
+        if kind in (ASKED, EXHAUSTED):
             replay(self.strategy, ev)
-        self.note(ev)
-        if self.lag is not None:
-            release(self.strategy, self.lag, self.multi, self.results.get)
+        elif kind == CASE_CHANGED:
+            self.strategy.budget = self.run.budget
+        self._follow(ev)
+        if self.run.lag is not None:
+            release(self.strategy, self.run.lag, self.multi, self._told)
 
 
 def replay(strategy, ev: dict) -> None:
-    """The optimiser call of an ``asked``, ``exhausted`` or ``case_changed`` line; an asked
-    point the optimiser does not propose raises JournalError."""
-    kind = ev["event"]
-    if kind == "asked":
-        props = strategy.ask(1)
+    """The optimiser call of an ``asked`` or ``exhausted`` line; an asked point the optimiser
+    does not propose raises JournalError."""
+    props = strategy.ask(1)
+    if ev["event"] == ASKED:
         if (not props or props[0].id != ev["id"]
                 or not np.array_equal(props[0].x, np.asarray(ev["x"], float))):
             got = f"#{props[0].id} {props[0].x.tolist()}" if props else "nothing"
             raise JournalError(f"journal line {ev['seq'] + 1}: the optimiser proposes {got}, the "
                                f"journal says #{ev['id']} {ev['x']}; was lccopt changed since the "
                                f"run started?")
-    elif kind == "exhausted":
-        props = strategy.ask(1)
-        if props or not strategy.exhausted:
-            got = props[0].id if props else "?"
-            raise JournalError(f"journal line {ev['seq'] + 1}: the optimiser proposes #{got}, the "
-                               f"journal says the design space was exhausted; was lccopt changed "
-                               f"since the run started?")
-    elif kind == "case_changed":
-        strategy.budget = int(ev["budget"])
+    elif props or not strategy.exhausted:
+        got = props[0].id if props else "?"
+        raise JournalError(f"journal line {ev['seq'] + 1}: the optimiser proposes #{got}, the "
+                           f"journal says the design space was exhausted; was lccopt changed "
+                           f"since the run started?")

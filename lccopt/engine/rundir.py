@@ -1,4 +1,5 @@
-"""The run directory: creation, lock, case copy, journal table, state snapshot, results.h5.
+"""The run directory: creation, lock, case copy, state snapshot (the journal's lines:
+journal.py and run.py; results.h5: results.py).
 
     runs/<name>/
       run.json          what the run is: case file path, sha256 of the resolved case, versions
@@ -27,7 +28,6 @@ import errno
 import fcntl
 import hashlib
 import json
-import math
 import os
 import platform
 import stat
@@ -37,13 +37,12 @@ from pathlib import Path
 import numpy as np
 
 from ..safeio import Folder, UnsafeFile, kind_of
+from .events import RUN
+from .journal import encode
 
-RESULTS_FORMAT = "lccopt-results"
-RESULTS_VERSION = 1
 RUN_FORMAT = "lccopt-run"
 RUN_VERSION = 1
 MAX_META_BYTES = 1_000_000  # run.json is a few hundred bytes
-OBJECTIVE_NAMES = ("F_rms", "F_max", "E_rms", "E_max")   # the paper's: always a column
 JOURNAL = "journal.jsonl"
 LOCK = "lock"
 CREATING = ".creating-"     # .<name>.creating-XXXXXXXX: a run directory being made
@@ -73,10 +72,6 @@ def versions() -> dict:
 
 def now_iso() -> str:
     return _dt.datetime.now(_dt.timezone.utc).astimezone().isoformat(timespec="seconds")
-
-
-def eval_name(i: int) -> str:
-    return f"evals/{i:06d}.h5"
 
 
 def _flock(fh, exclusive: bool, wait: float = 0.0) -> bool:
@@ -427,7 +422,7 @@ def _fill_new_run(made: Folder, case, problem, evaluator: str) -> None:
     made.write("case.source.yaml", case.text.encode("utf-8"))
     made.write("run.json", (json.dumps(meta, indent=2) + "\n").encode("utf-8"))
     made.write(LOCK, b"")
-    line = {"seq": 0, "event": "run", "time": now_iso(), "case_sha256": meta["case_sha256"],
+    line = {"seq": 0, "event": RUN, "time": now_iso(), "case_sha256": meta["case_sha256"],
             "budget": problem.budget, "objectives": list(problem.objectives),
             "seed": problem.seed, "versions": meta["versions"],
             # what the surrogate fits (Problem.surrogate: the objectives, the sleeper energies
@@ -437,7 +432,7 @@ def _fill_new_run(made: Folder, case, problem, evaluator: str) -> None:
             "optimiser": problem.optimiser_settings().to_dict()}
     if "realisations" in meta:
         line["realisations"] = meta["realisations"]
-    made.write(JOURNAL, (json.dumps(line, separators=(",", ":")) + "\n").encode())
+    made.write(JOURNAL, encode(line))
 
 
 def clean_creations(runs: Folder, name: str) -> list[str]:
@@ -462,247 +457,3 @@ def clean_creations(runs: Folder, name: str) -> list[str]:
         except OSError:
             continue
     return gone
-
-
-# ------------------------------------------------------------------------------ table
-
-class Table:
-    """All evaluations as the journal describes them (rebuilt by replaying its events)."""
-
-    def __init__(self, names: list[str], objectives: list[str]):
-        self.names = list(names)
-        self.objectives = list(objectives)
-        self.rows: dict[int, dict] = {}
-        self.reference: dict | None = None   # objectives, point, worst, ...
-        self.finished = False
-        self.seq = -1
-        self.last_event: dict | None = None
-        self.head_mark = ""                  # line_mark of the run's first line: which run it is
-        self.lag: int | None = None          # the schedule's lag (workers) of the last session
-        self.batch = 1                       # and its block size (schedule.batch_size)
-
-    def apply(self, ev: dict) -> None:
-        self.seq = ev["seq"]
-        self.last_event = ev
-        kind = ev["event"]
-        if self.seq == 0:
-            from .journal import line_mark
-
-            self.head_mark = line_mark(ev)
-        if kind == "asked":
-            self.rows[ev["id"]] = {
-                "id": ev["id"], "x": list(ev["x"]), "phase": ev["phase"], "restart": ev["restart"],
-                "status": "pending", "reason": "", "objectives": {}, "value": math.nan,
-                "wall_time": math.nan, "worker": "", "file": "",
-            }
-        elif kind in ("evaluated", "failed"):
-            r = self.rows[ev["id"]]
-            r["status"] = "ok" if kind == "evaluated" else "failed"
-            r["objectives"] = dict(ev.get("objectives") or {})
-            r["value"] = ev.get("value", math.nan) if kind == "evaluated" else math.nan
-            r["reason"] = ev.get("reason", "")
-            r["wall_time"] = ev.get("wall_time", math.nan)
-            r["worker"] = ev.get("worker", "")
-            r["file"] = ev.get("file", "")
-            if r["file"] not in ("", eval_name(ev["id"])):  # never a path out of the run
-                raise ValueError(f"evaluation #{ev['id']} names the file {r['file'][:80]!r}")
-            if "parts" in ev:  # the sleepers' energies (composite surrogate of E_max)
-                r["parts"] = ev["parts"]
-        elif kind == "reference":
-            self.reference = {k: v for k, v in ev.items() if k not in ("seq", "event")}
-        elif kind == "finished":
-            self.finished = True
-        elif kind == "schedule":
-            self.lag = int(ev["lag"])
-            self.batch = int(ev.get("batch", 1))
-        elif kind == "case_changed":  # e.g. a larger budget: a finished run carries on
-            self.finished = False
-
-    # -- views ----------------------------------------------------------------------------------
-    def done_rows(self) -> list[dict]:
-        return [self.rows[i] for i in sorted(self.rows) if self.rows[i]["status"] != "pending"]
-
-    def pending_ids(self) -> list[int]:
-        return sorted(i for i, r in self.rows.items() if r["status"] == "pending")
-
-    @property
-    def n_done(self) -> int:
-        return sum(r["status"] != "pending" for r in self.rows.values())
-
-    @property
-    def n_failed(self) -> int:
-        return sum(r["status"] == "failed" for r in self.rows.values())
-
-    def best(self) -> dict | None:
-        ok = [r for r in self.rows.values() if r["status"] == "ok"]
-        return min(ok, key=lambda r: (r["value"], r["id"])) if ok else None
-
-    def files(self) -> set[str]:
-        return {r["file"] for r in self.rows.values() if r["file"]}
-
-
-def objective_columns(rows: list[dict], objectives) -> list[str]:
-    """The objective columns of results.h5's /evaluations.
-
-    The paper's four, then the case's objectives, then every other objective an evaluation
-    returned (e.g. a settlement prediction's, a robust statistic), in the order first met; a
-    condition's own values (``F_max@name``) go to /conditions and a realisation's
-    (``F_max#r``) to /realisations instead.
-
-    Parameters
-    ----------
-    rows
-        the table's finished rows (each with an ``objectives`` dict).
-    objectives
-        the case's objectives.
-
-    Returns
-    -------
-    list of str
-    """
-    out = list(OBJECTIVE_NAMES)
-    for k in [*objectives, *(k for r in rows for k in r["objectives"])]:
-        if k not in out and (k in objectives or ("@" not in k and "#" not in k)):
-            out.append(k)
-    return out
-
-
-def write_results(dest, table: Table, *, case, problem, meta: dict) -> None:
-    """Write results.h5 (layout in docs/runs.md, 'results.h5') whole or not at all (``dest``: a
-    path or ``(Folder, name)``, as ``store.write_h5``)."""
-    import h5py
-
-    from ..store import write_h5
-    from ..vti.response import objective_unit
-    from .journal import line_mark
-
-    rows = table.done_rows()
-    n, d = len(rows), len(table.names)
-    sdt = h5py.string_dtype()
-
-    def fill(f):
-        a = f.attrs
-        a["format"], a["format_version"] = RESULTS_FORMAT, RESULTS_VERSION
-        a["case_name"] = case.name
-        a["objectives"] = list(problem.objectives)
-        a["scalarisation"] = problem.scalarisation
-        a["rho"], a["improvement"] = problem.rho, problem.improvement
-        a["worst"] = np.array(problem.worst if problem.worst else [], dtype=float)
-        a["budget"], a["seed"] = problem.budget, problem.seed
-        a["initial_points"] = problem.initial_points
-        a["n_evaluations"], a["n_failed"] = n, table.n_failed
-        a["n_pending"] = len(table.pending_ids())
-        a["finished"] = bool(table.finished)
-        a["journal_seq"] = table.seq
-        # which run and which state of it: a reader takes the table from the journal when
-        # these do not match its lines (another run's results.h5 put in its place)
-        a["run_mark"] = table.head_mark
-        a["journal_mark"] = line_mark(table.last_event) if table.last_event else ""
-        a["created"], a["updated"] = meta.get("created", ""), now_iso()
-
-        g = f.create_group("case")
-        g.create_dataset("text", data=case.text, dtype=sdt)
-        g.create_dataset("resolved", data=case.resolved, dtype=sdt)
-        g.attrs["sha256"] = sha256_text(case.resolved)
-        g.attrs["file"] = meta.get("case_file", "")
-
-        g = f.create_group("versions")
-        for k, v in versions().items():
-            g.attrs[k] = v
-        g.attrs["run_started_with"] = json.dumps(meta.get("versions", {}))
-
-        g = f.create_group("reference")
-        ds = g.create_dataset("x", data=np.array(problem.reference, dtype=float))
-        ds.attrs["names"] = list(table.names)
-        ref = table.reference or {}
-        og = g.create_group("objectives")
-        for k, v in (ref.get("objectives") or {}).items():
-            og.attrs[k] = v
-        if ref.get("point") is not None:
-            g.create_dataset("point", data=np.array(ref["point"], dtype=float))
-        if problem.worst:
-            g.create_dataset("worst", data=np.array(problem.worst, dtype=float))
-
-        e = f.create_group("evaluations")
-        e.attrs["names"] = list(table.names)
-        e.create_dataset("id", data=np.array([r["id"] for r in rows], dtype=np.int64))
-        x = e.create_dataset("x", data=np.array([r["x"] for r in rows], dtype=float).reshape(n, d))
-        x.attrs["names"] = list(table.names)
-        columns = objective_columns(rows, problem.objectives)
-        a["objective_columns"] = columns
-        for k in columns:
-            col = e.create_dataset(k, data=np.array([float(r["objectives"].get(k, math.nan))
-                                                     for r in rows], dtype=float))
-            col.attrs["unit"] = objective_unit(k)
-        if problem.conditions:  # every condition's objectives
-            a["conditions"] = list(problem.conditions)
-            a["condition_weights"] = np.array(problem.weights, dtype=float)
-            a["condition_mode"] = problem.condition_mode
-            cg = f.create_group("conditions")  # rows as in /evaluations
-            for c, w in zip(problem.conditions, problem.weights):
-                g_c = cg.create_group(c)
-                g_c.attrs["weight"] = w
-                for k in OBJECTIVE_NAMES:
-                    col = g_c.create_dataset(k, data=np.array(
-                        [float(r["objectives"].get(f"{k}@{c}", math.nan)) for r in rows],
-                        dtype=float))
-                    col.attrs["unit"] = objective_unit(k)
-        if getattr(problem, "realisations", 0):  # every realisation's objectives: (n, R) each
-            _write_realisations(f, rows, problem, case, meta)
-        e.create_dataset("value", data=np.array([r["value"] for r in rows], dtype=float))
-        for k in ("status", "reason", "phase", "worker", "file"):
-            e.create_dataset(k, data=[str(r[k]) for r in rows], dtype=sdt)
-        e.create_dataset("restart", data=np.array([r["restart"] for r in rows], dtype=np.int64))
-        wt = e.create_dataset("wall_time",
-                              data=np.array([r["wall_time"] for r in rows], dtype=float))
-        wt.attrs["unit"] = "s"
-        F = np.array([[float(r["objectives"].get(k, math.nan)) for k in problem.objectives]
-                      for r in rows], dtype=float).reshape(n, len(problem.objectives))
-        ok = np.array([r["status"] == "ok" for r in rows], dtype=bool)
-        if n:
-            from ..optim.scalarise import pareto_mask
-
-            F[~ok] = math.nan
-            e.create_dataset("pareto", data=pareto_mask(F))
-        else:
-            e.create_dataset("pareto", data=np.zeros(0, dtype=bool))
-
-        links = f.create_group("evals")  # external links: f["evals/000012/histories/contact_force"]
-        for r in rows:
-            if r["file"]:
-                links[f"{r['id']:06d}"] = h5py.ExternalLink(r["file"], "/")
-
-        g = f.create_group("best")
-        best = table.best()
-        if best is not None:
-            g.attrs["id"], g.attrs["value"] = best["id"], best["value"]
-            ds = g.create_dataset("x", data=np.array(best["x"], dtype=float))
-            ds.attrs["names"] = list(table.names)
-            for k, v in best["objectives"].items():
-                g.attrs[k] = v
-
-    write_h5(dest, fill)
-
-def _write_realisations(f, rows: list[dict], problem, case, meta: dict) -> None:
-    """/realisations: the run's realisations of the track (count, seed, fingerprint) and, for
-    each objective recorded per realisation, an (evaluations, realisations) table in the rows
-    of /evaluations."""
-    from ..uncertainty.statistics import is_realisation_key, objective_of
-    from ..vti.response import objective_unit
-
-    n = int(problem.realisations)
-    g = f.create_group("realisations")
-    g.attrs["count"] = n
-    g.attrs["seed"] = int(meta.get("realisations", {}).get("seed", -1))
-    g.attrs["fingerprint"] = str(meta.get("realisations", {}).get("fingerprint", ""))
-    names = []
-    for r in rows:
-        for k in r["objectives"]:
-            base = objective_of(k)
-            if is_realisation_key(k) and base not in names:
-                names.append(base)
-    for base in names:
-        ds = g.create_dataset(base, data=np.array(
-            [[float(r["objectives"].get(f"{base}#{j}", math.nan)) for j in range(n)]
-             for r in rows], dtype=float).reshape(len(rows), n))
-        ds.attrs["unit"] = objective_unit(base)

@@ -13,22 +13,15 @@ from ..config import SAFE_NAME, Case, load_case
 from ..errors import CaseError, UsageError, signals_deferred
 from ..problem import Problem
 from .dask_pool import DaskExecutor
+from .events import ASKED, RUN
 from .executors import ExecutorError, LocalPool, default_workers
 from .journal import Journal, JournalError, read_journal, repair
 from .loop import Engine
 from .progress import Progress, fmt
 from .replay import restore
-from .rundir import (
-    JOURNAL,
-    RunDir,
-    RunError,
-    Table,
-    eval_name,
-    now_iso,
-    sha256_text,
-    versions,
-    write_results,
-)
+from .results import write_results
+from .run import Recorder, Run, eval_name
+from .rundir import JOURNAL, RunDir, RunError, sha256_text, versions
 from .upgrade import evaluator_name
 from .worker import evaluator_spec
 
@@ -224,7 +217,7 @@ def resume(run, workers: int | None = None, scheduler=None, case=None,
             events, _, _ = read_journal(rd.at(JOURNAL))
         except JournalError as exc:
             events = exc.events
-            if not (events and events[0].get("event") == "run"):
+            if not (events and events[0].get("event") == RUN):
                 raise
             # e.g. two processes appended at once (an lccopt that did not lock the run, or a
             # copy of the run driven beside it): the lines before the damage are one
@@ -239,14 +232,14 @@ def resume(run, workers: int | None = None, scheduler=None, case=None,
             out.log(f"{exc.args[0].split(';')[0]}: carrying on from the {exc.line - 1} lines "
                     f"before it (the evaluations after it run again); the whole journal is kept "
                     f"as {rd.path / kept}")
-        if not events or events[0].get("event") != "run":
+        if not events or events[0].get("event") != RUN:
             n = (len([n for n in rd.evals(create=False).names() if n.endswith(".h5")])
                  if rd.folder.exists("evals") else 0)
             raise RunError(f"{rd.journal_path} is empty or does not start with the run's first "
                            f"line: this run cannot be carried on safely ({n} evaluation file(s) "
                            f"kept as they are); restore the journal, or start a new run under "
                            f"another name")
-        _check_budget(budget, sum(ev.get("event") == "asked" for ev in events))
+        _check_budget(budget, sum(ev.get("event") == ASKED for ev in events))
         journal, events, torn = Journal.open(rd.at(JOURNAL), rd.journal_handle())
         if torn:
             out.log("dropped a torn last line of the journal (the run was killed while writing "
@@ -257,23 +250,26 @@ def resume(run, workers: int | None = None, scheduler=None, case=None,
         if events and events[0].get("objectives") not in (None, list(problem.objectives)):
             raise _usage_error(f"the case's objectives {list(problem.objectives)} differ from the "
                                f"run's {events[0]['objectives']}; start a new run instead")
-        asked = sum(ev.get("event") == "asked" for ev in events)
+        asked = sum(ev.get("event") == ASKED for ev in events)
         if problem.budget < asked:
             raise _usage_error(f"the case's budget of {problem.budget} is below the {asked} "
                                f"evaluations the run has already asked for; give a budget of at "
                                f"least {asked}")
-        if meta.get("case_sha256") != sha256_text(case_obj.resolved):
+        # a case the run did not record: another file, or a budget the journal does not hold
+        # (the budget in force is the journal's: a replay must find it there)
+        if (meta.get("case_sha256") != sha256_text(case_obj.resolved)
+                or _journal_budget(events) not in (None, problem.budget)):
             extra = ({"worst": list(problem.worst), "rho": problem.rho}
                      if problem.multi and problem.worst else {})
             with signals_deferred():  # the journal's line and the run's copy of the case together
-                ev = journal.append("case_changed", time=now_iso(),
-                                    case_sha256=sha256_text(case_obj.resolved),
-                                    budget=problem.budget, case_file=str(case_obj.path), **extra)
-                events.append(ev)
+                events.append(Recorder(journal).case_changed(
+                    sha256_text(case_obj.resolved), problem.budget, str(case_obj.path), **extra))
                 rd.write_case(case_obj.resolved)
                 meta.update(case_sha256=sha256_text(case_obj.resolved),
                             case_file=str(Path(case_obj.path).resolve()),
                             overrides=list(getattr(case_obj, "overrides", ())))
+                if budget is not None:   # a later resume loads the case with it again
+                    meta["budget"] = int(budget)
                 rd.write_meta(meta)
         strategy, table = restore(problem, events, rd.load_state())
         # never the evaluator run.json names: a run directory from elsewhere must not choose
@@ -290,7 +286,7 @@ def resume(run, workers: int | None = None, scheduler=None, case=None,
         lost = _lost_files(rd, table)
         if strategy.done and not table.pending_ids() and not lost:
             if not table.finished:
-                table.apply(journal.append("finished", time=now_iso(), evaluations=table.n_done))
+                Recorder(journal, table).finished()
             write_results(rd.at("results.h5"), table, case=case_obj, problem=problem, meta=meta)
             best = table.best()
             out.log(f"{rd.path} is finished: {table.n_done} evaluations ({table.n_failed} failed); "
@@ -349,7 +345,16 @@ def _check_budget(budget: int | None, asked: int) -> None:
                            f"already asked for; give at least {asked}")
 
 
-def _lost_files(rd: RunDir, table: Table) -> list[int]:
+def _journal_budget(events: list[dict]) -> int | None:
+    """The budget in force after the journal's lines (None: not recorded, or lines lccopt
+    cannot use, which the replay then reports)."""
+    try:
+        return Run.of(events).budget
+    except (KeyError, TypeError, ValueError, IndexError):
+        return None
+
+
+def _lost_files(rd: RunDir, table: Run) -> list[int]:
     """Ids of evaluations whose file the journal names but which is missing, unreadable or not
     theirs (another evaluation's file copied over it): each is simulated again."""
     from ..store import evaluation_problem
@@ -358,7 +363,7 @@ def _lost_files(rd: RunDir, table: Table) -> list[int]:
             and evaluation_problem(rd.at(r["file"]), i, r["x"], table.head_mark) is not None]
 
 
-def _run_case(rd: RunDir, overrides=()) -> Case:
+def _run_case(rd: RunDir, overrides=(), budget: int | None = None) -> Case:
     """The run's own copy of its case (case.yaml), read through the run directory held open."""
     from ..config.reading import MAX_CASE_FILE_BYTES, case_text
     from ..errors import CaseError
@@ -368,7 +373,7 @@ def _run_case(rd: RunDir, overrides=()) -> Case:
     except OSError as exc:
         raise CaseError(f"{rd.case_path}: cannot read the run's copy of its case "
                         f"({exc.strerror or exc})") from None
-    return load_case(rd.case_path, overrides, text=case_text(data, rd.case_path))
+    return load_case(rd.case_path, overrides, text=case_text(data, rd.case_path), budget=budget)
 
 
 def _check_options(workers, scheduler) -> None:
@@ -389,8 +394,9 @@ def _check_options(workers, scheduler) -> None:
 
 def _resume_case(rd: RunDir, meta: dict, case, allow_changed: bool, out: Progress,
                  budget: int | None = None) -> Case:
-    """The case to carry on with: the original file with the run's --set overrides (must
-    resolve as the run's case did) or the run's copy; ``budget``: a new budget on top."""
+    """The case to carry on with: the original file with the run's --set overrides and the
+    budget an earlier ``--budget`` gave (must resolve as the run's case did) or the run's
+    copy; ``budget``: a new budget on top."""
     if case is None:
         original = Path(meta.get("case_file", ""))
         if meta.get("case_file") and original.is_file():
@@ -399,21 +405,23 @@ def _resume_case(rd: RunDir, meta: dict, case, allow_changed: bool, out: Progres
             out.log(f"the case file {original} is gone; using the run's copy {rd.case_path}")
             case = rd.case_path
     overrides = [o for o in meta.get("overrides") or [] if isinstance(o, str)]
+    given = meta.get("budget") if type(meta.get("budget")) is int else None
+    run_copy = not isinstance(case, Case) and Path(case) == rd.case_path
     if isinstance(case, Case):
         case_obj = case
-    elif Path(case) == rd.case_path:
-        case_obj = _run_case(rd, overrides)
+    elif run_copy:
+        case_obj = _run_case(rd, overrides, given)
     else:
-        case_obj = load_case(case, overrides)
+        case_obj = load_case(case, overrides, budget=given)
     if budget is not None and sha256_text(case_obj.resolved) == meta.get("case_sha256"):
         # the same case with another budget: the one change --budget asks for
-        item = f"optimisation.budget={int(budget)}"
         try:
-            case_obj = load_case(case_obj.path, [*overrides, item], text=case_obj.text)
-        except CaseError as exc:   # named as the user typed it, not as the --set it becomes
+            case_obj = load_case(case_obj.path, overrides, text=case_obj.text,
+                                 resolved=run_copy, budget=budget)
+        except CaseError as exc:   # named as the user typed it (the case locates it at --set)
             text = str(exc)
             prefix = "--set: optimisation.budget: "
-            if text.startswith(prefix) and item not in overrides:
+            if text.startswith(prefix):
                 raise _usage_error(f"--budget {budget}: {text[len(prefix):]}") from None
             raise
         allow_changed = True

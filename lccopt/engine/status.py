@@ -13,9 +13,11 @@ from pathlib import Path
 
 from ..errors import printable
 from ..terminal import wrap_items
+from .events import RUN
 from .journal import JournalError, read_journal
 from .progress import best_text, hms
-from .rundir import JOURNAL, RunDir, RunError, Table
+from .run import Run
+from .rundir import JOURNAL, RunDir, RunError
 
 RATE_WINDOW = 20  # results over which the current pace is measured
 
@@ -29,17 +31,11 @@ def status_lines(run: Path) -> list[str]:
         raise RunError(f"{exc.args[0].split(';')[0]}; the journal was changed by something other "
                        f"than lccopt: 'lccopt resume {rd.path} --repair-journal' carries on from "
                        f"the {exc.line - 1} lines before it") from None
-    if not events or events[0].get("event") != "run":
+    if not events or events[0].get("event") != RUN:
         raise RunError(f"{rd.journal_path} is empty or not an lccopt journal")
-    head = events[0]
-    shown = _variables(rd) or [(f"x{i + 1}", "", 1.0) for i in range(_dimension(events))]
-    names = [n for n, _, _ in shown]
-    table = Table(names, list(head.get("objectives") or []))
-    budget = int(head.get("budget") or 0)
-    for ev in events:
-        table.apply(ev)
-        if ev.get("event") == "case_changed" and ev.get("budget"):
-            budget = int(ev["budget"])
+    table = Run.of(events)
+    shown = _variables(rd) or [(n, "", 1.0) for n in table.names]
+    budget = int(table.budget or 0)
     running = rd.locked_by_other()
     state = "finished" if table.finished else ("running" if running else "stopped")
     done, failed, pending = table.n_done, table.n_failed, len(table.pending_ids())
@@ -55,36 +51,35 @@ def status_lines(run: Path) -> list[str]:
     if best is not None:
         lines += wrap_items([f"{n}={v * scale:.4g}" + (f" {unit}" if unit else "")
                              for (n, unit, scale), v in zip(shown, best["x"])], "  x: ")
-    lines += _timing(events, table, budget, running)
+    lines += _timing(table, budget, running)
     if not table.finished and not running:
         lines.append(f"  carry on with: lccopt resume {rd.path}")
     return lines
 
 
-def _timing(events: list[dict], table: Table, budget: int, running: bool) -> list[str]:
+def _timing(table: Run, budget: int, running: bool) -> list[str]:
     walls = [r["wall_time"] for r in table.rows.values() if r["status"] != "pending"
              and _number(r["wall_time"]) and r["wall_time"] >= 0]
     out = []
     if walls:
         out.append(f"  {sum(walls) / len(walls):.3g} s of simulation per evaluation")
     left = budget - table.n_done
-    pace = _pace(events) if running and left > 0 else None
+    pace = _pace(table.stamps) if running and left > 0 else None
     if pace is not None:
         out.append(f"  one result every {pace:.3g} s lately; about {hms(left * pace)} left")
     return out
 
 
-def _pace(events: list[dict]) -> float | None:
+def _pace(results: list[tuple]) -> float | None:
     """Seconds per result over the last RATE_WINDOW results of the session that is going
-    (the lines after the last ``session`` line, which ends a session), from the driving
-    process's monotonic clock (``mono``): a step of the wall clock (NTP, a suspended laptop,
-    a changed time zone or date) changes nothing. Lines of an lccopt that wrote only the wall
-    clock (``at``) are rated from it, after its last step back. None when it cannot be told."""
-    start = max((i for i, ev in enumerate(events) if ev.get("event") == "session"), default=-1)
-    results = [ev for ev in events[start + 1:] if ev.get("event") in ("evaluated", "failed")]
-    stamps = [ev.get("mono") for ev in results]
+    (``Run.stamps``: (mono, at) of the results after the last ``session`` line, which ends a
+    session), from the driving process's monotonic clock (``mono``): a step of the wall clock
+    (NTP, a suspended laptop, a changed time zone or date) changes nothing. Lines of an lccopt
+    that wrote only the wall clock (``at``) are rated from it, after its last step back. None
+    when it cannot be told."""
+    stamps = [mono for mono, _ in results]
     if not all(_number(t) for t in stamps):
-        stamps = [ev.get("at") for ev in results]
+        stamps = [at for _, at in results]
         if not all(_number(t) for t in stamps):
             return None
     stamps = stamps[-RATE_WINDOW:]
@@ -111,7 +106,3 @@ def _variables(rd: RunDir) -> list[tuple[str, str, float]] | None:
     except (OSError, ValueError, KeyError, TypeError):
         return None
 
-
-def _dimension(events: list[dict]) -> int:
-    asked = next((ev for ev in events if ev.get("event") == "asked"), None)
-    return len(asked["x"]) if asked else 0

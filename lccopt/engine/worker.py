@@ -32,7 +32,7 @@ ENV_EVALUATOR = "LCCOPT_EVALUATOR"
 # needs (the evaluation file's writer, h5py; the simulator and its solvers). Imported in each
 # forked child instead, they would cost ~0.2 s of CPU per evaluation (the import time of
 # h5py and of the simulator's modules), more than the paper-case simulation itself.
-PRELOAD = ("lccopt.store", "lccopt.vti.evaluate")
+PRELOAD = ("lccopt.store", "lccopt.vti.passage")
 
 # Set in every local worker before numpy is imported: N workers use N cores.
 SINGLE_THREAD_ENV = {

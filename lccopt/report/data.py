@@ -179,6 +179,7 @@ def load_run(path: Path) -> RunData:
     """Read a run directory (finished, running or interrupted); UsageError if it is not one."""
 
     from ..engine.journal import JournalError, line_mark, read_journal
+    from ..engine.run import Run
 
     rd = open_run(path)
     run, folder = rd.path, rd.folder
@@ -207,6 +208,11 @@ def load_run(path: Path) -> RunData:
     if res is None and not events:
         raise _usage(f"{run}: cannot read the run: "
                      f"{res_error or 'no results.h5 and an empty journal'}")
+    journal, why = None, None   # the run as its journal's committed lines describe it
+    try:
+        journal = Run.of(events)
+    except (KeyError, TypeError, ValueError, IndexError) as exc:
+        why = exc
 
     journal_seq = events[-1]["seq"] if events else -1
     notes = [journal_error] if journal_error else []
@@ -221,7 +227,9 @@ def load_run(path: Path) -> RunData:
         d, source = res, "results.h5"
     else:
         try:
-            d = table_from_journal(rd, events, res)
+            if journal is None:
+                raise why
+            d = table_from_journal(rd, journal, res)
         except (KeyError, TypeError, ValueError, IndexError) as exc:
             if res is None:
                 raise _usage(f"{run}: cannot read the run: {res_error or 'no results.h5'}; "
@@ -251,7 +259,7 @@ def load_run(path: Path) -> RunData:
 
     lock = _lock_state(rd)
     state = "finished" if d["finished"] else ("running" if lock == "running" else "interrupted")
-    sessions = [ev.get("wall_time", 0.0) for ev in events if ev.get("event") == "session"]
+    sessions = journal.session_walls if journal is not None else []
     created = d.get("created") or (events[0].get("time", "") if events else "")
     return RunData(
         path=run, rd=rd, name=d["name"] or run.name, objectives=list(d["objectives"]),

@@ -10,7 +10,6 @@ import math
 import numpy as np
 
 from ..safeio import h5_open_owned, h5_read
-from ..uncertainty.statistics import is_realisation_key, objective_of
 from ..vti.response import OBJECTIVE_DOC, improvement_sign  # noqa: F401 (re-exported)
 from ..vti.response import PAPER_OBJECTIVES as OBJECTIVE_NAMES  # always a column
 
@@ -146,46 +145,25 @@ def _check_table(f, e) -> None:
             raise ValueError(f"{d.name} has {d.size} values")
 
 
-def table_from_journal(rd, events: list[dict], res: dict | None) -> dict:
-    """The same table as results.h5, rebuilt from the committed journal lines."""
-    from ..engine.rundir import Table
-    from ..optim.scalarise import pareto_mask
+def table_from_journal(rd, run, res: dict | None) -> dict:
+    """The same table as results.h5 (``engine.results.columns``), of the run its committed
+    journal lines describe (``run``: an ``engine.run.Run``); ``res``: results.h5's table, if
+    any, for what the journal does not hold (variable names, the resolved case)."""
+    from ..engine.results import columns
 
-    head = events[0] if events and events[0].get("event") == "run" else {}
+    head = run.head
     objectives = list(head.get("objectives") or (res or {}).get("objectives") or ["F_max"])
-    budget = int(head.get("budget") or (res or {}).get("budget") or 0)
-    for ev in events:
-        if ev.get("event") == "case_changed" and ev.get("budget"):
-            budget = int(ev["budget"])
-    asked = next((ev for ev in events if ev.get("event") == "asked"), None)
-    d = len(asked["x"]) if asked else len((res or {}).get("names", []))
+    budget = int(run.budget or (res or {}).get("budget") or 0)
+    d = run.dimension or len((res or {}).get("names", []))
     names = list((res or {}).get("names") or [])
     if len(names) != d:
         names = _names_from_case_yaml(rd) or [f"x{i + 1}" for i in range(d)]
-    table = Table(names, objectives)
-    for ev in events:
-        table.apply(ev)
-    rows = table.done_rows()
-    n = len(rows)
-    from ..engine.rundir import objective_columns
-
-    obj = {k: np.array([float(r["objectives"].get(k, math.nan)) for r in rows], dtype=float)
-           for k in objective_columns(rows, objectives)}
-    status = np.array([r["status"] for r in rows], dtype=object)
+    rows = run.done_rows()
     conditions = list(dict.fromkeys(k.split("@", 1)[1] for r in rows for k in r["objectives"]
                                     if "@" in k and "#" not in k and "(" not in k))
     count = int((head.get("realisations") or {}).get("count", 0))
-    bases = list(dict.fromkeys(objective_of(k) for r in rows for k in r["objectives"]
-                               if is_realisation_key(k)))
-    real_obj = {b: np.array([[float(r["objectives"].get(f"{b}#{j}", math.nan))
-                              for j in range(count)] for r in rows],
-                            dtype=float).reshape(n, count) for b in bases}
-    cond_obj = {c: {k: np.array([float(r["objectives"].get(f"{k}@{c}", math.nan)) for r in rows])
-                    for k in OBJECTIVE_NAMES} for c in conditions}
-    F = np.column_stack([obj[k] for k in objectives]) if n else np.zeros((0, len(objectives)))
-    F = F.copy()
-    F[status != "ok"] = math.nan
-    ref = table.reference or {}
+    table = columns(rows, d, objectives, conditions, count)
+    ref = run.reference or {}
     ref_x = np.asarray(ref.get("x") or (res or {}).get("ref_x") if (ref.get("x") or res) else
                        (rows[0]["x"] if rows and rows[0]["id"] == 0 else [math.nan] * d),
                        dtype=float)
@@ -194,25 +172,19 @@ def table_from_journal(rd, events: list[dict], res: dict | None) -> dict:
         "name": (res or {}).get("name") or _case_name(rd), "objectives": objectives,
         "scalarisation": "asf" if len(objectives) > 1 else "single",
         "budget": budget, "names": names,
-        "ids": np.array([r["id"] for r in rows], dtype=int),
-        "x": np.array([r["x"] for r in rows], dtype=float).reshape(n, d), "obj": obj,
-        "value": np.array([r["value"] for r in rows], dtype=float), "status": status,
-        "reason": np.array([str(r["reason"]) for r in rows], dtype=object),
-        "phase": np.array([r["phase"] for r in rows], dtype=object),
-        "restart": np.array([r["restart"] for r in rows], dtype=int),
-        "file": np.array([r["file"] for r in rows], dtype=object),
-        "wall_time": np.array([r["wall_time"] for r in rows], dtype=float),
-        "pareto": pareto_mask(F) if n else np.zeros(0, bool),
+        **{k: table[k] for k in ("ids", "x", "obj", "value", "status", "reason", "phase",
+                                 "restart", "file", "wall_time", "pareto")},
         "ref_x": ref_x, "ref_objectives": dict(ref.get("objectives") or {}),
         "ref_point": np.asarray(ref["point"], float) if ref.get("point") is not None else None,
         "worst": np.asarray(worst, float) if worst is not None else None,
         "rho": float(ref.get("rho", math.nan) or math.nan),
-        "improvement": float(ref.get("improvement", math.nan)
-                                                                                   or math.nan),
-        "n_pending": len(table.pending_ids()), "finished": table.finished,
-        "created": head.get("time", ""), "updated": events[-1].get("time", "") if events else "",
-        "resolved": (res or {}).get("resolved"), "conditions": conditions, "cond_obj": cond_obj,
-        "realisations": count, "real_obj": real_obj, "real_record": head.get("realisations"),
+        "improvement": float(ref.get("improvement", math.nan) or math.nan),
+        "n_pending": len(run.pending_ids()), "finished": run.finished,
+        "created": head.get("time", ""),
+        "updated": (run.last_event or {}).get("time", ""),
+        "resolved": (res or {}).get("resolved"), "conditions": conditions,
+        "cond_obj": table["cond_obj"], "realisations": count, "real_obj": table["real_obj"],
+        "real_record": head.get("realisations"),
     }
 
 

@@ -43,7 +43,7 @@ def law_check(run, bi: int, ri: int | None, out: Path, echo=None) -> dict | None
     import hashlib
     import json
 
-    from ..degradation.evaluate import predict, settlement_objectives
+    from ..degradation.assessment import predict, settlement_objectives
     from ..degradation.variants import law_variants
     from ..safeio import read_owned
     from ..version import __version__

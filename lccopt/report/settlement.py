@@ -1,5 +1,5 @@
 """Settlement figures and sentences: a design's settlement prediction (the ``settlement_*``
-histories of :mod:`lccopt.degradation.evaluate`) drawn for ``lccopt report`` (best and
+histories of :mod:`lccopt.degradation.assessment`) drawn for ``lccopt report`` (best and
 reference design), ``lccopt simulate`` (one design) and benchmarks/settlement/settlement_study.py
 (the study's designs side by side).
 
@@ -288,12 +288,8 @@ def fig_settlement_profile(designs: list[Design], out: Path, title: str,
 
     Parameters
     ----------
-    designs
-        the designs side by side.
-    out
-        the directory to write ``settlement-profile.png`` into.
-    title
-        the figure's title.
+    designs, out, title
+        as :func:`fig_settlement_history`; the file written is ``settlement-profile.png``.
     years
         the times [year]; default :func:`chosen_years` of the first design's horizon.
 

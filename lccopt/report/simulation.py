@@ -40,22 +40,25 @@ def simulation_figures(ev: Evaluation, name: str, out) -> list:
     return paths
 
 
-def _mark(ax, info: dict, x: np.ndarray) -> None:
-    """The ERS, the force evaluation zone and the Type II strip along the track (positions
-    from the entry slab edge), marked as the report's figures mark them."""
+def _along_track(plt, ev: Evaluation, height: float):
+    """A figure along the track: positions from the entry slab edge (the wheel's, ``x``), the
+    ERS, the force evaluation zone and the Type II strip marked as the report's figures mark
+    them. Returns the figure, its axes, ``x``, the origin and the facts so measured."""
+    origin, info = from_slab_edge(ev.info)
+    x = ev.histories["wheel_position"] - origin
+    fig, ax = plt.subplots(figsize=(9, height))
     zone_marks(ax, info, float(x.max()))
     if info["type_ii_end"] > info["interface_entry"]:
         ax.axvspan(info["interface_entry"], info["type_ii_end"], ymin=0.025, ymax=0.05,
                    color=TYPE_II_COLOR, label="Type II strip")
+    ax.set_xlabel(f"wheel position {ALONG_TRACK} (the vehicle comes from the left)")
+    return fig, ax, x, origin, info
 
 
 def _contact_force(plt, ev: Evaluation, name: str):
     h = ev.histories
-    origin, info = from_slab_edge(ev.info)
-    x = h["wheel_position"] - origin
+    fig, ax, x, origin, info = _along_track(plt, ev, 4.6)
     speed = speed_text(info)
-    fig, ax = plt.subplots(figsize=(9, 4.6))
-    _mark(ax, info, x)
     f = h["contact_force"] / 1e3
     fw = h.get("contact_force_wheels")
     several = fw is not None and fw.ndim == 2 and fw.shape[1] > 1
@@ -76,8 +79,7 @@ def _contact_force(plt, ev: Evaluation, name: str):
     ax.axhline(info["static_wheel_load"] / 1e3, color="k", ls=":", lw=0.8,
                label="static wheel load")
     sleeper_ticks(ax, h["entry_sleeper_position"] - origin, "0.3", 0, "sleepers")
-    ax.set(xlabel=f"wheel position {ALONG_TRACK} (the vehicle comes from the left)",
-           ylabel="wheel-rail contact force [kN]",
+    ax.set(ylabel="wheel-rail contact force [kN]",
            title=f"case {name}" + (f" at {speed}" if speed else "")
                  + f": F_max = {ev.objectives['F_max'] / 1e3:.2f} kN (max - min in the zone), "
                  f"F_rms = {ev.objectives['F_rms'] / 1e3:.2f} kN", xlim=(x.min(), x.max()))
@@ -115,17 +117,13 @@ def _sleeper_energy(plt, ev: Evaluation, name: str):
 
 def _displacement(plt, ev: Evaluation, name: str):
     h = ev.histories
-    origin, info = from_slab_edge(ev.info)
-    x = h["wheel_position"] - origin
+    fig, ax, x, _, info = _along_track(plt, ev, 4.4)
     speed = speed_text(info)
-    fig, ax = plt.subplots(figsize=(9, 4.4))
-    _mark(ax, info, x)
     ax.plot(x, h["wheel_displacement"] * 1e3, lw=0.9, color=OKABE_ITO["blue"], label="wheel")
     ax.plot(x, h["rail_displacement"] * 1e3, lw=0.9, color=OKABE_ITO["vermillion"],
             label="rail under the wheel")
     ax.invert_yaxis()
-    ax.set(xlabel=f"wheel position {ALONG_TRACK} (the vehicle comes from the left)",
-           ylabel="displacement, downward [mm]",
+    ax.set(ylabel="displacement, downward [mm]",
            title="wheel and rail displacement" + (f" at {speed}" if speed else ""))
     ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=5, fontsize=8, frameon=False)
     fig.tight_layout()

@@ -1,6 +1,6 @@
 """Response of one simulation: time histories and the paper's four objectives (Sec. 2.2.2);
 the names, units and meaning of every objective an evaluation can return (the paper's and
-those of a settlement prediction, :mod:`lccopt.degradation.evaluate`)."""
+those of a settlement prediction, :mod:`lccopt.degradation.assessment`)."""
 
 from __future__ import annotations
 
@@ -164,7 +164,7 @@ HISTORY_DOC = {
     "in_force_zone_wheels": "1 where that wheel is inside the force zone, else 0 (steps x wheels)",
     "irregularity_at_wheel": "rail irregularity (dip) under the leading wheel [m], when there is "
                              "one",
-    # a settlement prediction (lccopt.degradation.evaluate): one row per block of load cycles,
+    # a settlement prediction (lccopt.degradation.assessment): one row per block of load cycles,
     # row 0 the new track
     "settlement_years": "time at the end of each block [year]",
     "settlement_axle_passes": "axle passes at the end of each block, all conditions [-]",

@@ -1,5 +1,5 @@
 """A case with degradation: evaluated as the optimiser's workers evaluate it
-(lccopt.problem.evaluate -> lccopt.degradation.evaluate): the paper's objectives are those of
+(lccopt.problem.evaluate -> lccopt.degradation.assessment): the paper's objectives are those of
 the plain simulation, the settlement objectives those of predict_settlement called by hand,
 two identical conditions of half the traffic settle as one of all of it, and conditions that
 run the other way (another mesh) settle the same sleepers together. Coarse, short versions
@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from lccopt.config import load_case
-from lccopt.degradation.evaluate import (
+from lccopt.degradation.assessment import (
     predict,
     settlement_objectives,
     slab_settlement,
@@ -19,12 +19,12 @@ from lccopt.degradation.evaluate import (
 )
 from lccopt.degradation.iteration import predict_settlement
 from lccopt.degradation.laws import LI_SELIG, VarandasLaw
-from lccopt.degradation.loading import entry_zone, vti_condition
+from lccopt.degradation.loading import entry_zone, vti_passage_kind
 from lccopt.problem import Problem, evaluate
-from lccopt.vti.evaluate import build_vehicle
-from lccopt.vti.evaluate import evaluate as simulate
+from lccopt.vti.passage import simulate_passage as simulate
 from lccopt.vti.response import SETTLEMENT_OBJECTIVES
 from lccopt.vti.track import build_track
+from lccopt.vti.vehicle import build_vehicle
 from tests.conftest import CONFIGS
 
 # seconds a test: settlement predictions of whole cases
@@ -67,7 +67,7 @@ def test_a_case_evaluation_is_the_simulation_and_the_prediction_it_says(single):
     veh = build_vehicle(case.scenario().vehicle)
     x0, _, _, x1 = tr.window
     dt = case.simulation["time_step"]
-    cond = vti_condition("vehicle", 5.0e5, tr, veh, dt=dt, speed=veh.speed, x_start=x0,
+    cond = vti_passage_kind("vehicle", 5.0e5, tr, veh, dt=dt, speed=veh.speed, x_start=x0,
                          n_steps=int(np.ceil((x1 - x0) / (veh.speed * dt))))
     spec = case.degradation_spec()
     law = sleeper_law(spec, tr, case.data["track"]["support"]["stiffness"])

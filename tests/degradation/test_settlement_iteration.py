@@ -13,17 +13,17 @@ from lccopt.degradation.iteration import predict_settlement
 from lccopt.degradation.laws import VarandasLaw
 from lccopt.degradation.loading import (
     Axles,
-    Condition,
     Loading,
+    PassageKind,
     SettlementZone,
     entry_zone,
-    vti_condition,
+    vti_passage_kind,
 )
 from lccopt.degradation.statics import ZoneStatics
-from lccopt.vti.evaluate import build_vehicle
 from lccopt.vti.newmark import integrate
 from lccopt.vti.track import build_track
 from lccopt.vti.unilateral import sleeper_supports
+from lccopt.vti.vehicle import build_vehicle
 from tests.vti.test_voids import discrete_track
 
 # seconds a test: settlement predictions over many blocks of simulations
@@ -53,7 +53,7 @@ def moving_load_condition(tr, x_from, x_to, speed=20.0, load=100e3, dt=1e-3):
     def simulate(sup):
         h = integrate(tr, dt, speed, x_from, steps, load=load, supports=sup)
         return Loading(h.support_force.max(axis=0)[None, :], float(h.contact_force.max()))
-    return Condition("load", PER_YEAR, simulate, Axles(np.zeros(1), np.array([load])))
+    return PassageKind("load", PER_YEAR, simulate, Axles(np.zeros(1), np.array([load])))
 
 
 def test_uniform_track_settles_uniformly():
@@ -83,7 +83,7 @@ def reference_setup(x=None, per_year=PER_YEAR):
     x0, _, _, x1 = tr.window
     dt = case.simulation["time_step"]
     n = int(np.ceil((x1 - x0) / (veh.speed * dt)))
-    cond = vti_condition("quarter-car", per_year, tr, veh, dt=dt, speed=veh.speed,
+    cond = vti_passage_kind("quarter-car", per_year, tr, veh, dt=dt, speed=veh.speed,
                          x_start=x0, n_steps=n)
     return tr, entry_zone(tr, 20), cond
 
@@ -180,7 +180,7 @@ def test_implicit_blocks_are_stable_where_explicit_ones_make_a_checkerboard(refe
 
 def test_bad_traffic_and_settings_are_refused(reference):
     tr, zone, cond, _ = reference
-    idle = Condition("idle", 0.0, cond.simulate, cond.axles)
+    idle = PassageKind("idle", 0.0, cond.simulate, cond.axles)
     for conditions, kw in (([], {}), ([idle], {}), ([cond], {"tolerance": 0.0}),
                            ([cond], {"max_simulations": 1}), ([cond], {"horizon_years": -1.0})):
         with pytest.raises(ValueError):

@@ -8,8 +8,8 @@ import pytest
 
 from lccopt.config import load_case
 from lccopt.problem import evaluate
+from lccopt.vti.deflection import static_rail_deflection
 from lccopt.vti.newmark import integrate
-from lccopt.vti.statics import static_rail_deflection
 from lccopt.vti.track import WinklerBeam, build_track
 from lccopt.vti.vehicle import build_vehicle
 

@@ -11,7 +11,7 @@ from scipy.sparse.linalg import spsolve
 
 from lccopt.config import load_case
 from lccopt.problem import evaluate
-from lccopt.vti import evaluate as vti_evaluate
+from lccopt.vti import passage as vti_passage
 from lccopt.vti.newmark import integrate
 from lccopt.vti.specs import VehicleSpec
 from lccopt.vti.track import WinklerBeam, build_track
@@ -195,7 +195,7 @@ def test_leave_on_a_mirrored_track_is_the_mirrored_enter(tmp_path, monkeypatch, 
     enter = evaluate(case, x)
     track = build_track(case.scenario(), case.track_design(x))
     L = float(track.node_x[-1])
-    monkeypatch.setattr(vti_evaluate, "build_track", lambda s, d: mirrored(build_track(s, d)))
+    monkeypatch.setattr(vti_passage, "build_track", lambda s, d: mirrored(build_track(s, d)))
     leave = evaluate(case, x)
     assert leave.info["direction"] == "leave" and enter.info["direction"] == "enter"
     assert leave.info["n_wheels"] == enter.info["n_wheels"] == (4 if "half" in base else 1)

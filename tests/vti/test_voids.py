@@ -10,10 +10,10 @@ from scipy.sparse.linalg import spsolve
 
 from lccopt.config import load_case
 from lccopt.vti.assembly import Assembler, beam_stiffness, hermite_gram
-from lccopt.vti.evaluate import build_vehicle
 from lccopt.vti.newmark import integrate
 from lccopt.vti.track import build_track
 from lccopt.vti.unilateral import GRAVITY, rest_state, sleeper_supports
+from lccopt.vti.vehicle import build_vehicle
 from lccopt.vti.wheels import contact_vector
 from tests.conftest import CONFIGS
 

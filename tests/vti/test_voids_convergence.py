@@ -5,9 +5,9 @@ import numpy as np
 import pytest
 
 from lccopt.config import load_case
-from lccopt.vti.evaluate import build_vehicle
 from lccopt.vti.newmark import integrate
 from lccopt.vti.unilateral import sleeper_supports
+from lccopt.vti.vehicle import build_vehicle
 from tests.vti.test_voids import discrete_track
 
 # seconds a test: a convergence study in the time step

@@ -1,6 +1,6 @@
 """One vehicle-track simulation of one design.
 
-``evaluate(scenario, design)`` builds the track for the design, runs the scenario's vehicle
+``simulate_passage(scenario, design)`` builds the track for the design, runs the scenario's vehicle
 (3-dof, bogie or half car: ``VehicleSpec.type``) over it from static equilibrium and returns
 the objectives and time histories as an :class:`Evaluation`.
 
@@ -32,7 +32,7 @@ from .unilateral import sleeper_supports
 from .vehicle import build_vehicle
 
 
-def evaluate(scenario: Scenario, design: TrackDesign) -> Evaluation:
+def simulate_passage(scenario: Scenario, design: TrackDesign) -> Evaluation:
     """Simulate one design in one scenario.
 
     Parameters

@@ -1,10 +1,10 @@
 """One design judged by its settlement under its traffic: the evaluation of a case with a
 ``degradation:`` section (docs/settlement.md).
 
-``evaluate(spec, design)`` runs, for one design,
+``assess_settlement(spec, design)`` runs, for one design,
 
 * the paper's simulation of every traffic condition on the new track
-  (:func:`lccopt.vti.evaluate.evaluate`): F_rms, F_max, E_rms and E_max, combined over the
+  (:func:`lccopt.vti.passage.simulate_passage`): F_rms, F_max, E_rms and E_max, combined over the
   conditions by the case's rule (worst or weighted mean), and the time histories of the first
   condition's (the report's contact-force and sleeper-energy figures);
 * one settlement prediction (:func:`~lccopt.degradation.iteration.predict_settlement`) in
@@ -26,18 +26,18 @@ import time
 
 import numpy as np
 
-from ..vti.evaluate import evaluate as simulate_passage
+from ..vti.passage import simulate_passage
 from ..vti.response import PAPER_OBJECTIVES, REPORTED_ONLY, SETTLEMENT_OBJECTIVES, Evaluation
 from ..vti.specs import TrackDesign
 from ..vti.track import build_track
 from ..vti.vehicle import build_vehicle
 from .iteration import SettlementResult, Tamping, predict_settlement
 from .laws import LAWS, SlabSettlement, SleeperLaw, SubgradeLaw
-from .loading import Condition, entry_zone, vti_condition
+from .loading import PassageKind, entry_zone, vti_passage_kind
 from .specs import DegradationSpec, LawSpec, Limit, SubgradeSpec, Traffic
 
 
-def evaluate(spec: DegradationSpec, design: TrackDesign) -> Evaluation:
+def assess_settlement(spec: DegradationSpec, design: TrackDesign) -> Evaluation:
     """The paper's objectives on the new track and the settlement of ``design`` over
     ``spec``'s horizon.
 
@@ -90,7 +90,7 @@ def predict(spec: DegradationSpec, design: TrackDesign) -> SettlementResult:
     for t in spec.settling_traffic:
         track = build_track(t.scenario, design)
         tracks.append(track)
-        conditions.append(_condition(t, track, spec))
+        conditions.append(_passage_kind(t, track, spec))
     track = tracks[0]
     zone = entry_zone(track, spec.settling_sleepers, spec.follower_flat, spec.follower_taper)
     support = spec.settling_traffic[0].scenario.track.support.stiffness
@@ -208,9 +208,9 @@ def law(spec: LawSpec):
     return LAWS[spec.name](**dict(spec.parameters))
 
 
-def _condition(traffic: Traffic, track, spec: DegradationSpec) -> Condition:
+def _passage_kind(traffic: Traffic, track, spec: DegradationSpec) -> PassageKind:
     """A condition of the prediction: ``traffic``'s passage over ``track`` (run as
-    :func:`lccopt.vti.evaluate.evaluate` runs it), on the gaps the iteration gives for the
+    :func:`lccopt.vti.passage.simulate_passage` runs it), on the gaps the iteration gives for the
     settling zone, applied to this track's own supports of the same sleepers."""
     sc = traffic.scenario
     vehicle = build_vehicle(sc.vehicle)
@@ -226,7 +226,7 @@ def _condition(traffic: Traffic, track, spec: DegradationSpec) -> Condition:
             return float(np.interp(pos, px, pr, left=0.0, right=0.0))
     own = entry_zone(track, spec.settling_sleepers, spec.follower_flat,
                      spec.follower_taper).supports
-    base = vti_condition(traffic.name, traffic.passages_per_year, track, vehicle, dt=dt,
+    base = vti_passage_kind(traffic.name, traffic.passages_per_year, track, vehicle, dt=dt,
                          speed=speed, x_start=x_start, n_steps=n_steps,
                          irregularity=irregularity)
 
@@ -235,7 +235,7 @@ def _condition(traffic: Traffic, track, spec: DegradationSpec) -> Condition:
             raise ValueError(f"condition {traffic.name}: its track's settling sleepers are "
                              f"not those of the prediction's zone")
         return base.simulate(own.with_gaps(supports.gap))
-    return Condition(base.name, base.passes_per_year, simulate, base.axles)
+    return PassageKind(base.name, base.passes_per_year, simulate, base.axles)
 
 
 def _paper_objectives(spec: DegradationSpec, per_condition: list[dict]) -> dict:
