@@ -68,3 +68,21 @@ def test_a_case_file_in_the_old_units_gets_one_line_naming_file_line_and_key(tmp
         f"`reference: [0.6 m, 0.7 m, 0.3 m]`?"]
     # a run's own copy (Case.resolved) holds lengths as bare 0.1 m elements, and reads back
     assert load_case(path, resolved=True).reference[4:7].tolist() == [6.0, 7.0, 3.0]
+
+
+def test_check_reads_a_runs_own_copy_as_the_run_does(tmp_path, run_cli):
+    """A run's case.yaml holds its lengths as 0.1 m elements: `lccopt check` on it says ok
+    and shows them in metres; the same text elsewhere is a person's file and gets the hint."""
+    case = load_case(write_case(tmp_path, "copy", extra="design:\n  sleeper_spans:\n"
+                                                        "    reference: [0.6 m, 0.7 m, 0.3 m]\n"))
+    run = tmp_path / "runs" / "copy"
+    run.mkdir(parents=True)
+    (run / "case.yaml").write_text(case.resolved)
+    (run / "journal.jsonl").write_text("")
+    proc = run_cli("check", run / "case.yaml")
+    assert proc.returncode == 0, proc.stderr
+    assert "x_s1 [0.3, 0.7] m in 0.1 m steps" in proc.stdout
+    assert load_case(run / "case.yaml").reference[4:7].tolist() == [6.0, 7.0, 3.0]
+    (run / "journal.jsonl").unlink()   # not a run any more: a person's file in old units
+    proc = run_cli("check", run / "case.yaml")
+    assert proc.returncode == 2 and "did you mean" in proc.stderr

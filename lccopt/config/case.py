@@ -233,6 +233,13 @@ class Condition:
         return Condition(self.name, self.weight, self.vehicle, self.speed, self.direction, data)
 
 
+def _is_run_copy(path: Path) -> bool:
+    """A run directory's own copy of its case (``case.yaml`` beside the run's journal, as
+    lccopt.engine.rundir lays a run out): its lengths are 0.1 m elements, so ``lccopt check
+    runs/NAME/case.yaml`` reads it as the run does instead of asking for units."""
+    return path.name == "case.yaml" and (path.parent / "journal.jsonl").is_file()
+
+
 def load_case(path: str | Path, overrides=(), text: str | None = None,
               resolved: bool | None = None, budget: int | None = None) -> Case:
     """Read and validate a case file.
@@ -250,7 +257,8 @@ def load_case(path: str | Path, overrides=(), text: str | None = None,
     resolved
         the file is a case as lccopt resolved it (``Case.resolved``, a run's copy), whose
         design lengths are bare counts of 0.1 m elements; a case file a person writes gives
-        them with their unit (0.6 m). Default: when ``text`` is given.
+        them with their unit (0.6 m). Default: when ``text`` is given or ``path`` is a run
+        directory's ``case.yaml``.
     budget
         ``optimisation.budget`` given on the command line (``resume --budget``), applied after
         the overrides; the initial design's default follows it as it follows a file's.
@@ -267,7 +275,8 @@ def load_case(path: str | Path, overrides=(), text: str | None = None,
     """
     path = Path(path)
     file = str(path)
-    resolved = text is not None if resolved is None else resolved
+    if resolved is None:
+        resolved = text is not None or _is_run_copy(path)
     text = read_case_text(path) if text is None else text
     raw, lines = read_with_base(path, text)
     overrides = tuple(overrides)
