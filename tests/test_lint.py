@@ -181,3 +181,38 @@ def test_the_circle_check_sees_a_circle_through_a_lazy_import():
     assert _import_circles(_import_graph(sources)) == [["p.a", "p.b", "p.c"]]
     del sources["p.c"]
     assert _import_circles(_import_graph(sources)) == []
+
+
+def _package_map(sources: dict[str, str]) -> dict[str, set[str]]:
+    """What each package of lccopt/ (or top-level module) imports of the others: the lines of
+    docs/house.md's package map."""
+    def unit(module):
+        parts = module.split(".")
+        return parts[1] if len(parts) > 1 else parts[0]
+
+    out: dict[str, set[str]] = {}
+    for module, found in _import_graph(sources).items():
+        out.setdefault(unit(module), set()).update(unit(m) for m in found)
+    return {u: found - {u} for u, found in out.items()}
+
+
+def test_the_house_map_in_the_docs_is_the_code():
+    """docs/house.md's package map (between its house-map markers) lists every package and
+    top-level module of lccopt/ with what it imports, as the code does."""
+    import re
+
+    sources = {}
+    for rel, text in _package_modules():
+        parts = rel[:-3].split("/")
+        sources[".".join(parts[:-1] if parts[-1] == "__init__" else parts)] = text
+    doc = (ROOT / "docs" / "house.md").read_text(encoding="utf-8")
+    block = re.search(r"<!-- house-map -->\n```\n(.*?)```\n<!-- /house-map -->", doc, re.S)
+    assert block, "docs/house.md has no package map between <!-- house-map --> markers"
+    drawn = {}
+    for line in block.group(1).splitlines():
+        name, _, targets = line.partition("->")
+        drawn[name.strip()] = {t.strip() for t in targets.split(",") if t.strip()}
+    measured = _package_map(sources)
+    differ = [f"{u}: drawn {sorted(drawn.get(u, ()))}, code {sorted(measured.get(u, ()))}"
+              for u in sorted(set(drawn) | set(measured)) if drawn.get(u) != measured.get(u)]
+    assert differ == [], "docs/house.md's package map is not the code:\n" + "\n".join(differ)
