@@ -5,10 +5,10 @@ per evaluation: two fsyncs each would bound a run's throughput by the disk's fsy
 fsyncs are left out: the file is still complete whatever kill -9 interrupted, but a power cut
 can leave it damaged, which ``lccopt resume`` detects and simulates again.
 
-Everything is done relative to a held directory (``safeio.Folder``): the temporary file is
-created there (``O_EXCL``, never through a link) and renamed there. A failure (a full disk, a
-read-only or immutable file) names the file being written, never the temporary one, which is
-removed.
+Everything is done relative to a held directory (``folder.Folder``, whose ``write`` this is;
+``folder.write_owned`` for a file named by its path): the temporary file is created there
+(``O_EXCL``, never through a link) and renamed there. A failure (a full disk, a read-only or
+immutable file) names the file being written, never the temporary one, which is removed.
 """
 
 from __future__ import annotations
@@ -17,13 +17,13 @@ import contextlib
 import os
 import secrets
 import stat
-from pathlib import Path
 
-from .safeio import Folder, UnsafeFile, kind_of, named
+from .safeio import UnsafeFile, kind_of, named
 
 
-def write_in(folder: Folder, name: str, data: bytes, durable: bool = True) -> None:
-    """Write ``data`` as ``name`` in ``folder``, whole or not at all (see the module docstring).
+def write_in(folder, name: str, data: bytes, durable: bool = True) -> None:
+    """Write ``data`` as ``name`` in ``folder`` (a ``folder.Folder``), whole or not at all (see
+    the module docstring).
 
     A link in the way is replaced, never followed (rename does not follow it); a folder or a
     special file there is refused with its own name."""
@@ -60,13 +60,3 @@ def write_in(folder: Folder, name: str, data: bytes, durable: bool = True) -> No
             raise named(exc, folder.display(name)) from None
         raise
 
-
-def atomic_write_bytes(path, data: bytes) -> None:
-    """Write the file at ``path`` whole or not at all (its folder, the user's, opened once)."""
-    path = Path(path)
-    with Folder.open(path.parent) as folder:
-        write_in(folder, path.name, data)
-
-
-def atomic_write_text(path, text: str) -> None:
-    atomic_write_bytes(path, text.encode("utf-8"))

@@ -17,7 +17,7 @@ when every file is complete are they moved into place, each by one rename:
 One command at a time per folder: the folder the files are moved into is locked (flock) for
 the whole command; a second one is refused with one line. A staging folder that a killed
 command left (kill -9: nothing else can leave one) is removed by the next command that writes
-there. Everything is done relative to folders held open (``safeio.Folder``): moving DIR or
+there. Everything is done relative to folders held open (``folder.Folder``): moving DIR or
 putting a link in its place meanwhile never redirects a write.
 """
 
@@ -31,7 +31,8 @@ import stat
 from pathlib import Path
 
 from .errors import UsageError
-from .safeio import Folder, UnsafeFile, kind_of, named
+from .folder import Folder
+from .safeio import UnsafeFile, kind_of, named
 
 STAGING = ".lccopt-"        # .lccopt-<command>-XXXXXXXX.tmp
 _RENAME_NOREPLACE, _RENAME_EXCHANGE = 1, 2

@@ -4,10 +4,10 @@ One file holds one evaluation: ``/design`` (x with variable names as an attribut
 ``/objectives`` (one attribute per objective, SI units), ``/histories/<name>`` and
 ``/info`` attributes. A file is built whole in memory (HDF5's core driver: HDF5 itself never
 writes to the disk, so a full disk is an ordinary error of one ``write``), then written to a
-temporary name and renamed (``atomic.write_in``), so a file that exists is complete.
+temporary name and renamed (``folder.Folder.write``), so a file that exists is complete.
 
 Where a file goes (``dest``) and where one is read from (``src``) is a path, or a
-``(safeio.Folder, name)`` pair: a file in a directory lccopt holds open (a run's evals/).
+``(folder.Folder, name)`` pair: a file in a directory lccopt holds open (a run's evals/).
 """
 
 from __future__ import annotations
@@ -18,7 +18,9 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from .safeio import Folder, UnsafeFile, check_datasets, h5_open_owned, h5_read
+from .folder import write_owned
+from .safe_h5 import check_datasets, h5_open_owned, h5_read
+from .safeio import UnsafeFile
 from .uncertainty import statistics
 from .vti.response import HISTORY_DOC, OBJECTIVE_UNITS, Evaluation
 
@@ -39,14 +41,7 @@ def h5_image(fill) -> bytes:
 def write_h5(dest, fill, durable: bool = True) -> Path:
     """Write the HDF5 file that ``fill(f)`` builds to ``dest`` whole or not at all (fsynced if
     ``durable``); return its path (for messages)."""
-    data = h5_image(fill)
-    if isinstance(dest, tuple):
-        folder, name = dest
-        return folder.write(name, data, durable)
-    path = Path(dest)
-    with Folder.open(path.parent) as folder:
-        folder.write(path.name, data, durable)
-    return path
+    return write_owned(dest, h5_image(fill), durable)
 
 
 def write_evaluation(dest, evaluation: Evaluation, x, names, attrs: dict | None = None,

@@ -1,5 +1,5 @@
-"""lccopt.safeio: special files are refused at once (no hang, no runaway read), links inside
-a run directory are never followed, sizes are checked while reading."""
+"""lccopt.safeio, folder and safe_h5: special files are refused at once (no hang, no runaway
+read), links inside a run directory are never followed, sizes are checked while reading."""
 
 from __future__ import annotations
 
@@ -9,7 +9,8 @@ import h5py
 import numpy as np
 import pytest
 
-from lccopt import safeio
+from lccopt import safe_h5, safeio
+from lccopt.folder import Folder, open_owned, read_owned
 
 
 def test_inputs_must_be_regular_files_and_are_read_only_up_to_the_limit(tmp_path):
@@ -38,23 +39,23 @@ def test_owned_files_are_never_opened_through_a_link(tmp_path):
     link.symlink_to(outside)
     for mode in ("rb", "ab", "a+"):
         with pytest.raises(safeio.UnsafeFile, match="symbolic link"):
-            safeio.open_owned(link, mode)
+            open_owned(link, mode)
     with pytest.raises(safeio.UnsafeFile, match="symbolic link"):
-        safeio.read_owned(link)
+        read_owned(link)
     assert outside.read_text() == "precious"
     fifo = tmp_path / "fifo"
     os.mkfifo(fifo)
     for mode in ("rb", "ab", "a+"):
         with pytest.raises(safeio.UnsafeFile, match="FIFO"):
-            safeio.open_owned(fifo, mode)
+            open_owned(fifo, mode)
     hard = tmp_path / "hard"
     os.link(outside, hard)       # a hard link: the same file under two names
     for mode in ("ab", "a+"):
         with pytest.raises(safeio.UnsafeFile, match="hard links"):
-            safeio.open_owned(hard, mode)
+            open_owned(hard, mode)
     assert outside.read_text() == "precious"
     new = tmp_path / "new"
-    with safeio.open_owned(new, "ab") as fh:
+    with open_owned(new, "ab") as fh:
         fh.write(b"ok")
     assert new.read_bytes() == b"ok"
 
@@ -62,7 +63,7 @@ def test_owned_files_are_never_opened_through_a_link(tmp_path):
 def test_owned_directories_and_hdf5_files(tmp_path):
     real = tmp_path / "evals"
     real.mkdir()
-    top = safeio.Folder.open(tmp_path)
+    top = Folder.open(tmp_path)
     assert top.sub("evals").identity == (real.stat().st_dev, real.stat().st_ino)
     elsewhere = tmp_path / "elsewhere"
     elsewhere.mkdir()
@@ -75,11 +76,11 @@ def test_owned_directories_and_hdf5_files(tmp_path):
     h5 = real / "000000.h5"
     with h5py.File(h5, "w") as f:
         f["a"] = np.arange(3)
-    with safeio.h5_open_owned(h5) as f:
-        assert safeio.h5_read(f["a"]).tolist() == [0, 1, 2]
+    with safe_h5.h5_open_owned(h5) as f:
+        assert safe_h5.h5_read(f["a"]).tolist() == [0, 1, 2]
     os.mkfifo(real / "000001.h5")
     with pytest.raises(safeio.UnsafeFile, match="FIFO"):
-        with safeio.h5_open_owned(real / "000001.h5"):
+        with safe_h5.h5_open_owned(real / "000001.h5"):
             pass
     evals = top.sub("evals")
     assert evals.is_file("000000.h5") and not evals.is_file("000001.h5")
@@ -88,7 +89,7 @@ def test_owned_directories_and_hdf5_files(tmp_path):
 def test_a_folder_held_open_is_written_where_it_went_never_through_its_old_path(tmp_path):
     run = tmp_path / "run"
     run.mkdir()
-    folder = safeio.Folder.open(run)
+    folder = Folder.open(run)
     folder.write("a.json", b"1")
     run.rename(tmp_path / "moved")
     (tmp_path / "elsewhere").mkdir()
@@ -100,7 +101,7 @@ def test_a_folder_held_open_is_written_where_it_went_never_through_its_old_path(
 
 
 def test_a_failed_write_names_the_file_and_leaves_no_temporary_one(tmp_path):
-    folder = safeio.Folder.open(tmp_path)
+    folder = Folder.open(tmp_path)
     (tmp_path / "results.h5").mkdir()
     with pytest.raises(safeio.UnsafeFile, match="results.h5: a directory"):
         folder.write("results.h5", b"x")
@@ -133,5 +134,5 @@ def test_hdf5_files_that_reach_outside_themselves_are_refused(tmp_path, make, wo
     with h5py.File(tmp_path / "x.h5", "w") as f:
         make(f, other)
     with pytest.raises(safeio.UnsafeFile, match=words):
-        with safeio.h5_open_owned(tmp_path / "x.h5") as f:
-            safeio.h5_read(f["d"])
+        with safe_h5.h5_open_owned(tmp_path / "x.h5") as f:
+            safe_h5.h5_read(f["d"])

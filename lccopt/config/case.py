@@ -140,7 +140,7 @@ class Case:
 
     def degradation_spec(self):
         """The settlement prediction's inputs
-        (:class:`lccopt.degradation.specs.DegradationSpec`) of a case with ``degradation:``,
+        (:class:`lccopt.degradation.inputs.DegradationSpec`) of a case with ``degradation:``,
         on this case object's track (``variation``)."""
         return degradation_spec(self.data, self.traffic, self.variation)
 

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ..degradation.specs import (
+from ..degradation.inputs import (
     DegradationSpec,
     LawSpec,
     Limit,
@@ -353,7 +353,7 @@ def degradation_spec(data: dict, conditions: tuple, variation=None) -> Degradati
 
     Returns
     -------
-    lccopt.degradation.specs.DegradationSpec
+    lccopt.degradation.inputs.DegradationSpec
     """
     deg = data["degradation"]
     resolved = resolved_traffic(data, conditions)

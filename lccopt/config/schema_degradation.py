@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-from ..degradation.specs import LAW_NAMES, LIMIT_MEASURES, READINGS, SOILS
+from ..degradation.inputs import LAW_NAMES, LIMIT_MEASURES, READINGS, SOILS
 from .kinds import (
     Named,
     Num,

@@ -16,7 +16,7 @@ The whole prediction is one evaluation (one worker task): its conditions are cou
 the track they settle together, so they cannot be split over workers the way the paper's
 independent simulations are.
 
-Its typed inputs (:mod:`lccopt.degradation.specs`) are built by the config layer from a
+Its typed inputs (:mod:`lccopt.degradation.inputs`) are built by the config layer from a
 validated case; this module imports nothing from it.
 """
 
@@ -31,10 +31,10 @@ from ..vti.response import PAPER_OBJECTIVES, REPORTED_ONLY, SETTLEMENT_OBJECTIVE
 from ..vti.specs import TrackDesign
 from ..vti.track import build_track
 from ..vti.vehicle import build_vehicle
+from .inputs import DegradationSpec, LawSpec, Limit, SubgradeSpec, Traffic
 from .iteration import SettlementResult, Tamping, predict_settlement
 from .laws import LAWS, SlabSettlement, SleeperLaw, SubgradeLaw
 from .loading import PassageKind, entry_zone, vti_passage_kind
-from .specs import DegradationSpec, LawSpec, Limit, SubgradeSpec, Traffic
 
 
 def assess_settlement(spec: DegradationSpec, design: TrackDesign) -> Evaluation:

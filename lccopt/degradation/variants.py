@@ -16,8 +16,8 @@ from dataclasses import replace
 import numpy as np
 from scipy.optimize import brentq
 
+from .inputs import READINGS, DegradationSpec, LawSpec
 from .laws import harmonic
-from .specs import READINGS, DegradationSpec, LawSpec
 
 SPREAD = 0.3
 

@@ -15,9 +15,9 @@ past the timeout is killed and replaced and only its task is recorded as failed
 (``concurrent.futures.ProcessPoolExecutor`` breaks as a whole on one dead worker). Workers
 run single-threaded BLAS, ignore SIGINT and die with the parent process.
 
-:class:`~lccopt.engine.dask_pool.DaskExecutor` (dask_pool.py, where its timeouts, dead
-workers and file writing are described) submits to a ``dask.distributed`` scheduler
-(``--scheduler ADDRESS``).
+:class:`~lccopt.engine.dask_executor.DaskExecutor` (dask_executor.py, where its timeouts
+and dead workers are described; dask_task.py, its file writing) submits to a
+``dask.distributed`` scheduler (``--scheduler ADDRESS``).
 """
 
 from __future__ import annotations

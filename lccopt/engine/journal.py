@@ -26,7 +26,8 @@ import fcntl
 import json
 import os
 
-from ..safeio import Folder, named, open_owned, read_owned
+from ..folder import Folder, open_owned, read_owned
+from ..safeio import named
 from .events import EventCheck
 
 

@@ -15,7 +15,7 @@ One process drives a run: it holds an advisory lock (flock) on the journal, on t
 it appends with, and on ``lock``; a second driver is refused whatever happened to the lock file,
 and the driver checks now and then that both are still the run's files.
 
-The directory is held open (``safeio.Folder``) from the moment it is opened or made: every file
+The directory is held open (``folder.Folder``) from the moment it is opened or made: every file
 is read, written and renamed relative to it, so moving the run directory or putting a link in
 its place while a command works on it never redirects a read or a write. Every file but the
 journal is written to a temporary name (fsynced) and renamed.
@@ -36,7 +36,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..safeio import Folder, UnsafeFile, kind_of
+from ..folder import Folder
+from ..safeio import UnsafeFile, kind_of
 from .events import RUN
 from .journal import encode
 

@@ -12,7 +12,7 @@ from .. import machine
 from ..config import SAFE_NAME, Case, load_case
 from ..errors import CaseError, UsageError, signals_deferred
 from ..problem import Problem
-from .dask_pool import DaskExecutor
+from .dask_executor import DaskExecutor
 from .events import ASKED, RUN
 from .executors import ExecutorError, LocalPool, default_workers
 from .journal import Journal, JournalError, read_journal, repair
@@ -98,7 +98,8 @@ def _clear_the_way(run_path: Path, runs: Path, force: bool, case_obj) -> None:
     """Make sure nothing is at ``run_path`` before the run is made there: without ``force``
     anything there is refused; with it, only the lccopt run directory found there (never
     through a link) is removed, once no process drives it (RunError otherwise)."""
-    from ..safeio import Folder, UnsafeFile
+    from ..folder import Folder
+    from ..safeio import UnsafeFile
 
     try:
         folder = Folder.open(runs)

@@ -176,7 +176,7 @@ def _out_folder(task: Task):
     (the evaluation goes back whole, for the lccopt process to write) if that path does not
     lead to the run's own directory: the run directory was moved or a link put in its place,
     or, on Dask, this worker does not see it."""
-    from ..safeio import Folder
+    from ..folder import Folder
 
     try:
         folder = Folder.open(os.path.dirname(task.out_path))

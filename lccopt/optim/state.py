@@ -78,9 +78,9 @@ def from_state(cls, d: dict, candidates=None, restarts=None):
 
 def save(s, path) -> None:
     """Atomic write: temporary file in the same directory, fsync, rename."""
-    from ..atomic import atomic_write_text
+    from ..folder import write_owned
 
-    atomic_write_text(path, json.dumps(state_dict(s), allow_nan=False))
+    write_owned(path, json.dumps(state_dict(s), allow_nan=False).encode("utf-8"))
 
 
 def load(cls, path):

@@ -45,7 +45,7 @@ def law_check(run, bi: int, ri: int | None, out: Path, echo=None) -> dict | None
 
     from ..degradation.assessment import predict, settlement_objectives
     from ..degradation.variants import law_variants
-    from ..safeio import read_owned
+    from ..folder import read_owned
     from ..version import __version__
 
     case = run.case

@@ -98,8 +98,8 @@ def test_years_to_limit_is_when_the_measure_reaches_the_limit(single):
     if below:
         assert o["years_to_limit"] == pytest.approx(1.0)
     # a limit it does reach: the first block past it brackets the time
+    from lccopt.degradation.inputs import Limit
     from lccopt.degradation.iteration import SettlementResult
-    from lccopt.degradation.specs import Limit
 
     r = SettlementResult(years=years, axle_passes=h["settlement_axle_passes"],
                          settlement=h["settlement_sleepers"], void=h["settlement_void"],

@@ -4,8 +4,8 @@
 import numpy as np
 import pytest
 
+from lccopt.degradation.inputs import DegradationSpec, LawSpec
 from lccopt.degradation.laws import LogarithmicLaw, VarandasLaw
-from lccopt.degradation.specs import DegradationSpec, LawSpec
 from lccopt.degradation.variants import law_variants, other_law
 from lccopt.report.law_variants import _verdict, check_sentences
 

@@ -70,21 +70,21 @@ def test_a_dask_worker_writes_the_file_only_where_it_sees_the_run_directory(tmp_
     other content (another machine's directory of the same name), it writes nothing and
     returns the evaluation for the lccopt process to write."""
     from lccopt.config import load_case
-    from lccopt.engine import dask_pool
+    from lccopt.engine import dask_task
     from lccopt.engine.worker import Task
     from lccopt.problem import Problem
 
     case = load_case(write_case(tmp_path, "probe", budget=4, initial=4, seed=1))
     evals = tmp_path / "evals"
     evals.mkdir()
-    _, probe = dask_pool._write_probe(evals)
+    _, probe = dask_task.write_probe(evals)
     assert probe[0].endswith(".tmp") and open(probe[0]).read() == probe[1]
     x = list(Problem.from_case(case).reference)
-    here = dask_pool.dask_task(case, Task(0, x, out_path=str(evals / "000000.h5")), FAKE, probe)
+    here = dask_task.dask_task(case, Task(0, x, out_path=str(evals / "000000.h5")), FAKE, probe)
     assert here.error is None and here.file_written and here.evaluation is None
     assert read_evaluation(evals / "000000.h5")[1].objectives == here.objectives
     for other in [(probe[0], "0" * 32), (str(tmp_path / "nowhere.tmp"), probe[1])]:
-        away = dask_pool.dask_task(case, Task(1, x, out_path=str(evals / "000001.h5")), FAKE, other)
+        away = dask_task.dask_task(case, Task(1, x, out_path=str(evals / "000001.h5")), FAKE, other)
         assert away.error is None and not away.file_written and away.evaluation is not None
         assert not (evals / "000001.h5").exists()
 
@@ -190,7 +190,7 @@ class _Cluster:
             client.wait_for_workers(2, timeout=120)
             # a worker's first evaluation imports lccopt (about a second): done before a test's
             # short timeouts start
-            for module in ("tests.engine.fakesim", "lccopt.engine.dask_pool", "lccopt.store"):
+            for module in ("tests.engine.fakesim", "lccopt.engine.dask_task", "lccopt.store"):
                 client.run(importlib.import_module, module)
         return self
 
@@ -256,7 +256,7 @@ def test_a_scheduler_killed_mid_run_is_an_environment_fault_never_a_failed_desig
     import threading
     import time
 
-    from lccopt.engine import dask_pool
+    from lccopt.engine import dask_executor
     from lccopt.errors import UsageError
 
     from .conftest import cli, cli_run, journal_events, n_done, wait_for
@@ -282,7 +282,7 @@ def test_a_scheduler_killed_mid_run_is_an_environment_fault_never_a_failed_desig
         assert_same_evaluations(reference, read_table(run))
 
         # never back: exit 2 after the wait (shortened here), nothing failed, then a resume
-        monkeypatch.setattr(dask_pool, "RECONNECT_TIMEOUT", 3.0)
+        monkeypatch.setattr(dask_executor, "RECONNECT_TIMEOUT", 3.0)
         gone = tmp_path / "gone" / "lost"
         monkeypatch.setenv("LCCOPT_FAKE_DELAY", "0.3")
 
@@ -318,7 +318,7 @@ def test_a_scheduler_frozen_longer_than_the_timeout_times_out_no_design(tmp_path
     import threading
     import time
 
-    from lccopt.engine import dask_pool
+    from lccopt.engine import dask_executor
 
     from .conftest import cli, journal_events, n_done, wait_for
 
@@ -345,7 +345,7 @@ def test_a_scheduler_frozen_longer_than_the_timeout_times_out_no_design(tmp_path
         assert not [e for e in journal_events(run) if e["event"] == "failed"]
         assert_same_evaluations(reference, read_table(run))
 
-        monkeypatch.setattr(dask_pool, "PROBE_TIMEOUT", 3.5)
+        monkeypatch.setattr(dask_executor, "PROBE_TIMEOUT", 3.5)
         monkeypatch.setenv("LCCOPT_FAKE_DELAY", "0.3")
         run = tmp_path / "b" / "frozen"
         stopper = threading.Thread(target=freeze, args=(run, 4.5), daemon=True)

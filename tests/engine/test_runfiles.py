@@ -161,7 +161,7 @@ def test_a_kill_9_while_a_run_is_made_leaves_nothing_the_next_optimise_keeps(tmp
     case = write_case(tmp_path, "mk", budget=4, initial=4)
     runs = tmp_path / "runs"
     # kill -9 at the last moment of the creation: the folder is whole but not yet renamed
-    kill = ("import os, signal, sys; from lccopt.safeio import Folder; real = Folder.rename\n"
+    kill = ("import os, signal, sys; from lccopt.folder import Folder; real = Folder.rename\n"
             "def rename(self, a, b, into=None):\n"
             "    if '.creating-' in a: os.kill(os.getpid(), signal.SIGKILL)\n"
             "    return real(self, a, b, into)\n"

@@ -5,11 +5,9 @@ A task past the timeout is cancelled and recorded as failed (Dask cannot kill a 
 Python thread: the worker thread stays busy until the simulation returns); a worker that
 dies is handled by Dask (the task is retried elsewhere, then reported as failed). A scheduler
 that goes away (dies, disconnects, freezes, loses all its workers) fails nothing: what was in
-flight runs again when it is back (``DaskExecutor``). A worker
-that sees the run directory (the same machine, or a shared file system: it finds in the
-evals/ folder it opens the probe file this process wrote, with its random content) writes the
-evaluation file itself, through that folder held open, as a local worker does; any other
-returns the whole evaluation and this process writes it.
+flight runs again when it is back (``DaskExecutor``). What runs on a worker, and how it writes
+the evaluation file when it sees the run directory, is in dask_task.py; reaching the scheduler
+in dask_client.py.
 """
 
 from __future__ import annotations
@@ -23,37 +21,15 @@ import uuid
 from pathlib import Path
 
 from . import awake
+from .dask_client import (
+    check_scheduler_address,
+    quiet_client,
+    quiet_client_loggers,
+    restore_loggers,
+)
+from .dask_task import dask_task, write_probe
 from .executors import ExecutorError, ExecutorLost
-from .worker import Outcome, Task, load_evaluator, run_task
-
-_DASK_EVALUATORS: dict = {}
-
-
-def dask_task(case, task: Task, spec, probe=None) -> Outcome:
-    """Runs on a Dask worker: writes the evaluation file if it sees the run directory (finds
-    the ``probe``, (path, content), in the folder of the evaluation file; checked for every
-    task: worker.run_task), else returns the whole Evaluation for the parent to write."""
-    try:
-        from distributed import get_worker
-
-        name = get_worker().address
-    except Exception:  # noqa: BLE001
-        name = "dask"
-    if task.out_path is not None:
-        if probe is None:
-            task.out_path = None
-        else:   # the folder's identity differs on another machine: the probe tells instead
-            task.probe, task.out_dir_id = (os.path.basename(probe[0]), probe[1]), None
-    key = spec if isinstance(spec, str) else id(spec)
-    fn = _DASK_EVALUATORS.get(key)
-    if fn is None:
-        try:
-            fn = _DASK_EVALUATORS[key] = load_evaluator(spec)
-        except Exception as exc:  # noqa: BLE001
-            return Outcome.of(task, error=f"cannot load the evaluator {spec!r} on {name}: {exc}",
-                           worker=name)
-    return run_task(case, task, fn, name)
-
+from .worker import Outcome, Task
 
 CONNECT_TIMEOUT = 10         # [s] to reach the scheduler (distributed retries meanwhile)
 WORKERS_TIMEOUT = 600        # [s] for a worker to join a scheduler that has none
@@ -63,64 +39,6 @@ HEARTBEAT = 1.0              # [s] between the executor's questions to the sched
 SILENT = 3.0                 # [s] without an answer: the scheduler is not answering (frozen)
 _RESUME = "--scheduler ADDRESS"   # what a resume on a cluster that works needs
 MAX_CANCELLED = 3            # times an evaluation may be cancelled by Dask before the run stops
-_SCHEMES = ("tcp", "tls", "ws", "wss", "ucx")
-# distributed's loggers of the client's side of a connection
-_CLIENT_LOGGERS = ("distributed.client", "distributed.batched", "distributed.comm",
-                   "distributed.core")
-
-
-def _check_scheduler_address(address: str) -> None:
-    """Refuse an address distributed cannot use before a Client is made: an unknown scheme, a
-    malformed location, a transport that is not installed (ucx) or TLS without certificates
-    in Dask's configuration (lccopt has no options of its own for them)."""
-    from distributed.comm.addressing import parse_address, parse_host_port
-
-    try:
-        scheme, location = parse_address(address, strict=False)
-        if scheme not in _SCHEMES:
-            raise ValueError(f"unknown scheme '{scheme}://' "
-                             f"(expected one of {', '.join(_SCHEMES)})")
-        parse_host_port(location)
-    except (ValueError, TypeError) as exc:
-        raise ExecutorError(f"--scheduler {address[:60]!r}: {exc}; expected e.g. "
-                            f"tcp://head-node:8786") from None
-    try:
-        from distributed.comm.registry import get_backend
-
-        get_backend(scheme).get_connector()
-    except Exception as exc:  # noqa: BLE001 - ucx without distributed-ucxx warns and raises
-        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-        need = " (it needs the package distributed-ucxx)" if scheme == "ucx" else ""
-        raise ExecutorError(f"--scheduler {address[:60]!r}: the {scheme}:// transport cannot "
-                            f"be used here{need}: {first[:160]}; use tcp://") from None
-    if scheme in ("tls", "wss"):
-        import dask
-
-        tls = dask.config.get("distributed.comm.tls", {}) or {}
-        client = tls.get("client") or {}
-        if not (tls.get("ca-file") and client.get("cert")):
-            raise ExecutorError(f"--scheduler {address[:60]!r}: {scheme}:// needs the client's "
-                                f"certificates in Dask's configuration (distributed.comm.tls: "
-                                f"ca-file, client.cert, client.key; "
-                                f"https://docs.dask.org/en/stable/configuration.html), and "
-                                f"none are set")
-
-
-def _client(*args, **kwargs):
-    """A dask.distributed Client whose finaliser, for a Client that never connected, neither
-    waits 20 s for a scheduler that is not there nor prints a traceback at exit."""
-    from distributed import Client
-
-    class QuietClient(Client):
-        def __del__(self):
-            if getattr(self, "_Client__loop", None) is None:
-                return
-            with contextlib.suppress(BaseException):
-                self.close(timeout=2)
-            with contextlib.suppress(BaseException):
-                self._loop_runner.stop()
-
-    return QuietClient(*args, **kwargs)
 
 
 class DaskExecutor:
@@ -178,19 +96,10 @@ class DaskExecutor:
     # -- lifecycle ---------------------------------------------------------------------------
     def start(self, log=None) -> None:
         """Connect; wait (saying so through ``log``) for the first worker to join."""
-        import logging
-
         self._log = log
-        # this executor says in one line what a lost scheduler means for the run; distributed's
-        # own reports of it on this side (reconnecting, giving up, a closed connection's
-        # traceback) would only repeat it, with a timestamp
-        self._log_level = {}
-        for name in _CLIENT_LOGGERS:
-            logger = logging.getLogger(name)
-            self._log_level[name] = logger.level
-            logger.setLevel(logging.CRITICAL)
+        self._log_level = quiet_client_loggers()
         if isinstance(self.address, str):
-            _check_scheduler_address(self.address)
+            check_scheduler_address(self.address)
         try:
             self.client = self._connect(CONNECT_TIMEOUT)
         except Exception as exc:  # noqa: BLE001
@@ -268,8 +177,9 @@ class DaskExecutor:
 
     def _connect(self, timeout: float):
         if isinstance(self.address, str):
-            return _client(self.address, timeout=f"{timeout}s", set_as_default=False)
-        return _client(self.address, set_as_default=False)  # a Cluster object (tests, notebooks)
+            return quiet_client(self.address, timeout=f"{timeout}s", set_as_default=False)
+        # a Cluster object (tests, notebooks)
+        return quiet_client(self.address, set_as_default=False)
 
     def _say(self, message: str) -> None:
         if self._log is not None:
@@ -289,10 +199,7 @@ class DaskExecutor:
             with contextlib.suppress(BaseException):
                 client.close(timeout=5)
         if getattr(self, "_log_level", None):
-            import logging
-
-            for name, level in self._log_level.items():
-                logging.getLogger(name).setLevel(level)
+            restore_loggers(self._log_level)
             self._log_level = None
         if self._probe_folder is not None:
             if self._probe is not None:
@@ -332,7 +239,7 @@ class DaskExecutor:
 
     def submit(self, task: Task) -> None:
         if task.out_path is not None and self._probe_folder is None:
-            self._probe_folder, self._probe = _write_probe(Path(task.out_path).parent,
+            self._probe_folder, self._probe = write_probe(Path(task.out_path).parent,
                                                            task.out_dir_id)
         try:
             if not self._connected():
@@ -541,23 +448,3 @@ def _span(seconds: float) -> str:
 def _short(why: str) -> str:
     first = why.strip().splitlines()[0] if why.strip() else "no reason given"
     return first[:160]
-
-
-def _write_probe(directory: Path, identity=None):
-    """(folder, (path, content)): a file of random content in the run's evals/ (named ``*.tmp``:
-    a resume removes one left behind), by which a Dask worker knows it sees the run directory;
-    (folder, None) if ``directory`` is not the run's evals/ (``identity``) any more."""
-    from ..safeio import Folder
-
-    folder = Folder.open(directory)
-    if identity is not None and folder.identity != tuple(identity):
-        return folder, None
-    content = uuid.uuid4().hex
-    name = f"dask-probe.{content[:8]}.tmp"
-    fd = os.open(name, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o644,
-                 dir_fd=folder.fd)
-    with os.fdopen(fd, "w", encoding="ascii") as fh:
-        fh.write(content)
-    return folder, (str(directory / name), content)
-
-
