@@ -52,6 +52,7 @@ def test_optimise_status_resume_and_report(run_cli, tmp_path):
     r = run_cli("status", run)
     assert r.returncode == 0 and "finished, 6/6 evaluations" in r.stdout, r.stdout
     assert "q90(F_max)" in r.stdout
+    assert "tracks: 3 realisations (seed 1) and the drawn track per design" in r.stdout
     r = run_cli("resume", run, "--budget", "8")
     assert r.returncode == 0, r.stderr
     with h5py.File(run / "results.h5") as f:

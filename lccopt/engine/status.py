@@ -51,6 +51,11 @@ def status_lines(run: Path) -> list[str]:
     if best is not None:
         lines += wrap_items([f"{n}={v * scale:.4g}" + (f" {unit}" if unit else "")
                              for (n, unit, scale), v in zip(shown, best["x"])], "  x: ")
+    tracks = table.head.get("realisations")
+    if isinstance(tracks, dict):   # the track varies: what every design was judged on
+        lines += [f"  tracks: {tracks.get('count')} realisations (seed {tracks.get('seed')}) "
+                  f"and the drawn track per design,",
+                  f"          their fingerprint {tracks.get('fingerprint')}"]
     lines += _timing(table, budget, running)
     if not table.finished and not running:
         lines.append(f"  carry on with: lccopt resume {rd.path}")
