@@ -140,15 +140,16 @@ def bounds_text(run: RunData, bi: int, sides: list[str]) -> str:
         if limit:
             fixed.append(f"`{v.name}` ({limit})")
         else:
-            widen.setdefault(v.group, []).append(v.name)
+            widen.setdefault(v.group, []).append(v)
     text = (f"**On a bound:** {len(on)} of the best design's {len(run.variables)} variables sit on "
             f"a bound of the search: {', '.join(items)}.")
     if widen:
         parts = []
-        for group, names in widen.items():
-            why = "; ".join(w for w in (_bounds_why(group), "in 0.1 m elements" if group in (
-                "sleeper_spans", "type_ii_strip") else "") if w)
-            parts.append(f"`design.{group}.bounds` ({', '.join(names)}{f'; {why}' if why else ''})")
+        for group, vs in widen.items():
+            why = "; ".join(w for w in (_bounds_why(group), "with their unit, in steps of 0.1 m"
+                                        if vs[0].kind.length else "") if w)
+            names = ", ".join(v.name for v in vs)
+            parts.append(f"`design.{group}.bounds` ({names}{f'; {why}' if why else ''})")
         text += (f" The optimum may lie beyond the bounds the case chose: if the track allows it, "
                  f"widen {' and '.join(parts)} and start a new run (another name, or "
                  f"`lccopt optimise CASE --force`).")

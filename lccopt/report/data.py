@@ -341,9 +341,9 @@ def pct(new: float, old: float) -> str:
 def var_value(v: Variable, value: float) -> str:
     if not np.isfinite(value):
         return "–"
-    if v.group in ("sleeper_spans", "type_ii_strip"):  # counted in 0.1 m elements, shown in m
+    if v.kind.length:                 # counted in 0.1 m elements, shown in m
         return f"{value * v.scale:.1f}"
-    if v.integer or v.group == "strengthened_sleepers":
+    if v.integer:
         return f"{value:g}"
     return f"{value * v.scale:.4g}"
 
