@@ -158,12 +158,14 @@ def optimise(
     runs: Path = typer.Option(Path("runs"), help="directory that holds run directories"),
     force: bool = typer.Option(False, "--force", help="replace an existing lccopt run directory "
                                "of the same name inside --runs"),
+    budget: Optional[int] = typer.Option(None, help="evaluations in all (default: the case's "
+                                         "optimisation.budget)"),
     set_: Optional[List[str]] = _set_option(),
 ) -> None:
     """Run the surrogate optimisation of a case into runs/<case name>/."""
     from .commands.run import run_optimise
 
-    run_optimise(case, set_, workers, scheduler, runs, force)
+    run_optimise(case, set_, workers, scheduler, runs, force, budget)
 
 
 def _run_dir(run: Path) -> Path:

@@ -18,13 +18,14 @@ EXIT_INTERRUPTED = 130   # lccopt.cli's code for any interruption
 
 
 def run_optimise(case: Path, overrides, workers: int | None, scheduler: str | None, runs: Path,
-                 force: bool) -> None:
+                 force: bool, budget: int | None = None) -> None:
     from ..config import load_case
     from ..engine.runner import optimise
 
     with _exit_when_interrupted():
-        optimise(load_case(case, overrides) if overrides else case, workers=workers,
-                 scheduler=scheduler, runs=runs, force=force)
+        given = overrides or budget is not None
+        optimise(load_case(case, overrides or (), budget=budget) if given else case,
+                 workers=workers, scheduler=scheduler, runs=runs, force=force)
 
 
 def run_resume(run: Path, workers: int | None, scheduler: str | None, case: Path | None,

@@ -72,6 +72,9 @@ class Case:
     prediction per design simulates every condition on the track they settle together (so
     ``conditions`` is empty and the prediction reads ``traffic``).
 
+    ``budget_option`` is a budget given on the command line (``--budget``; a run records it,
+    as it records ``overrides``, so that a resume loads the case the same way).
+
     ``variations`` holds the realisations of a case with ``uncertainty:`` (drawn once, when
     the case is loaded: ``lccopt.config.uncertainty``); ``realisation`` is the one this case
     object simulates (``part_case``), -1 for the track as drawn.
@@ -85,6 +88,7 @@ class Case:
     traffic: tuple["Condition", ...] = ()
     variations: tuple = field(default=(), repr=False)
     realisation: int = -1
+    budget_option: int | None = None    # optimisation.budget given as --budget
 
     @cached_property
     def resolved(self) -> str:
@@ -260,7 +264,7 @@ def load_case(path: str | Path, overrides=(), text: str | None = None,
         them with their unit (0.6 m). Default: when ``text`` is given or ``path`` is a run
         directory's ``case.yaml``.
     budget
-        ``optimisation.budget`` given on the command line (``resume --budget``), applied after
+        ``optimisation.budget`` given on the command line (``--budget``), applied after
         the overrides; the initial design's default follows it as it follows a file's.
 
     Returns
@@ -282,7 +286,7 @@ def load_case(path: str | Path, overrides=(), text: str | None = None,
     overrides = tuple(overrides)
     raw = set_values.apply(raw, lines, overrides)
     if budget is not None:
-        raw = set_values.put(raw, lines, ("optimisation", "budget"), int(budget))
+        raw = set_values.put(raw, lines, ("optimisation", "budget"), int(budget), where="--budget")
     read_lengths(raw, lambda at: f"{locate(lines, at, file)}: {dotted(at)}", resolved)
     data = check(raw, SCHEMA, (), lines, file)
 
@@ -316,7 +320,8 @@ def load_case(path: str | Path, overrides=(), text: str | None = None,
     split = () if data.get("degradation") is not None else conditions
     check_uncertainty(data, conditions, err)
     return Case(path=path, text=text, data=data, variables=variables, conditions=split,
-                overrides=overrides, traffic=conditions, variations=draw(data))
+                overrides=overrides, traffic=conditions, variations=draw(data),
+                budget_option=None if budget is None else int(budget))
 
 
 def _conditions(data: dict, path: Path, lines: dict, err,

@@ -66,15 +66,15 @@ _LOCATION = re.compile(re.escape(WHERE) + r":\d+: \S+: ")
 _ANCHOR = re.compile(r"(?:^|[\[{,]|:\s)\s*[&*][^\s,\]}]")
 
 
-def _mark(value: Any, path: tuple, lines: dict) -> None:
-    """Every key path of ``value`` set at ``path`` is located at --set."""
-    lines[path] = WHERE
+def _mark(value: Any, path: tuple, lines: dict, where: str = WHERE) -> None:
+    """Every key path of ``value`` set at ``path`` is located at ``where``."""
+    lines[path] = where
     if isinstance(value, dict):
         for k, v in value.items():
-            _mark(v, path + (k,), lines)
+            _mark(v, path + (k,), lines, where)
     elif isinstance(value, list):
         for i, v in enumerate(value):
-            _mark(v, path + (i,), lines)
+            _mark(v, path + (i,), lines, where)
 
 
 def apply(raw: dict, lines: dict, items) -> dict:
@@ -86,13 +86,15 @@ def apply(raw: dict, lines: dict, items) -> dict:
     return raw
 
 
-def put(raw: dict, lines: dict, path: tuple, value: Any, item: str = "") -> dict:
+def put(raw: dict, lines: dict, path: tuple, value: Any, item: str = "",
+        where: str = WHERE) -> dict:
     """The raw case with ``value`` at key ``path``, a value given on the command line (a --set
-    item, or an option's typed value such as ``resume --budget``): located at --set."""
+    item, or an option's typed value such as ``--budget``): located at ``where``, the
+    option that gave it."""
     raw = _set(raw, path, value, item or dotted(path))
     for k in range(1, len(path)):  # sections the item made (nosuch.key=3 makes nosuch)
-        lines.setdefault(path[:k], WHERE)
-    _mark(value, path, lines)
+        lines.setdefault(path[:k], where)
+    _mark(value, path, lines, where)
     return raw
 
 

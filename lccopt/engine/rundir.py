@@ -413,6 +413,8 @@ def _fill_new_run(made: Folder, case, problem, evaluator: str) -> None:
         # the --set items the case was loaded with: resume loads it the same way
         "overrides": list(getattr(case, "overrides", ())),
     }
+    if getattr(case, "budget_option", None) is not None:   # --budget: resume loads it again
+        meta["budget"] = int(case.budget_option)
     if getattr(case, "realisations", 0):
         from ..config.uncertainty import record
 

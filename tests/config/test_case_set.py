@@ -95,3 +95,25 @@ def test_optimise_takes_set_and_the_run_records_it(tmp_path, run_cli):
     assert copy["vehicle"]["speed"] == pytest.approx(120 / 3.6)
     with h5py.File(run / "results.h5") as f:
         assert len(f["evaluations/id"]) == 6
+
+
+@pytest.mark.slow
+def test_optimise_budget_is_the_budget_a_resume_keeps(tmp_path, run_cli):
+    """`optimise --budget N` runs N evaluations whatever the file says; the run records it, so
+    a resume of the finished run finds the case unchanged (not 'the case file changed'); a
+    budget out of bounds is one line blaming --budget, exit 2."""
+    case = write_case(tmp_path, "bud", objectives=("F_max",), budget=20, initial=5)
+    env = {"LCCOPT_EVALUATOR": FAKE}
+    bad = run_cli("optimise", case, "--budget", "1", "--runs", tmp_path / "runs", env=env)
+    assert bad.returncode == 2
+    assert bad.stderr.strip() == "lccopt: error: --budget: optimisation.budget: must be >= 2, got 1"
+    assert not (tmp_path / "runs" / "bud").exists()
+    r = run_cli("optimise", case, "--budget", "7", "--workers", "1", "--runs", tmp_path / "runs",
+                env=env)
+    assert r.returncode == 0, r.stderr
+    run = tmp_path / "runs" / "bud"
+    with h5py.File(run / "results.h5") as f:
+        assert len(f["evaluations/id"]) == 7
+    again = run_cli("resume", run, "--workers", "1", env=env)
+    assert again.returncode == 0, again.stderr
+    assert "finished: 7 evaluations" in again.stderr + again.stdout
