@@ -35,6 +35,7 @@ class Group:
     counted: bool      # count: variables in the group (else one)
     integer: bool      # kind integer (else continuous)
     first: str = ""    # the words of variable 1 where they differ
+    absent_at_zero: bool = False   # 0 leaves the component out (no Type II strip)
 
     @property
     def length(self) -> bool:
@@ -54,7 +55,7 @@ GROUPS = (
     Group("sleeper_spans", "x_s", "elements", "m", ELEMENT_UNIT,
           "span sleeper {k_1} to sleeper {k}", True, True, "span slab edge to sleeper 1"),
     Group("type_ii_strip", "x_l", "elements", "m", ELEMENT_UNIT,
-          "Type II strip from the entry slab edge", False, True),
+          "Type II strip from the entry slab edge", False, True, absent_at_zero=True),
 )
 GROUP = {g.key: g for g in GROUPS}
 _UNKNOWN = Group("", "", "-", "", 1.0, "", False, False)   # a name no group's stem gives
@@ -76,6 +77,13 @@ class Variable:
     @property
     def kind(self) -> Group:
         return GROUP.get(self.group, _UNKNOWN)
+
+    @property
+    def switch(self) -> bool:
+        """Whether the optimiser searches the variable as an on/off choice with a value behind
+        it: its group's 0 leaves the component out and its range runs from 0
+        (``lccopt.optim.space``, ``switch``)."""
+        return self.kind.absent_at_zero and self.lower == 0 < self.upper
 
     @property
     def internal_unit(self) -> str:

@@ -20,7 +20,7 @@ from .events import ASKED, CASE_CHANGED, EXHAUSTED, REFERENCE, RESULTS, SCHEDULE
 from .journal import JournalError, line_mark
 from .run import Run
 from .schedule import release
-from .upgrade import settings_unrecorded
+from .upgrade import ADDED_SETTINGS, recorded_settings_dict, settings_unrecorded
 
 
 def restore(problem: Problem, events: list[dict], snapshot: dict | None):
@@ -95,8 +95,9 @@ def _restore(problem: Problem, events: list[dict], snapshot: dict | None):
 def recorded_settings(problem: Problem, first: dict):
     """The optimiser settings of the run whose journal's first line is ``first``.
 
-    The line records them (``"optimiser"``: the settings' dict); a line that says
-    ``"optimiser": 12`` instead means today's default settings for the recorded surrogate.
+    The line records them (``"optimiser"``: the settings' dict, where a setting added since
+    takes its earlier value); a line that says ``"optimiser": 12`` instead means today's
+    default settings for the recorded surrogate with those added since at their earlier value.
     Any other run (another number, no settings, or settings this lccopt does not have)
     raises JournalError naming the lccopt version that made it."""
     from ..optim.settings import Settings
@@ -104,12 +105,13 @@ def recorded_settings(problem: Problem, first: dict):
     rec = first.get("optimiser")
     if isinstance(rec, dict):
         try:
-            return Settings.from_dict(rec)
+            return Settings.from_dict(recorded_settings_dict(rec))
         except ValueError as exc:
             raise JournalError(f"{_made_by(first)} with optimiser settings this lccopt does not "
                                f"have ({exc}): resume it with that version") from None
     if settings_unrecorded(rec):
-        return Settings.default(composite=first.get("surrogate", "scalar") != "scalar")
+        return Settings.default(composite=first.get("surrogate", "scalar") != "scalar").replace(
+            **ADDED_SETTINGS)
     what = ("no optimiser settings" if rec is None
             else f"\"optimiser\": {rec!r} instead of its settings")
     raise JournalError(f"{_made_by(first)} (its journal names {what}), whose proposals this "

@@ -10,9 +10,13 @@ from __future__ import annotations
 from .worker import DEFAULT_EVALUATOR
 
 # A journal's first line with "optimiser": 12 (a number instead of the settings) was written
-# by the last lccopt that did not record its settings; today's defaults make the proposals of
-# its runs.
+# by the last lccopt that did not record its settings; today's defaults with the settings
+# added since at their value before (ADDED_SETTINGS) make the proposals of its runs.
 UNRECORDED_DEFAULTS = 12
+
+# optimiser settings added after runs recorded theirs, at the value that makes the proposals
+# of a run that does not name them (switches: every variable searched as one range)
+ADDED_SETTINGS = {"switches": False}
 
 # the simulator under the name older runs recorded in run.json
 RENAMED_EVALUATORS = {"lccopt.vti.simulate:evaluate": DEFAULT_EVALUATOR}
@@ -21,6 +25,11 @@ RENAMED_EVALUATORS = {"lccopt.vti.simulate:evaluate": DEFAULT_EVALUATOR}
 def settings_unrecorded(recorded) -> bool:
     """Whether a first line's ``"optimiser"`` value means today's default settings."""
     return type(recorded) is int and recorded == UNRECORDED_DEFAULTS
+
+
+def recorded_settings_dict(recorded: dict) -> dict:
+    """A journal's recorded settings with the settings added since at their earlier value."""
+    return {**ADDED_SETTINGS, **recorded}
 
 
 def evaluator_name(recorded):

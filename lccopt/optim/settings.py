@@ -52,6 +52,7 @@ _CHOICES = {
     "restart_keeps_points": (True, False),
     "restart_from": ("endgame", "fresh"),
     "subspace_start": ("endgame", "stalled"),
+    "switches": (True, False),
 }
 
 
@@ -82,6 +83,10 @@ class Settings:
     subspace_start : {"endgame", "stalled"}
         Which restart takes the run's one probe-and-subspace step: the first that goes on
         from the run's best point, or the first after a phase that found nothing better.
+    switches : bool
+        A variable whose 0 leaves a component out (``DesignSpace.switch``: the Type II strip)
+        is searched as off or on, each half of its search range; False: as one range, as
+        runs recorded before this setting were.
     """
 
     composite: bool = False
@@ -91,6 +96,7 @@ class Settings:
     restart_keeps_points: bool = True
     restart_from: str = "endgame"
     subspace_start: str = "endgame"
+    switches: bool = True
 
     def __post_init__(self) -> None:
         for f in fields(self):

@@ -10,6 +10,14 @@ its search coordinate is ln x, so equal ratios are equal steps (a stiffness from
 initial design in search coordinates (``to_search``/``from_search``) and measures
 distance in the unit box of those; points themselves stay in the variables' own units.
 For a linear variable every mapping is the identity, bit for bit.
+
+A variable whose 0 leaves a component out (``switch``: the Type II strip, 0 to 12 m) is an
+on/off choice with a value behind it. Searched as one range, "off" is a single value of
+121: a Latin hypercube seldom draws it and a step from a long strip seldom reaches it past
+the short strips between (benchmarks/RESULTS-optimiser.md, "Why moo's fresh phases end in
+the strip basin"). Its search coordinate therefore runs from -upper to upper: the negative
+half is "off" (0), the positive half the value itself, so that a design and a step draw
+"off" as often as "on". Values stay in the variable's own units; 0 maps to -upper / 2.
 """
 
 from __future__ import annotations
@@ -36,6 +44,8 @@ class DesignSpace:
         Valid, distinct points (the reference design) the optimiser proposes first.
     log : list of bool, optional
         Continuous variables with positive bounds searched on a log scale.
+    switch : list of bool, optional
+        Variables from 0 searched as off (0) or on (a value), each half of the search range.
 
     Raises
     ------
@@ -50,16 +60,19 @@ class DesignSpace:
     integer: list[bool]
     given: list[list[float]] = field(default_factory=list)
     log: list[bool] | None = None      # per variable: searched on a log scale (None: none)
+    switch: list[bool] | None = None   # per variable: 0 = off, half the search range
 
     @classmethod
     def of(cls, dimensions, given=()) -> "DesignSpace":
         """The space of some variables, each an object with ``name``, ``lower``, ``upper``,
-        ``integer`` and ``log`` (``lccopt.config.variables.Variable``)."""
+        ``integer``, ``log`` and ``switch`` (``lccopt.config.variables.Variable``)."""
         dims = list(dimensions)
         log = [bool(d.log) for d in dims]
+        switch = [bool(d.switch) for d in dims]
         return cls(names=[d.name for d in dims], lower=[d.lower for d in dims],
                    upper=[d.upper for d in dims], integer=[d.integer for d in dims],
-                   given=[list(g) for g in given], log=log if any(log) else None)
+                   given=[list(g) for g in given], log=log if any(log) else None,
+                   switch=switch if any(switch) else None)
 
     def __post_init__(self) -> None:
         self.names = [str(n) for n in self.names]
@@ -72,8 +85,9 @@ class DesignSpace:
         if len(set(self.names)) != d:
             raise ValueError(f"variable names must be unique: {self.names}")
         self.log = [False] * d if self.log is None else [bool(v) for v in self.log]
+        self.switch = [False] * d if self.switch is None else [bool(v) for v in self.switch]
         for what, seq in (("lower", self.lower), ("upper", self.upper), ("integer", self.integer),
-                          ("log", self.log)):
+                          ("log", self.log), ("switch", self.switch)):
             if len(seq) != d:
                 raise ValueError(f"{what} has {len(seq)} entries, expected {d} (one per variable)")
         for i, name in enumerate(self.names):
@@ -88,6 +102,9 @@ class DesignSpace:
             if self.log[i] and (self.integer[i] or not lo > 0):
                 raise ValueError(f"variable {name!r}: a log scale needs a continuous variable with "
                                  f"positive bounds, got [{lo}, {hi}]")
+            if self.switch[i] and (self.log[i] or not lo == 0 < hi):
+                raise ValueError(f"variable {name!r}: an on/off switch needs a linear range from "
+                                 f"0, got [{lo}, {hi}]")
         given = np.asarray(self.given, dtype=float)
         if given.size == 0:
             given = np.empty((0, d))
@@ -116,10 +133,17 @@ class DesignSpace:
                         doc="True for the integer variables.")
     log_mask = property(lambda self: np.array(self.log, dtype=bool),
                         doc="True for the variables searched on a log scale.")
-    search_lb = property(lambda self: self.to_search(self.lb),
-                         doc="Lower bounds in search coordinates.")
+    switch_mask = property(lambda self: np.array(self.switch, dtype=bool),
+                           doc="True for the variables searched as off/on.")
     search_ub = property(lambda self: self.to_search(self.ub),
                          doc="Upper bounds in search coordinates.")
+
+    @property
+    def search_lb(self) -> np.ndarray:
+        """Lower bounds in search coordinates (a switch's: -upper, the end of its off half)."""
+        lb = self.to_search(self.lb)
+        m = self.switch_mask
+        return np.where(m, -self.ub, lb) if m.any() else lb
 
     @property
     def span(self) -> np.ndarray:
@@ -138,17 +162,24 @@ class DesignSpace:
 
     # -- mapping ----------------------------------------------------------
     def to_search(self, x: np.ndarray) -> np.ndarray:
-        """Search coordinates: ln x for log variables, x itself for the others."""
+        """Search coordinates: ln x for log variables, x itself for the others but a switch's
+        0 (off), which is the middle of its off half, -upper / 2."""
         x = np.asarray(x, dtype=float)
         m = self.log_mask
-        if not m.any():
-            return x
-        with np.errstate(divide="ignore", invalid="ignore"):
-            return np.where(m, np.log(np.where(m, x, 1.0)), x)
+        if m.any():
+            with np.errstate(divide="ignore", invalid="ignore"):
+                x = np.where(m, np.log(np.where(m, x, 1.0)), x)
+        w = self.switch_mask
+        if w.any():
+            x = np.where(w & (x <= 0), -0.5 * self.ub, x)
+        return x
 
     def from_search(self, s: np.ndarray) -> np.ndarray:
         """Back from search coordinates (not clipped: ``snap`` puts a point on the bounds)."""
         s = np.asarray(s, dtype=float)
+        w = self.switch_mask
+        if w.any():
+            s = np.where(w & (s < 0), 0.0, s)
         m = self.log_mask
         if not m.any():
             return s
@@ -213,13 +244,24 @@ class DesignSpace:
                "integer": list(self.integer), "given": [list(g) for g in self.given]}
         if any(self.log):  # absent otherwise: a space without log scales reads the same
             out["log"] = list(self.log)
+        if any(self.switch):
+            out["switch"] = list(self.switch)
         return out
+
+    def without_switches(self) -> "DesignSpace":
+        """The same space with every variable searched as one range (an optimiser whose
+        settings do not search switches)."""
+        if not any(self.switch):
+            return self
+        return DesignSpace(names=self.names, lower=self.lower, upper=self.upper,
+                           integer=self.integer, given=self.given, log=self.log)
 
     @classmethod
     def from_dict(cls, d: dict) -> "DesignSpace":
         """The space a ``to_dict`` wrote."""
         return cls(names=d["names"], lower=d["lower"], upper=d["upper"],
-                   integer=d["integer"], given=d.get("given", []), log=d.get("log"))
+                   integer=d["integer"], given=d.get("given", []), log=d.get("log"),
+                   switch=d.get("switch"))
 
 
 def _width(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:

@@ -101,6 +101,7 @@ class Strategy(CandidateSelection):
             settings = Settings.from_dict(settings)
         self._setup(space, int(budget), int(n_initial), seed, settings.replace(**changes),
                     candidates, restarts)
+        space = self.space
         self.rng = np.random.default_rng(seed)
         self.records: list[dict] = []
         self.exhausted = False
@@ -112,7 +113,7 @@ class Strategy(CandidateSelection):
 
     def _setup(self, space, budget, n_initial, seed, settings: Settings, candidates,
                restarts) -> None:
-        self.space = space
+        self.space = space if settings.switches else space.without_switches()
         self.budget = budget
         self.n_initial = n_initial
         self.seed = None if seed is None else int(seed)

@@ -135,7 +135,7 @@ def test_the_journal_records_the_resolved_optimiser_settings(tmp_path, objective
     expected = Settings.default(composite=surrogate != "scalar").to_dict()
     assert first["optimiser"] == expected and set(expected) == {
         "composite", "perturbation", "probability_schedule", "local_weights",
-        "restart_keeps_points", "restart_from", "subspace_start"}
+        "restart_keeps_points", "restart_from", "subspace_start", "switches"}
     assert "auto" not in first["optimiser"].values()
 
 
@@ -165,13 +165,26 @@ def test_a_resume_uses_the_settings_the_run_recorded(tmp_path, monkeypatch):
 
 def test_a_journal_that_says_optimiser_12_resumes_with_the_default_settings():
     """Journals of the last lccopt before recorded settings say "optimiser": 12 (its
-    optimiser generation), whose proposals today's defaults make (the golden journals check
-    them bit for bit)."""
+    optimiser generation), whose proposals today's defaults make with the settings added since
+    at their earlier value (the golden journals check them bit for bit)."""
     for name, composite in (("scalar-F_max", False), ("composite-asf", True)):
         prefix = _lines(GOLDEN / name / "journal.jsonl")
         assert prefix[0]["optimiser"] == 12
         pb = Problem.from_case(load_case(GOLDEN / name / "case.yaml", resolved=True))
-        assert recorded_settings(pb, prefix[0]) == Settings.default(composite=composite)
+        assert recorded_settings(pb, prefix[0]) == Settings.default(
+            composite=composite).replace(switches=False)
+
+
+def test_recorded_settings_without_a_later_setting_take_its_earlier_value():
+    """A run that recorded its settings before `switches` existed searched the strip as one
+    range: it resumes so; today's runs record the setting and resume with it."""
+    pb = Problem.from_case(load_case(GOLDEN / "scalar-F_max" / "case.yaml", resolved=True))
+    older = Settings.default().to_dict()
+    del older["switches"]
+    assert recorded_settings(pb, {"optimiser": older}).switches is False
+    today = Settings.default().to_dict()
+    assert recorded_settings(pb, {"optimiser": today}) == Settings.default()
+    assert Settings.default().switches and Settings.default(composite=True).switches
 
 
 @pytest.mark.parametrize("changes,what", [

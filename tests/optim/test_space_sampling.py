@@ -131,3 +131,46 @@ def test_lhs_on_a_log_scale_has_strata_of_equal_ratio():
     # on a linear scale only about a sixth would lie below 245 MN/m
     Y = latin_hypercube(paper_space(), 24, np.random.default_rng(5))
     assert np.sum(Y[:, 0] < 245) <= 5
+
+
+# -- an on/off switch: a variable whose 0 leaves a component out (the Type II strip) ----------
+
+def strip_space(switch: bool) -> DesignSpace:
+    return DesignSpace(names=["r", "l"], lower=[0.0, 0], upper=[1.0, 120], integer=[False, True],
+                       switch=[False, switch])
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    (dict(lower=[1.0], upper=[5.0], integer=[True], switch=[True]), "on/off switch"),
+    (dict(lower=[0.0], upper=[0.0], integer=[True], switch=[True]), "on/off switch"),
+    (dict(lower=[1.0], upper=[5.0], integer=[False], log=[True], switch=[True]), "on/off switch"),
+    (dict(lower=[0.0], upper=[5.0], integer=[False], switch=[True, False]), "entries"),
+])
+def test_switch_rejects_bad_input(kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        DesignSpace(names=["a"], **kwargs)
+
+
+def test_switch_gives_off_half_the_search_range_and_maps_back():
+    sp = strip_space(True)
+    assert sp.search_lb.tolist() == [0.0, -120.0] and sp.search_ub.tolist() == [1.0, 120.0]
+    x = np.array([[0.5, 0.0], [0.5, 1.0], [0.5, 120.0]])
+    assert sp.to_search(x)[:, 1].tolist() == [-60.0, 1.0, 120.0]
+    assert sp.to_unit(x)[:, 1].tolist() == [0.25, 121 / 240, 1.0]
+    # the whole off half is 0; the on half is the value itself
+    s = np.array([[0.5, -120.0], [0.5, -0.2], [0.5, 37.0]])
+    assert sp.snap(sp.from_search(s))[:, 1].tolist() == [0.0, 0.0, 37.0]
+    back = DesignSpace.from_dict(sp.to_dict())
+    assert back.switch == [False, True] and np.array_equal(back.search_lb, sp.search_lb)
+    assert "switch" not in strip_space(False).to_dict()   # older spaces read the same
+    assert strip_space(True).without_switches().to_dict() == strip_space(False).to_dict()
+
+
+def test_lhs_draws_off_as_often_as_on_with_a_switch():
+    rng = np.random.default_rng(3)
+    with_switch = latin_hypercube(strip_space(True), 200, rng)[:, 1]
+    plain = latin_hypercube(strip_space(False), 200, np.random.default_rng(3))[:, 1]
+    assert 0.45 <= np.mean(with_switch == 0) <= 0.55
+    assert np.mean(plain == 0) < 0.03                       # one value of 121
+    on = with_switch[with_switch > 0]
+    assert on.min() >= 1 and on.max() <= 120 and len(np.unique(on)) > 60   # the range covered

@@ -384,3 +384,37 @@ def test_a_log_scale_state_is_exact_and_resumes_bit_for_bit():
     assert [x.x.tobytes() for x in a] == [x.x.tobytes() for x in b]
 
 
+
+
+# -- an on/off switch searched as such -------------------------------------------------------------
+@pytest.mark.parametrize("composite", [False, True])
+def test_a_switch_reaches_an_off_optimum_behind_a_wall_that_one_range_misses(composite):
+    """off_switch_elsewhere: n = 0 ("no strip") holds the optimum (0 at x, y = 0.2, 0.8), small
+    n are a wall and a basin near n = 70 is the wide one. Searched as one range, n = 0 is one
+    value of 121 and 30 evaluations find it in at most 2 of 10 seeds; searched as a switch
+    (off half the search range) in all 10, with either surrogate."""
+    from tests.optim.helpers import as_outputs, off_switch_elsewhere
+
+    def run(switch: bool, seed: int):
+        space = DesignSpace(["x", "y", "n"], [0.0, 0.0, 0], [1.0, 1.0, 120], [False, False, True],
+                            switch=[False, False, switch])
+        s = Strategy(space, budget=30, n_initial=8, seed=seed, composite=composite)
+        outputs = as_outputs(off_switch_elsewhere)
+        if composite:
+            s.set_aggregate(lambda F: F.sum(axis=1))
+        while not s.done:
+            for p in s.ask(1):
+                s.tell(p.id, off_switch_elsewhere(p.x), outputs(p.x) if composite else None)
+        x, v = s.best
+        return x[2] == 0 and v < 0.01
+
+    assert sum(run(True, seed) for seed in range(10)) == 10
+    assert sum(run(False, seed) for seed in range(10)) <= 2
+
+
+def test_settings_without_switches_search_one_range():
+    space = DesignSpace(["x", "n"], [0.0, 0], [1.0, 120], [False, True], switch=[False, True])
+    assert Strategy(space, budget=10, n_initial=4).space.switch == [False, True]
+    plain = Strategy(space, budget=10, n_initial=4, switches=False)
+    assert plain.space.switch == [False, False]
+    assert plain.settings.switches is False
