@@ -248,9 +248,9 @@ def test_bad_case_and_bad_runs_give_one_line_messages_and_exit_2(tmp_path):
     assert r.returncode == 2 and "cannot load the evaluator 'nosuchmodule:f'" in r.stderr
 
 
-@pytest.mark.parametrize("seed, unchanged", [(1, True), (2, False)])
+@pytest.mark.parametrize("seed, unchanged", [(9, True), (2, False)])
 def test_the_summary_says_unchanged_when_the_best_is_the_reference(tmp_path, seed, unchanged):
-    """Two evaluations: the reference design and one more, which beats it or not (seed 1 of
+    """Two evaluations: the reference design and one more, which beats it or not (seed 9 of
     the stand-in: not); an equal value reads "unchanged", never "+0.0%"."""
     case = write_case(tmp_path, "u", objectives=("F_max",), budget=2, initial=2, seed=seed)
     r = cli_run("optimise", case, "--workers", "1", "--runs", tmp_path / "runs",
