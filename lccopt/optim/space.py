@@ -23,7 +23,7 @@ half is "off" (0), the positive half the value itself, so that a design and a st
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -251,10 +251,7 @@ class DesignSpace:
     def without_switches(self) -> "DesignSpace":
         """The same space with every variable searched as one range (an optimiser whose
         settings do not search switches)."""
-        if not any(self.switch):
-            return self
-        return DesignSpace(names=self.names, lower=self.lower, upper=self.upper,
-                           integer=self.integer, given=self.given, log=self.log)
+        return replace(self, switch=None) if any(self.switch) else self
 
     @classmethod
     def from_dict(cls, d: dict) -> "DesignSpace":
