@@ -349,9 +349,9 @@ def _echo_objectives(objectives: dict, keys) -> None:
 def _simulator():
     """The function that simulates ``(case, x)``: the workers' (lccopt.problem.evaluate) or
     the stand-in named by LCCOPT_EVALUATOR."""
-    from ..engine.worker import evaluator_spec, load_evaluator
+    from ..engine.worker import choose_evaluator, load_evaluator
 
-    return load_evaluator(evaluator_spec())
+    return load_evaluator(choose_evaluator())
 
 
 def _check_finite(objectives: dict, case, x, condition: str | None = None) -> None:

@@ -2,8 +2,9 @@
 
 * ``reading``: YAML with the line of every key, ``extends``, reading input files safely;
 * ``overrides``: ``--set KEY.PATH=VALUE``, applied as if a file had written it;
-* ``spec``, ``schema``, ``validate``: the spec language, the schema of a case file written in
-  it, and its validator; ``units``: the units a quantity may be written in;
+* ``kinds``, ``schema``, ``validate``: the kinds of value a key may hold, the schema of a
+  case file written with them, and its validator; ``units``: the units a quantity may be
+  written in;
 * ``profiles``: measured rail profiles (CSV rows), held in the case as their rows;
 * ``zones``: lengths tied to the layout (the force zone's end, the design space on the track);
 * ``checks``: what needs physics or the layout (time step, mesh, the vehicle on the rail);

@@ -96,25 +96,25 @@ def zones(evaluation: dict) -> EvaluationZones:
                            force_zone_end=force_zone_end(evaluation))
 
 
-def spectrum_profile(spec: dict, length: float) -> np.ndarray:
+def spectrum_profile(irregularity: dict, length: float) -> np.ndarray:
     """The random profile of a spectrum mapping over a track of ``length`` (from its seed)."""
-    scale = spec.get("amplitude_scale")
-    return spectra.generate(spec["spectrum"], spec["seed"], spec["wavelengths"], length,
-                            1.0 if scale is None else scale)
+    scale = irregularity.get("amplitude_scale")
+    return spectra.generate(irregularity["spectrum"], irregularity["seed"],
+                            irregularity["wavelengths"], length, 1.0 if scale is None else scale)
 
 
 def profile(data: dict) -> np.ndarray | None:
     """The rail profile (N, 2) of one simulation of a case: its rows (``points``), or
     generated from its spectrum (the same for every design), or None (a smooth rail)."""
-    spec = data["simulation"].get("irregularity")
-    if spec is None or spec == "none":
+    irregularity = data["simulation"].get("irregularity")
+    if irregularity is None or irregularity == "none":
         return None
-    if isinstance(spec, dict) and "points" in spec:
-        return profile_array(spec["points"])
-    if isinstance(spec, dict):
-        return spectrum_profile(spec, track_length(data))
-    raise ValueError(f"irregularity {spec!r}: a file is read by lccopt.config.load_case, which "
-                     f"keeps its rows")
+    if isinstance(irregularity, dict) and "points" in irregularity:
+        return profile_array(irregularity["points"])
+    if isinstance(irregularity, dict):
+        return spectrum_profile(irregularity, track_length(data))
+    raise ValueError(f"irregularity {irregularity!r}: a file is read by "
+                     f"lccopt.config.load_case, which keeps its rows")
 
 
 def scenario(data: dict, variation: TrackVariation | None = None) -> Scenario:

@@ -395,10 +395,10 @@ def check_profile(data: dict, err, at: tuple) -> None:
                   f"{MAX_DIP:g} m: a narrower band of wavelengths or a smaller amplitude_scale")
 
 
-def spectrum_problem(spec: dict, length: float) -> tuple[str, str] | None:
+def spectrum_problem(irregularity: dict, length: float) -> tuple[str, str] | None:
     """(key, message) of the first problem of a spectrum irregularity on a track of ``length``,
     or None. Mesh and time-step limits are checked with :func:`check_accuracy`."""
-    lo, hi = spec["wavelengths"]
+    lo, hi = irregularity["wavelengths"]
     if not lo < hi:
         return "wavelengths", f"[min, max] must increase, got [{lo:g}, {hi:g}] m"
     if hi > length + 1e-9:

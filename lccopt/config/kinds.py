@@ -1,4 +1,4 @@
-"""The language the case schema is written in: one small spec class per kind of value.
+"""The language the case schema is written in: one small class per kind of value.
 
 ``lccopt.config.schema`` declares every key of a case file with these (its doc, unit, bounds
 and default); ``lccopt.config.validate`` checks a raw mapping against them, and
@@ -18,7 +18,7 @@ from typing import Any
 
 @dataclass(frozen=True, kw_only=True)
 class _Key:
-    """What every spec has (keyword-only, after the spec's own fields)."""
+    """What every kind has (keyword-only, after the kind's own fields)."""
     default: Any = None
     required: bool = True
     keep_absent: bool = False
@@ -63,7 +63,7 @@ class NumList(_Quantity):
 
 @dataclass(frozen=True)
 class Section(_Key):
-    """A mapping of fixed keys, each with its own spec (``fields``). An absent optional
+    """A mapping of fixed keys, each with its own kind (``fields``). An absent optional
     section whose keys are all optional is built from their defaults, unless
     ``none_if_absent`` (then it is None: ``optimisation:`` of a case that only simulates)."""
     fields: dict
@@ -73,7 +73,7 @@ class Section(_Key):
 
 @dataclass(frozen=True)
 class _Collection(_Key):
-    """Several values of one spec (``item``), at most ``max_items``."""
+    """Several values of one kind (``item``), at most ``max_items``."""
     item: Any
     doc: str = ""
     max_items: int = 50
@@ -81,11 +81,11 @@ class _Collection(_Key):
 
 
 class Named(_Collection):
-    """A mapping of user-chosen names (``SAFE_NAME``) to values of one spec (``vehicles:``)."""
+    """A mapping of user-chosen names (``SAFE_NAME``) to values of one kind (``vehicles:``)."""
 
 
 class Items(_Collection):
-    """A list of values of one spec (``conditions:``)."""
+    """A list of values of one kind (``conditions:``)."""
 
 
 @dataclass(frozen=True)

@@ -45,26 +45,26 @@ def _num(v: float) -> str:
     return f"{v:g}"
 
 
-def _range(spec) -> str:
+def _range(kind) -> str:
     """``> 0, <= 250 km/h (why)``; ``one of a, b``; ``-``."""
-    if isinstance(spec, kinds.StrList):
-        return "some of " + ", ".join(spec.choices)
-    if isinstance(spec, kinds.Str) and spec.choices:
-        return "one of " + ", ".join(spec.choices)
-    if not isinstance(spec, (kinds.Num, kinds.NumList)):
+    if isinstance(kind, kinds.StrList):
+        return "some of " + ", ".join(kind.choices)
+    if isinstance(kind, kinds.Str) and kind.choices:
+        return "one of " + ", ".join(kind.choices)
+    if not isinstance(kind, (kinds.Num, kinds.NumList)):
         return "-"
-    shown = spec.shown or spec.unit
-    parts = [f"{rel} {_num(units.from_si(b, shown, spec.unit))}"
-             for rel, b in ((">", spec.gt), (">=", spec.ge), ("<=", spec.le)) if b is not None]
-    if isinstance(spec, kinds.Num) and spec.integer:
+    shown = kind.shown or kind.unit
+    parts = [f"{rel} {_num(units.from_si(b, shown, kind.unit))}"
+             for rel, b in ((">", kind.gt), (">=", kind.ge), ("<=", kind.le)) if b is not None]
+    if isinstance(kind, kinds.Num) and kind.integer:
         parts.insert(0, "whole number")
-    if isinstance(spec, kinds.NumList):
-        n = (f"{spec.length} values" if spec.length else
-             f"{spec.min_length}-{spec.max_length} values")
+    if isinstance(kind, kinds.NumList):
+        n = (f"{kind.length} values" if kind.length else
+             f"{kind.min_length}-{kind.max_length} values")
         parts.insert(0, n)
     text = ", ".join(parts) + (f" {shown}" if parts and shown != "-" and not
-                               (isinstance(spec, kinds.Num) and spec.integer) else "")
-    return (text or "-") + (f" ({spec.why})" if spec.why else "")
+                               (isinstance(kind, kinds.Num) and kind.integer) else "")
+    return (text or "-") + (f" ({kind.why})" if kind.why else "")
 
 
 _DEFAULTS = {  # defaults that a rule or another key gives
@@ -76,63 +76,63 @@ _DEFAULTS = {  # defaults that a rule or another key gives
 }
 
 
-def _default(spec, path: str) -> str:
-    if getattr(spec, "required", True):
+def _default(kind, path: str) -> str:
+    if getattr(kind, "required", True):
         return "-"
     if path in _DEFAULTS:
         return _DEFAULTS[path]
-    default = getattr(spec, "default", None)
+    default = getattr(kind, "default", None)
     if default is None:
-        if isinstance(spec, kinds.Section) and not spec.none_if_absent:
+        if isinstance(kind, kinds.Section) and not kind.none_if_absent:
             return "its keys' defaults"
-        return "see description" if "Default" in getattr(spec, "doc", "") else "(none)"
-    if isinstance(spec, kinds.Num) and spec.unit != "-":
-        return f"{_num(default)} {spec.unit}"
+        return "see description" if "Default" in getattr(kind, "doc", "") else "(none)"
+    if isinstance(kind, kinds.Num) and kind.unit != "-":
+        return f"{_num(default)} {kind.unit}"
     return str(default) if default != "" else '""'
 
 
-def _row(path: str, spec, note: str = "") -> str:
-    unit = getattr(spec, "unit", "-")
+def _row(path: str, kind, note: str = "") -> str:
+    unit = getattr(kind, "unit", "-")
     accepted = ", ".join(units.accepted(unit)) if unit in units.UNITS else "-"
-    required = "yes" if getattr(spec, "required", True) else "no"
-    doc = (getattr(spec, "doc", "") or "") + note
-    return (f"| `{path}` | {_cell(unit)} | {_cell(accepted)} | {_cell(_default(spec, path))} | "
-            f"{_cell(_range(spec))} | {required} | {_cell(doc)} |")
+    required = "yes" if getattr(kind, "required", True) else "no"
+    doc = (getattr(kind, "doc", "") or "") + note
+    return (f"| `{path}` | {_cell(unit)} | {_cell(accepted)} | {_cell(_default(kind, path))} | "
+            f"{_cell(_range(kind))} | {required} | {_cell(doc)} |")
 
 
-def _rows(spec, path: str) -> list[str]:
+def _rows(kind, path: str) -> list[str]:
     """The table rows of a key and, for a section, of every key inside it."""
-    if isinstance(spec, kinds.Section):
-        out = [_row(path, spec)] if path and spec.doc else []
-        for key, sub in spec.fields.items():
+    if isinstance(kind, kinds.Section):
+        out = [_row(path, kind)] if path and kind.doc else []
+        for key, sub in kind.fields.items():
             out += _rows(sub, f"{path}.{key}" if path else key)
         return out
-    if isinstance(spec, kinds.Named) and isinstance(spec.item, kinds.NumOrSection):
-        return _rows(replace(spec.item, doc=f"{spec.doc}: {spec.item.doc}", required=False),
+    if isinstance(kind, kinds.Named) and isinstance(kind.item, kinds.NumOrSection):
+        return _rows(replace(kind.item, doc=f"{kind.doc}: {kind.item.doc}", required=False),
                      f"{path}.<name>")
-    if isinstance(spec, kinds.Named) and not isinstance(spec.item, kinds.Section):   # name->value
-        return [_row(f"{path}.<name>", replace(spec.item, doc=f"{spec.doc}: {spec.item.doc}",
+    if isinstance(kind, kinds.Named) and not isinstance(kind.item, kinds.Section):   # name->value
+        return [_row(f"{path}.<name>", replace(kind.item, doc=f"{kind.doc}: {kind.item.doc}",
                                                 required=False))]
-    if isinstance(spec, kinds.Named):
-        return [_row(f"{path}.<name>", spec)] + [
-            r for k, s in spec.item.fields.items() for r in _rows(s, f"{path}.<name>.{k}")]
-    if isinstance(spec, kinds.Items):
-        return [_row(f"{path}[]", spec)] + _rows(spec.item, f"{path}[]")
-    if isinstance(spec, kinds.NumOrSection):
-        out = [_row(path, replace(spec.number, doc=f"{spec.doc}. A number: "
-                                                   f"{spec.number.doc}", required=False))]
+    if isinstance(kind, kinds.Named):
+        return [_row(f"{path}.<name>", kind)] + [
+            r for k, s in kind.item.fields.items() for r in _rows(s, f"{path}.<name>.{k}")]
+    if isinstance(kind, kinds.Items):
+        return [_row(f"{path}[]", kind)] + _rows(kind.item, f"{path}[]")
+    if isinstance(kind, kinds.NumOrSection):
+        out = [_row(path, replace(kind.number, doc=f"{kind.doc}. A number: "
+                                                   f"{kind.number.doc}", required=False))]
         out += [f"| *{path} as a section:* | | | | | | |"]
-        return out + [r for k, s in spec.section.fields.items()
+        return out + [r for k, s in kind.section.fields.items()
                       for r in _rows(s, f"{path}.{k}")]
-    if isinstance(spec, kinds.TextOrSection):
-        out = [_row(path, spec, " Text: a file name, or none.")]
-        for key, sub in spec.sections.items():
+    if isinstance(kind, kinds.TextOrSection):
+        out = [_row(path, kind, " Text: a file name, or none.")]
+        for key, sub in kind.sections.items():
             out += [f"| *{path} as {key}:* | | | | | | |"]
             out += _rows(sub, path)
         return out
-    if isinstance(spec, (kinds.Num, kinds.NumList, kinds.Str, kinds.StrList, kinds.Rows)):
-        return [_row(path, spec)]
-    raise TypeError(spec)
+    if isinstance(kind, (kinds.Num, kinds.NumList, kinds.Str, kinds.StrList, kinds.Rows)):
+        return [_row(path, kind)]
+    raise TypeError(kind)
 
 
 HEAD = ("| key | unit | accepted units | default | range | required | description |\n"
@@ -144,13 +144,13 @@ def render() -> str:
     parts = [INTRO, "## Top level\n", HEAD]
     parts += [_row(k, s) for k, s in SCHEMA.fields.items()
               if not isinstance(s, (kinds.Section, kinds.Named, kinds.Items))]
-    for key, spec in SCHEMA.fields.items():
-        if not isinstance(spec, (kinds.Section, kinds.Named, kinds.Items)):
+    for key, kind in SCHEMA.fields.items():
+        if not isinstance(kind, (kinds.Section, kinds.Named, kinds.Items)):
             continue
-        doc = getattr(spec, "doc", "")
+        doc = getattr(kind, "doc", "")
         parts += ["", f"## {key}\n", *([doc[0].upper() + doc[1:] + ".\n"] if doc else []), HEAD]
-        parts += _rows(spec, key) if not isinstance(spec, kinds.Section) else [
-            r for k, s in spec.fields.items() for r in _rows(s, f"{key}.{k}")]
+        parts += _rows(kind, key) if not isinstance(kind, kinds.Section) else [
+            r for k, s in kind.fields.items() for r in _rows(s, f"{key}.{k}")]
     parts += ["", "## Units\n", "| SI unit | accepted units |", "|---|---|"]
     parts += [f"| {si} | {', '.join(u)} |" for si, u in units.UNITS.items()]
     return "\n".join(parts) + "\n"

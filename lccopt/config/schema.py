@@ -1,6 +1,6 @@
 """The case schema: every key of a case file, once, with its doc, unit, bounds and default.
 
-``SCHEMA`` is written in the spec language of ``lccopt.config.kinds`` and drives
+``SCHEMA`` is written with the kinds of value of ``lccopt.config.kinds`` and drives
 :func:`lccopt.config.validate.check`, which turns the raw mapping into typed values (floats in
 SI units, ints, lists) or raises a :class:`~lccopt.errors.CaseError` of one line naming the
 file, the line and the key. docs/case-reference.md is generated from it

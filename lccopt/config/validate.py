@@ -28,51 +28,51 @@ _FLOAT_RE = re.compile(
 )
 
 
-def check(value: Any, spec: Any, path: tuple, lines: dict, file: str) -> Any:
-    """Validate one value against its spec; return the typed value."""
+def check(value: Any, kind: Any, path: tuple, lines: dict, file: str) -> Any:
+    """Validate one value against its kind; return the typed value."""
     def fail(msg: str, at: tuple = path) -> CaseError:
         return CaseError(f"{locate(lines, at, file)}: {dotted(at) or '<top>'}: {msg}")
 
     def sub(v: Any, s: Any, key) -> Any:
         return check(v, s, path + (key,), lines, file)
 
-    if isinstance(spec, kinds.Section):
-        return _section(value, spec, sub, fail, lambda k: lines.get(path + (k,), file + ":1"),
+    if isinstance(kind, kinds.Section):
+        return _section(value, kind, sub, fail, lambda k: lines.get(path + (k,), file + ":1"),
                         path)
-    if isinstance(spec, (kinds.Named, kinds.Items)):
-        return _collection(value, spec, sub, fail, path)
-    if isinstance(spec, kinds.TextOrSection):
+    if isinstance(kind, (kinds.Named, kinds.Items)):
+        return _collection(value, kind, sub, fail, path)
+    if isinstance(kind, kinds.TextOrSection):
         if isinstance(value, dict):
-            keys = [k for k in spec.sections if k in value]
+            keys = [k for k in kind.sections if k in value]
             if len(keys) != 1:
                 raise fail(f"expected a mapping with one of the keys "
-                           f"{' or '.join(repr(k) for k in spec.sections)}")
-            return check(value, spec.sections[keys[0]], path, lines, file)
+                           f"{' or '.join(repr(k) for k in kind.sections)}")
+            return check(value, kind.sections[keys[0]], path, lines, file)
         if not isinstance(value, str):
             raise fail(f"expected a file name or a mapping, got {value!r:.60}")
         return value
-    if isinstance(spec, kinds.NumOrSection):
+    if isinstance(kind, kinds.NumOrSection):
         if isinstance(value, dict):
-            return check(value, spec.section, path, lines, file)
-        return check(value, spec.number, path, lines, file)
-    if isinstance(spec, kinds.Rows):
+            return check(value, kind.section, path, lines, file)
+        return check(value, kind.number, path, lines, file)
+    if isinstance(kind, kinds.Rows):
         return _rows(value, fail)
-    if isinstance(spec, kinds.Num):
-        return _number(value, spec, fail, _key_name(path))
-    if isinstance(spec, kinds.Str):
-        if value is None and not spec.required:
+    if isinstance(kind, kinds.Num):
+        return _number(value, kind, fail, _key_name(path))
+    if isinstance(kind, kinds.Str):
+        if value is None and not kind.required:
             return None
         if not isinstance(value, str):
             raise fail(f"expected text, got {value!r}")
-        if spec.choices and value not in spec.choices:
-            raise fail(f"must be one of {', '.join(spec.choices)}, got '{value}'"
-                       + _did_you_mean(value, spec.choices))
+        if kind.choices and value not in kind.choices:
+            raise fail(f"must be one of {', '.join(kind.choices)}, got '{value}'"
+                       + _did_you_mean(value, kind.choices))
         return value
-    if isinstance(spec, kinds.NumList):
-        return _numbers(value, spec, fail, path)
-    if isinstance(spec, kinds.StrList):
-        return _names(value, spec, fail)
-    raise TypeError(spec)
+    if isinstance(kind, kinds.NumList):
+        return _numbers(value, kind, fail, path)
+    if isinstance(kind, kinds.StrList):
+        return _names(value, kind, fail)
+    raise TypeError(kind)
 
 
 def _key_name(path: tuple) -> str:
@@ -99,74 +99,74 @@ def unknown_key(key: str, known, path: tuple) -> str:
     return f"unknown key (the keys of {where}: docs/case-reference.md)"
 
 
-def _section(value: Any, spec: kinds.Section, sub, fail, line_of, path: tuple) -> dict:
+def _section(value: Any, kind: kinds.Section, sub, fail, line_of, path: tuple) -> dict:
     """A section: no unknown key, every required key, defaults for the others."""
     if not isinstance(value, dict):
         raise fail(f"expected a section (mapping), got {type(value).__name__}")
     for k in value:
-        if k not in spec.fields:
+        if k not in kind.fields:
             raise CaseError(f"{line_of(k)}: {dotted(path + (k,))}: "
-                            f"{unknown_key(k, spec.fields, path)}")
+                            f"{unknown_key(k, kind.fields, path)}")
     out = {}
-    for key, field_spec in spec.fields.items():
+    for key, field_kind in kind.fields.items():
         if value.get(key) is None:  # absent, or written as null
-            if getattr(field_spec, "required", True):
+            if getattr(field_kind, "required", True):
                 raise fail(f"missing key '{key}'")
-            if getattr(field_spec, "keep_absent", False):
+            if getattr(field_kind, "keep_absent", False):
                 continue
-            optional_only = isinstance(field_spec, kinds.Section) \
-                and not field_spec.none_if_absent and not any(
-                getattr(f, "required", True) for f in field_spec.fields.values())
-            out[key] = (sub({}, field_spec, key) if optional_only
-                        else getattr(field_spec, "default", None))
+            optional_only = isinstance(field_kind, kinds.Section) \
+                and not field_kind.none_if_absent and not any(
+                getattr(f, "required", True) for f in field_kind.fields.values())
+            out[key] = (sub({}, field_kind, key) if optional_only
+                        else getattr(field_kind, "default", None))
             continue
-        out[key] = sub(value[key], field_spec, key)
+        out[key] = sub(value[key], field_kind, key)
     return out
 
 
-def _collection(value: Any, spec: kinds._Collection, sub, fail, path: tuple):
-    """kinds.Named (a mapping of names) or kinds.Items (a list), each value of ``spec.item``."""
-    if isinstance(spec, kinds.Named):
+def _collection(value: Any, kind: kinds._Collection, sub, fail, path: tuple):
+    """kinds.Named (a mapping of names) or kinds.Items (a list), each value of ``kind.item``."""
+    if isinstance(kind, kinds.Named):
         if not isinstance(value, dict) or not value:
             raise fail("expected a mapping of names to sections")
     elif not isinstance(value, list) or not value:
         raise fail("expected a list")
-    if len(value) > spec.max_items:
-        raise fail(f"{len(value)} entries; at most {spec.max_items}")
-    if isinstance(spec, kinds.Items):
-        return [sub(v, spec.item, i) for i, v in enumerate(value)]
+    if len(value) > kind.max_items:
+        raise fail(f"{len(value)} entries; at most {kind.max_items}")
+    if isinstance(kind, kinds.Items):
+        return [sub(v, kind.item, i) for i, v in enumerate(value)]
     for k in value:
         if not isinstance(k, str) or not SAFE_NAME.fullmatch(k):
             raise fail(f"{str(k)[:40]!r} is not a name (1-64 letters, digits, '.', '-' "
                        f"and '_')", path + (k,))
-    return {k: sub(v, spec.item, k) for k, v in value.items()}
+    return {k: sub(v, kind.item, k) for k, v in value.items()}
 
 
-def _numbers(value: Any, spec: kinds.NumList, fail, path: tuple) -> list:
+def _numbers(value: Any, kind: kinds.NumList, fail, path: tuple) -> list:
     if not isinstance(value, list):
         raise fail(f"expected a list of numbers, got {value!r:.60}")
-    if spec.length is not None and len(value) != spec.length:
-        raise fail(f"expected {spec.length} values, got {len(value)}")
-    if len(value) < spec.min_length:
-        raise fail(f"expected at least {spec.min_length} value(s)")
-    if len(value) > spec.max_length:
-        raise fail(f"{len(value)} values; at most {spec.max_length}")
-    item = kinds.Num(spec.doc, spec.unit, gt=spec.gt, ge=spec.ge, le=spec.le, shown=spec.shown,
-               why=spec.why)
+    if kind.length is not None and len(value) != kind.length:
+        raise fail(f"expected {kind.length} values, got {len(value)}")
+    if len(value) < kind.min_length:
+        raise fail(f"expected at least {kind.min_length} value(s)")
+    if len(value) > kind.max_length:
+        raise fail(f"{len(value)} values; at most {kind.max_length}")
+    item = kinds.Num(kind.doc, kind.unit, gt=kind.gt, ge=kind.ge, le=kind.le, shown=kind.shown,
+               why=kind.why)
     key = _key_name(path)
     return [_number(v, item, lambda m, i=i: fail(m, path + (i,)), key)
             for i, v in enumerate(value)]
 
 
-def _names(value: Any, spec: kinds.StrList, fail) -> list:
+def _names(value: Any, kind: kinds.StrList, fail) -> list:
     if isinstance(value, str):
         value = [value]
     if not isinstance(value, list) or not value:
         raise fail("expected a list of names")
     for v in value:
-        if v not in spec.choices:
-            raise fail(f"unknown name {v!r} (expected some of {', '.join(spec.choices)})"
-                       + _did_you_mean(v, spec.choices))
+        if v not in kind.choices:
+            raise fail(f"unknown name {v!r} (expected some of {', '.join(kind.choices)})"
+                       + _did_you_mean(v, kind.choices))
     if len(set(value)) != len(value):
         raise fail("a name is listed twice")
     return list(value)
@@ -188,8 +188,8 @@ def _rows(value: Any, fail) -> ProfileText:
     return rows_text(rows)
 
 
-def _number(value: Any, spec: kinds.Num, fail, key: str = "") -> float | int:
-    """A number checked against ``spec``: an int for an integer spec, else a float (in SI
+def _number(value: Any, kind: kinds.Num, fail, key: str = "") -> float | int:
+    """A number checked against ``kind``: an int for an integer kind, else a float (in SI
     units: a quantity written with a unit is converted)."""
     if isinstance(value, int) and not isinstance(value, bool) and abs(value) > MAX_MAGNITUDE:
         raise fail(f"{str(value)[:12]}... ({len(str(abs(value)))} digits) is not a plausible value")
@@ -200,7 +200,7 @@ def _number(value: Any, spec: kinds.Num, fail, key: str = "") -> float | int:
         elif isinstance(value, str) and units.split(value) is not None:
             number, written_unit = units.split(value)
             try:
-                value = units.to_si(number, written_unit, spec.unit)
+                value = units.to_si(number, written_unit, kind.unit)
             except units.UnitError as exc:
                 raise fail(str(exc)) from None
         else:
@@ -209,46 +209,46 @@ def _number(value: Any, spec: kinds.Num, fail, key: str = "") -> float | int:
         raise fail(f"must be finite, got {value!r}")
     if abs(value) > MAX_MAGNITUDE:
         raise fail(f"{value:g} is not a plausible value (|value| <= {MAX_MAGNITUDE:g} in SI units)")
-    if spec.integer:
+    if kind.integer:
         if float(value) != int(value):
             raise fail(f"must be a whole number, got {value!r}")
         value = int(value)
     else:
         value = float(value)
-    problem = _bound_problem(value, spec)
+    problem = _bound_problem(value, kind)
     if problem:
-        raise fail(_bound_message(value, spec, problem, written_unit, key))
+        raise fail(_bound_message(value, kind, problem, written_unit, key))
     return value
 
 
-def _bound_problem(value: float, spec: kinds.Num) -> tuple[str, float] | None:
+def _bound_problem(value: float, kind: kinds.Num) -> tuple[str, float] | None:
     """The first bound ``value`` breaks, as (relation, bound), or None."""
-    for rel, bound, ok in ((">", spec.gt, lambda v, b: v > b), (">=", spec.ge, lambda v, b: v >= b),
-                           ("<=", spec.le, lambda v, b: v <= b)):
+    for rel, bound, ok in ((">", kind.gt, lambda v, b: v > b), (">=", kind.ge, lambda v, b: v >= b),
+                           ("<=", kind.le, lambda v, b: v <= b)):
         if bound is not None and not ok(value, bound):
             return rel, bound
     return None
 
 
-def _bound_message(value: float, spec: kinds.Num, problem: tuple[str, float], written: str | None,
+def _bound_message(value: float, kind: kinds.Num, problem: tuple[str, float], written: str | None,
                    key: str) -> str:
     """``must be <= 250 km/h (why), got 504 km/h``; for a bare number that another unit of
     the key brings within the bounds: ``140 m/s is 504 km/h, above 250 km/h (why): did you
     mean `speed: 140 km/h`?``."""
     rel, bound = problem
-    shown = spec.shown or spec.unit
+    shown = kind.shown or kind.unit
     def show(v: float) -> str:
         if shown == "-":
             return f"{v:g}"
-        return f"{units.from_si(v, shown, spec.unit):.4g} {shown}"
+        return f"{units.from_si(v, shown, kind.unit):.4g} {shown}"
 
-    why = f" ({spec.why})" if spec.why else ""
-    if written is None and spec.unit != "-":
-        for unit in units.other_units(spec.unit):
-            candidate = units.to_si(value, unit, spec.unit)
-            if _bound_problem(candidate, spec) is None:
-                said = f"{value:g} {spec.unit}"
-                also = f" is {show(value)}," if shown != spec.unit else ""
+    why = f" ({kind.why})" if kind.why else ""
+    if written is None and kind.unit != "-":
+        for unit in units.other_units(kind.unit):
+            candidate = units.to_si(value, unit, kind.unit)
+            if _bound_problem(candidate, kind) is None:
+                said = f"{value:g} {kind.unit}"
+                also = f" is {show(value)}," if shown != kind.unit else ""
                 side = "above" if rel == "<=" else "below"
                 return (f"{said}{also} {side} {show(bound)}{why}: did you mean "
                         f"`{key}: {value:g} {unit}`?")

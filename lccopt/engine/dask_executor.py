@@ -58,13 +58,13 @@ class DaskExecutor:
 
     kind = "dask"
 
-    def __init__(self, case, spec, address, timeout: float):
+    def __init__(self, case, evaluator, address, timeout: float):
         try:
             import distributed  # noqa: F401
         except ImportError:
             raise ExecutorError("--scheduler needs Dask: pip install 'dask[distributed]' "
                                 "(or pip install 'lccopt[dask]')") from None
-        self.case, self.spec, self.timeout = case, spec, float(timeout)
+        self.case, self.evaluator, self.timeout = case, evaluator, float(timeout)
         self.address = address
         self.client = None
         self._futures: dict = {}  # future -> (task, submitted at on the driver's clock)
@@ -244,7 +244,7 @@ class DaskExecutor:
         try:
             if not self._connected():
                 raise ConnectionError("not connected")
-            fut = self.client.submit(dask_task, self.case, task, self.spec, self._probe,
+            fut = self.client.submit(dask_task, self.case, task, self.evaluator, self._probe,
                                      pure=False,
                                      key=f"lccopt-eval-{task.id}-{uuid.uuid4().hex[:8]}")
         except Exception as exc:  # noqa: BLE001 - the connection went: the task waits for it

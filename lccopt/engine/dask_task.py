@@ -19,7 +19,7 @@ from .worker import Outcome, Task, load_evaluator, run_task
 _DASK_EVALUATORS: dict = {}
 
 
-def dask_task(case, task: Task, spec, probe=None) -> Outcome:
+def dask_task(case, task: Task, evaluator, probe=None) -> Outcome:
     """Runs on a Dask worker: writes the evaluation file if it sees the run directory (finds
     the ``probe``, (path, content), in the folder of the evaluation file; checked for every
     task: worker.run_task), else returns the whole Evaluation for the parent to write."""
@@ -34,14 +34,14 @@ def dask_task(case, task: Task, spec, probe=None) -> Outcome:
             task.out_path = None
         else:   # the folder's identity differs on another machine: the probe tells instead
             task.probe, task.out_dir_id = (os.path.basename(probe[0]), probe[1]), None
-    key = spec if isinstance(spec, str) else id(spec)
+    key = evaluator if isinstance(evaluator, str) else id(evaluator)
     fn = _DASK_EVALUATORS.get(key)
     if fn is None:
         try:
-            fn = _DASK_EVALUATORS[key] = load_evaluator(spec)
+            fn = _DASK_EVALUATORS[key] = load_evaluator(evaluator)
         except Exception as exc:  # noqa: BLE001
-            return Outcome.of(task, error=f"cannot load the evaluator {spec!r} on {name}: {exc}",
-                           worker=name)
+            return Outcome.of(task, worker=name,
+                              error=f"cannot load the evaluator {evaluator!r} on {name}: {exc}")
     return run_task(case, task, fn, name)
 
 

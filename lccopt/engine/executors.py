@@ -163,10 +163,10 @@ class _Slot:
 class LocalPool:
     kind = "local"
 
-    def __init__(self, case, spec, workers: int, timeout: float):
+    def __init__(self, case, evaluator, workers: int, timeout: float):
         if workers < 1:
             raise ExecutorError(f"--workers must be at least 1, got {workers}")
-        self.case, self.spec, self.timeout = case, spec, float(timeout)
+        self.case, self.evaluator, self.timeout = case, evaluator, float(timeout)
         self.slots = int(workers)
         self._slots = [_Slot(i) for i in range(self.slots)]
         self._retry: list[Task] = []        # tasks whose worker was killed, to run again
@@ -201,7 +201,7 @@ class LocalPool:
         except (AttributeError, OSError):  # not Linux >= 5.3: death is seen as EOF on the socket
             s.pidfd = None
         try:
-            s.conn.send(("init", self.case, self.spec, list(sys.path)))
+            s.conn.send(("init", self.case, self.evaluator, list(sys.path)))
         except OSError:
             pass  # died already: wait() notices
 

@@ -23,19 +23,19 @@ from .results import write_results
 from .run import Recorder, Run, eval_name
 from .rundir import JOURNAL, RunDir, RunError, sha256_text, versions
 from .upgrade import evaluator_name
-from .worker import evaluator_spec
+from .worker import choose_evaluator
 
 
 def _usage_error(message: str) -> Exception:
     return UsageError(message)
 
 
-def make_executor(case, spec, workers: int | None, scheduler, timeout: float):
+def make_executor(case, evaluator, workers: int | None, scheduler, timeout: float):
     """The worker pool of a run: a Dask scheduler's workers with ``scheduler`` (an address),
     else ``workers`` local processes (default: the cores)."""
     if scheduler is not None:
-        return DaskExecutor(case, spec, scheduler, timeout)
-    return LocalPool(case, spec, workers or default_workers(), timeout)
+        return DaskExecutor(case, evaluator, scheduler, timeout)
+    return LocalPool(case, evaluator, workers or default_workers(), timeout)
 
 # ------------------------------------------------------------------------------ public API
 
@@ -49,7 +49,7 @@ def optimise(case, workers: int | None = None, scheduler=None, runs: Path = Path
     case_obj = case if isinstance(case, Case) else load_case(case)
     problem = Problem.from_case(case_obj)
     _check_options(workers, scheduler)
-    spec = evaluator_spec(evaluator)
+    evaluator = choose_evaluator(evaluator)
     run_path = Path(runs) / case_obj.name
     if not SAFE_NAME.fullmatch(case_obj.name):  # load_case checks it too: never '.', '..' or a path
         raise _usage_error(f"case name {case_obj.name!r} cannot name a run directory")
@@ -63,7 +63,7 @@ def optimise(case, workers: int | None = None, scheduler=None, runs: Path = Path
                                f"'lccopt resume {run_path}', or start again with "
                                f"'lccopt optimise {case_obj.path} --force'")
         _check_replaceable(run_path, Path(runs))
-    executor = _start_executor(case_obj, spec, workers, scheduler, problem,
+    executor = _start_executor(case_obj, evaluator, workers, scheduler, problem,
                                Progress(0, stream, progress).log)
     try:
         # a stopping signal waits for the old run's removal and the new one's creation: never
@@ -73,7 +73,7 @@ def optimise(case, workers: int | None = None, scheduler=None, runs: Path = Path
             # optimise may have made the run, or a link may have been put in its place
             _clear_the_way(run_path, Path(runs), force, case_obj)
             rd = RunDir.create(run_path, case_obj, problem,
-                               spec if isinstance(spec, str) else repr(spec))
+                               evaluator if isinstance(evaluator, str) else repr(evaluator))
             rd.lock()
     except BaseException as exc:
         executor.close()
@@ -182,9 +182,9 @@ def _check_replaceable(run_path: Path, runs: Path) -> None:
                            f"yourself")
 
 
-def _start_executor(case, spec, workers, scheduler, problem, log=None):
+def _start_executor(case, evaluator, workers, scheduler, problem, log=None):
     try:
-        executor = make_executor(case, spec, workers, scheduler, problem.timeout)
+        executor = make_executor(case, evaluator, workers, scheduler, problem.timeout)
     except ExecutorError as exc:
         raise _usage_error(str(exc)) from None
     try:
@@ -275,11 +275,11 @@ def resume(run, workers: int | None = None, scheduler=None, case=None,
         strategy, table = restore(problem, events, rd.load_state())
         # never the evaluator run.json names: a run directory from elsewhere must not choose
         # code to run; the testing hook ($LCCOPT_EVALUATOR) or the simulator
-        spec = evaluator_spec(evaluator)
+        evaluator = choose_evaluator(evaluator)
         started = evaluator_name(meta.get("evaluator"))
-        if isinstance(spec, str) and isinstance(started, str) and started != spec:
+        if isinstance(evaluator, str) and isinstance(started, str) and started != evaluator:
             out.log(f"the run was started with evaluator {meta['evaluator'][:60]!r}; carrying on "
-                    f"with {spec!r}")
+                    f"with {evaluator!r}")
         removed = rd.clean(pending={eval_name(i) for i in table.pending_ids()})
         if removed:
             out.log(f"removed {len(removed)} temporary or unfinished file(s): "
@@ -298,7 +298,7 @@ def resume(run, workers: int | None = None, scheduler=None, case=None,
         note = machine.resume_note(events[0].get("versions"), versions())
         if note:
             out.log(note)
-        executor = _start_executor(case_obj, spec, workers, scheduler, problem, out.log)
+        executor = _start_executor(case_obj, evaluator, workers, scheduler, problem, out.log)
         try:
             engine = Engine(rd, case_obj, problem, journal, table, strategy, executor,
                             Progress(problem.budget, stream, progress))
@@ -337,9 +337,9 @@ def _check_budget(budget: int | None, asked: int) -> None:
         return
     from ..config.schema import SCHEMA
 
-    spec = SCHEMA.fields["optimisation"].fields["budget"]
-    if budget < spec.ge or budget > spec.le:
-        raise _usage_error(f"--budget {budget}: a budget is {spec.ge:g} to {spec.le:g} "
+    rule = SCHEMA.fields["optimisation"].fields["budget"]
+    if budget < rule.ge or budget > rule.le:
+        raise _usage_error(f"--budget {budget}: a budget is {rule.ge:g} to {rule.le:g} "
                            f"evaluations")
     if budget < asked:
         raise _usage_error(f"--budget {budget} is below the {asked} evaluations the run has "

@@ -44,22 +44,22 @@ SINGLE_THREAD_ENV = {
 }
 
 
-def evaluator_spec(evaluator: str | Callable | None = None) -> str | Callable:
+def choose_evaluator(evaluator: str | Callable | None = None) -> str | Callable:
     """The evaluator to use: the argument, else $LCCOPT_EVALUATOR, else the simulator."""
     if evaluator is not None:
         return evaluator
     return os.environ.get(ENV_EVALUATOR) or DEFAULT_EVALUATOR
 
 
-def load_evaluator(spec: str | Callable) -> Callable:
-    if callable(spec):
-        return spec
-    module, _, name = str(spec).partition(":")
+def load_evaluator(evaluator: str | Callable) -> Callable:
+    if callable(evaluator):
+        return evaluator
+    module, _, name = str(evaluator).partition(":")
     if not module or not name:
-        raise ValueError(f"evaluator {spec!r}: expected 'module:function'")
+        raise ValueError(f"evaluator {evaluator!r}: expected 'module:function'")
     fn = getattr(importlib.import_module(module), name, None)
     if not callable(fn):
-        raise ValueError(f"evaluator {spec!r}: {module} has no function {name}")
+        raise ValueError(f"evaluator {evaluator!r}: {module} has no function {name}")
     return fn
 
 
@@ -208,11 +208,11 @@ def _plain(info: dict) -> dict:
 def local_worker_main(fd: int, parent_pid: int, slot: int) -> None:
     """Loop of a local worker process (started by ``LocalPool`` with ``python -c``).
 
-    Receives ("init", case, evaluator spec, sys.path), then Tasks; sends back ("ready", pid)
-    and ("done", Outcome). Ignores the stopping signals (``errors.STOP_SIGNALS``: Ctrl-C,
-    SIGTERM, SIGHUP, ..., sent to the whole process group by a terminal, Slurm or systemd: the
-    parent decides what they mean, and an evaluation stopped with the run stays pending) and
-    dies with its parent.
+    Receives ("init", case, evaluator, sys.path) (the evaluator "module:function" or a
+    callable), then Tasks; sends back ("ready", pid) and ("done", Outcome). Ignores the
+    stopping signals (``errors.STOP_SIGNALS``: Ctrl-C, SIGTERM, SIGHUP, ..., sent to the whole
+    process group by a terminal, Slurm or systemd: the parent decides what they mean, and an
+    evaluation stopped with the run stays pending) and dies with its parent.
 
     Each task runs in a child forked from this process as it stands after start-up, so
     every evaluation starts from the same process state whatever ran before it: results
@@ -226,7 +226,7 @@ def local_worker_main(fd: int, parent_pid: int, slot: int) -> None:
     _die_with_parent(parent_pid)
     conn = Connection(fd)
     try:
-        _, case, spec, path = conn.recv()
+        _, case, evaluator, path = conn.recv()
     except (EOFError, OSError):
         return
     for p in path:
@@ -234,10 +234,10 @@ def local_worker_main(fd: int, parent_pid: int, slot: int) -> None:
             sys.path.append(p)
     name = f"{socket.gethostname()}:local-{slot}:pid{os.getpid()}"
     try:
-        evaluator = load_evaluator(spec)
+        evaluator = load_evaluator(evaluator)
     except Exception as exc:  # noqa: BLE001
         with contextlib.suppress(OSError):  # the parent may be gone already
-            conn.send(("fatal", f"cannot load the evaluator {spec!r}: {type(exc).__name__}: "
+            conn.send(("fatal", f"cannot load the evaluator {evaluator!r}: {type(exc).__name__}: "
                                 f"{exc}"))
         return
     machine.describe()  # once here, not in every forked child (it loads scipy.linalg)

@@ -83,9 +83,9 @@ def _generate(spectrum, seed, lo, hi, length, scale) -> np.ndarray:
     rng = np.random.default_rng(seed)
     a, b = rng.standard_normal((2, len(m))) * sigma
     n = 2 * max(int(np.ceil(length / lo * POINTS_PER_SHORTEST_WAVE / 2)), int(m[-1]) + 1)
-    spec = np.zeros(n // 2 + 1, dtype=complex)
-    spec[m] = 0.5 * n * (a - 1j * b)
-    r = np.fft.irfft(spec, n)
+    coefficients = np.zeros(n // 2 + 1, dtype=complex)
+    coefficients[m] = 0.5 * n * (a - 1j * b)
+    r = np.fft.irfft(coefficients, n)
     x = np.arange(n + 1) * (length / n)
     out = np.column_stack([x, np.append(r, r[0])])
     out.setflags(write=False)
