@@ -1,7 +1,7 @@
 """benchmarks/paper/paper_seeds.py --report-only summarises finished runs as they are stored
 (results.h5, journal.jsonl) and runs nothing: unfinished runs are left out, two folders compare
-on the seeds finished in both against one best-known value, and runs of different models are
-refused."""
+on the seeds finished in both against one best-known value, runs of different models are
+refused, and rows of an earlier session's CSV stand in for run folders that are gone."""
 
 import csv
 import json
@@ -17,7 +17,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def _run(folder: Path, seed: int, fs: list[float], budget: int = 4, wall: float = 10.0,
-         shift: float = 0.0) -> None:
+         shift: float = 0.0, optimiser: dict | None = None) -> None:
     """A stored single-F_max run: the reference design (id 0, F_max 100) and the designs
     x = (F_max, seed) (``shift`` moves the reference's objectives, as another model would)."""
     run = folder / f"single-F_max-s{seed}"
@@ -31,7 +31,7 @@ def _run(folder: Path, seed: int, fs: list[float], budget: int = 4, wall: float 
         e = f.create_group("evaluations")
         e["id"], e["x"], e["value"], e["F_max"] = np.arange(n), x, values, values
         e["status"] = np.array(["ok"] * n, dtype=h5py.string_dtype())
-    events = [{"seq": 0, "event": "run", "budget": budget, "optimiser": {}},
+    events = [{"seq": 0, "event": "run", "budget": budget, "optimiser": optimiser or {}},
               {"seq": 1, "event": "session", "wall_time": wall}]
     (run / "journal.jsonl").write_text("".join(json.dumps(e) + "\n" for e in events))
 
@@ -69,3 +69,34 @@ def test_report_only_refuses_runs_of_different_models(tmp_path):
     p = _report(tmp_path, "--seeds", "1", "--runs", "a", "--against", "b")
     assert p.returncode != 0
     assert "the same design with other objectives" in p.stderr
+
+
+def test_report_merges_an_earlier_sessions_rows_for_the_seeds_it_lacks(tmp_path):
+    _run(tmp_path / "old", 1, [60.0, 50.0, 40.0], wall=30.0)   # best 40
+    _run(tmp_path / "old", 2, [30.0, 25.0, 20.0], wall=50.0)   # best 20: the best known
+    first = tmp_path / "first.csv"
+    p = _report(tmp_path, "--seeds", "1-2", "--runs", "old", "--out", str(first))
+    assert p.returncode == 0, p.stderr
+    _run(tmp_path / "new", 2, [30.0, 25.0, 20.0], wall=40.0)   # seed 2 again: the same best
+    _run(tmp_path / "new", 3, [70.0, 60.0, 60.0], wall=20.0)   # best 60
+    out = tmp_path / "all.csv"
+    p = _report(tmp_path, "--seeds", "1-3", "--runs", "new", "--merge", str(first),
+                "--out", str(out))
+    assert p.returncode == 0, p.stderr
+    # regret (best - 20) / (100 - 20): seed 1 (from first.csv) 0.25, seed 2 0, seed 3 0.5
+    assert "| single-F_max | 3 | 20 | 0.250 / 0.500 | 30 |" in p.stdout
+    rows = list(csv.DictReader(out.open()))
+    assert [(r["seed"], float(r["regret"]), r["wall_s"]) for r in rows] == [
+        ("1", 0.25, "30"), ("2", 0.0, "40"), ("3", 0.5, "20")]
+
+
+def test_report_refuses_earlier_rows_of_another_optimiser_or_result(tmp_path):
+    _run(tmp_path / "old", 1, [60.0, 50.0, 40.0])
+    first = tmp_path / "first.csv"
+    assert _report(tmp_path, "--seeds", "1", "--runs", "old", "--out", str(first)).returncode == 0
+    _run(tmp_path / "other", 2, [60.0, 50.0], budget=3, optimiser={"switches": False})
+    p = _report(tmp_path, "--seeds", "1-2", "--runs", "other", "--merge", str(first))
+    assert p.returncode != 0 and "other optimisers" in p.stderr
+    _run(tmp_path / "again", 1, [60.0, 50.0, 45.0])   # seed 1 again, another best
+    p = _report(tmp_path, "--seeds", "1", "--runs", "again", "--merge", str(first))
+    assert p.returncode != 0 and "best 45.0 here, 40.0 in --merge" in p.stderr

@@ -21,7 +21,10 @@ RUNS (a missing or unfinished run is named and left out), with each run's wall t
 journal (``--out``: the rows of RUNS' finished runs). ``--against DIR`` adds the finished runs
 of DIR (another optimiser's runs of the same cases and seeds) side by side, on the seeds
 finished in both, regret against the best of both: the designs evaluated in both runs of a
-seed must have the same objectives (the same model), or it stops.
+seed must have the same objectives (the same model), or it stops. ``--merge FILE...`` adds the
+rows of earlier ``--out`` files (runs of another session whose folders are gone) for the seeds
+RUNS lacks: they must have the reference value and the optimiser settings of RUNS' runs, and a
+seed in both must have the same best value, or it stops; ``--out`` then holds them all.
 
 Per case it prints the reference design's value, the best-known value (the best over all runs,
 the long one included), the median and worst seed, and each seed's regret ratio
@@ -133,16 +136,56 @@ def shared_designs(a: Path, b: Path) -> int:
     return len(common)
 
 
+def stored_run(run: Path) -> dict | None:
+    """A finished run as a CSV row holds it: ``finished_values`` plus its budget, wall time,
+    recorded optimiser settings and commit (None: this checkout's)."""
+    import json
+
+    got = finished_values(run)
+    if got is None:
+        return None
+    first = json.loads((run / "journal.jsonl").open().readline())
+    return {**got, "budget": int(first["budget"]), "wall": wall_time(run), "commit": None,
+            "settings": json.dumps(first.get("optimiser"), sort_keys=True, separators=(",", ":"))}
+
+
+def merged_rows(paths: list[str]) -> dict:
+    """{(case, seed): stored run} from earlier ``--out`` files."""
+    import csv
+
+    out = {}
+    for path in paths:
+        with open(path, newline="") as fh:
+            for r in csv.DictReader(fh):
+                out[r["case"], int(r["seed"])] = {
+                    "best": float(r["best"]), "reference": float(r["reference"]),
+                    "budget": int(r["budget"]), "commit": r["commit"], "settings": r["settings"],
+                    "wall": float(r["wall_s"]) if r.get("wall_s") else float("nan")}
+    return out
+
+
+def _merge(case: str, seed: int, got, earlier: dict | None):
+    """The run of RUNS, or the earlier row where RUNS has none; stops where they disagree."""
+    if earlier is None:
+        return got
+    if got is not None and got["best"] != earlier["best"]:
+        sys.exit(f"{case} seed {seed}: best {got['best']!r} here, {earlier['best']!r} in --merge "
+                 "(another optimiser or model)")
+    return got or earlier
+
+
 def report_only(cases: list[str], seeds: list[int], runs: Path, against: Path | None,
-                known: dict) -> list:
-    """Summarise the finished runs of RUNS (and AGAINST side by side); run nothing. Returns
-    the rows of RUNS for ``write_rows``."""
+                known: dict, merge: dict | None = None) -> list:
+    """Summarise the finished runs of RUNS (with MERGE's rows, or AGAINST side by side); run
+    nothing. Returns (case, seed, stored run, regret, best known) rows for ``write_rows``."""
+    merge = merge or {}
     folders = [runs] + ([against] if against else [])
     table, rows = [], []
     for case in cases:
         res: dict[Path, dict] = {d: {} for d in folders}
         for s in seeds:
-            got = {d: finished_values(d / f"{case}-s{s}") for d in folders}
+            got = {d: stored_run(d / f"{case}-s{s}") for d in folders}
+            got[runs] = _merge(case, s, got[runs], merge.get((case, s)))
             if any(v is None for v in got.values()):
                 missing = ", ".join(str(d) for d, v in got.items() if v is None)
                 print(f"  {case} seed {s}: no finished run in {missing}; left out",
@@ -156,25 +199,27 @@ def report_only(cases: list[str], seeds: list[int], runs: Path, against: Path | 
         if not done:
             print(f"\n{case}: no seed finished in every folder")
             continue
-        refs = {r["reference"] for d in folders for r in res[d].values()}
-        if len(refs) > 1:
-            sys.exit(f"{case}: the reference design has {len(refs)} values (other models)")
-        f_ref = refs.pop()
+        for what in ("reference", "settings"):
+            seen = {r[what] for d in folders for r in res[d].values()}
+            if len(seen) > 1 and (what == "reference" or not against):
+                sys.exit(f"{case}: the runs have {len(seen)} values of {what} "
+                         f"({'other models' if what == 'reference' else 'other optimisers'})")
+        f_ref = res[runs][done[0]]["reference"]
         f_best = min([r["best"] for d in folders for r in res[d].values()]
                      + ([known[case]] if case in known else []))
         print(f"\n{case}: per seed (best value, regret ratio) in " + " | ".join(map(str, folders)))
         row = [case, f"{len(done)}", f"{f_best:.5g}"]
         walls = []
+        regrets = {d: {s: (r["best"] - f_best) / (f_ref - f_best) for s, r in res[d].items()}
+                   for d in folders}
         for d in folders:
-            regret = {s: (r["best"] - f_best) / (f_ref - f_best) for s, r in res[d].items()}
-            res[d] = {s: (res[d][s]["best"], regret[s]) for s in done}
-            row.append(f"{statistics.median(regret.values()):.3f} / {max(regret.values()):.3f}")
-            if d == runs:
-                rows.append((case, f_ref, f_best, None, None, None, None, regret, None))
-            walls.append(statistics.median(wall_time(d / f"{case}-s{s}") for s in done))
+            row.append(f"{statistics.median(regrets[d].values()):.3f} / "
+                       f"{max(regrets[d].values()):.3f}")
+            walls.append(statistics.median(res[d][s]["wall"] for s in done))
+        rows += [(case, s, res[runs][s], regrets[runs][s], f_best) for s in done]
         for s in done:
-            print(f"  seed {s}: " + " | ".join(f"{res[d][s][0]:.5g}  regret {res[d][s][1]:.3f}"
-                                               for d in folders))
+            print(f"  seed {s}: " + " | ".join(f"{res[d][s]['best']:.5g}  regret "
+                                               f"{regrets[d][s]:.3f}" for d in folders))
         table.append(row + [" / ".join(f"{w:.0f}" for w in walls)])
     print("\n| case | seeds | best known | " + " | ".join(
         f"{d} median / worst regret" for d in folders) + " | wall time per run, median (s) |")
@@ -184,26 +229,22 @@ def report_only(cases: list[str], seeds: list[int], runs: Path, against: Path | 
     return rows
 
 
-def write_rows(path: str, runs: Path, rows: list, made_by: str | None) -> None:
-    """One CSV row per run: case, seed, budget, best, regret ratio, commit, settings."""
+def write_rows(path: str, rows: list, made_by: str | None) -> None:
+    """One CSV row per run: case, seed, budget, best, regret ratio, reference, best known,
+    commit, settings, wall time."""
     import csv
-    import json
 
     from benchmarks.support.runs_table import commit
 
     with open(path, "w", newline="") as fh:
         w = csv.writer(fh, lineterminator="\n")
         w.writerow(["case", "seed", "budget", "best", "regret", "reference", "best_known",
-                    "commit", "settings"])
-        for case, f_ref, f_best, _, _, _, _, regret, _ in rows:
-            for s in sorted(regret):
-                run = runs / f"{case}-s{s}"
-                first = json.loads((run / "journal.jsonl").open().readline())
-                best = run_values(run)["best"]
-                w.writerow([case, s, first["budget"], repr(best), f"{regret[s]:.6g}",
-                            repr(f_ref), repr(f_best), made_by or commit(),
-                            json.dumps(first.get("optimiser"), sort_keys=True,
-                                       separators=(",", ":"))])
+                    "commit", "settings", "wall_s"])
+        for case, s, run, regret, f_best in rows:
+            w.writerow([case, s, run["budget"], repr(run["best"]), f"{regret:.6g}",
+                        repr(run["reference"]), repr(f_best),
+                        run["commit"] or made_by or commit(), run["settings"],
+                        f"{run['wall']:.0f}"])
 
 
 def main() -> None:
@@ -223,17 +264,21 @@ def main() -> None:
                     help="summarise the finished runs in RUNS only: start or resume nothing")
     ap.add_argument("--against", default=None, metavar="DIR",
                     help="with --report-only: the finished runs of DIR side by side")
+    ap.add_argument("--merge", nargs="+", default=[], metavar="FILE",
+                    help="with --report-only: rows of earlier --out files for seeds RUNS lacks")
     args = ap.parse_args()
     known = {k: float(v) for k, _, v in (item.partition("=") for item in args.known)}
     runs = Path(args.runs)
     seeds = seeds_arg(args.seeds)
-    if args.report_only or args.against:
-        if not args.report_only or args.long:
-            ap.error("--against needs --report-only, which does not take --long")
+    if args.report_only or args.against or args.merge:
+        if not args.report_only or args.long or (args.against and args.merge):
+            ap.error("--against and --merge (one of them) need --report-only, which does not "
+                     "take --long")
         rows = report_only(args.cases.split(","), seeds, runs,
-                           Path(args.against) if args.against else None, known)
+                           Path(args.against) if args.against else None, known,
+                           merged_rows(args.merge))
         if args.out:
-            write_rows(args.out, runs, rows, args.commit)
+            write_rows(args.out, rows, args.commit)
         return
     rows = []
     for case in args.cases.split(","):
@@ -255,7 +300,9 @@ def main() -> None:
         if case in known:
             print(f"  known from elsewhere (--known): {known[case]:.5g}")
     if args.out:
-        write_rows(args.out, runs, rows, args.commit)
+        write_rows(args.out, [(case, s, stored_run(runs / f"{case}-s{s}"), regret[s], f_best)
+                              for case, _, f_best, _, _, _, _, regret, _ in rows
+                              for s in sorted(regret)], args.commit)
     print("\n| case | reference | best known | median seed | worst seed | median regret "
           "| worst regret |")
     print("|---|---|---|---|---|---|---|")
