@@ -32,7 +32,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.special import ndtr, ndtri
 
 DISTRIBUTIONS = ("lognormal", "uniform")
 # kernel reach, in kernel widths: exp(-6^2 / 2) = 1.5e-8 of the centre weight is dropped
@@ -96,6 +95,10 @@ def factors(z, distribution: str, mean: float, cov: float) -> np.ndarray:
         s = math.sqrt(math.log1p(cov * cov))
         return mean * np.exp(s * z - 0.5 * s * s)
     if distribution == "uniform":
+        # imported here: every command reads DISTRIBUTIONS through the case's schema, and
+        # scipy.special would add a fifth to a `check`'s start
+        from scipy.special import ndtr
+
         return mean * (1.0 + math.sqrt(3.0) * cov * (2.0 * ndtr(z) - 1.0))
     raise ValueError(f"unknown distribution {distribution!r} (expected one of "
                      f"{', '.join(DISTRIBUTIONS)})")
@@ -108,4 +111,6 @@ def hanging(z, probability: float) -> np.ndarray:
         return np.zeros(z.shape, dtype=bool)
     if probability >= 1.0:
         return np.ones(z.shape, dtype=bool)
+    from scipy.special import ndtri
+
     return z > ndtri(1.0 - probability)
