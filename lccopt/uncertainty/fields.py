@@ -96,7 +96,7 @@ def factors(z, distribution: str, mean: float, cov: float) -> np.ndarray:
         return mean * np.exp(s * z - 0.5 * s * s)
     if distribution == "uniform":
         # imported here: every command reads DISTRIBUTIONS through the case's schema, and
-        # scipy.special would add a fifth to a `check`'s start
+        # scipy.special would nearly double a `check`'s start
         from scipy.special import ndtr
 
         return mean * (1.0 + math.sqrt(3.0) * cov * (2.0 * ndtr(z) - 1.0))
