@@ -53,6 +53,7 @@ from .errors import (  # noqa: E402
     describe_os_error,
     printable,
     stop_on_signals,
+    swallowed_interruption,
 )
 from .terminal import PipeGuard, guard_streams, wrap_message  # noqa: E402
 
@@ -227,14 +228,13 @@ def main(argv: list[str] | None = None) -> int:
     """Console entry point: map errors to exit codes and one-line messages."""
     try:
         stop_on_signals()
-        sys.unraisablehook = _unraisable
         guard_streams()
         usage_errors, aborts = _click_exception_types()
         code = _main(argv, usage_errors, aborts)
     except KeyboardInterrupt as exc:  # before or after the command's own handling
         code = _interrupted(exc)
-    if _swallowed and code == EXIT_OK:
-        code = _interrupted(_swallowed[0])
+    if code == EXIT_OK and swallowed_interruption() is not None:
+        code = _interrupted(swallowed_interruption())
     # done: a signal from here on (the interpreter's shutdown, which restores the default
     # handlers of Python-level ones) must not turn the exit code into a kill's
     _ignore_stop_signals()
@@ -354,18 +354,6 @@ def _fail(message: str, code: int) -> int:
     except OSError:  # stderr closed or a broken pipe: the exit code still tells
         _silence_stdio()
     return code
-
-
-_swallowed: list[BaseException] = []   # interruptions raised where they could not propagate
-
-
-def _unraisable(info) -> None:
-    """An interruption raised inside a finaliser (``__del__``, a weak reference's callback)
-    cannot propagate: instead of a traceback, the command ends with exit 130 once done."""
-    if isinstance(info.exc_value, KeyboardInterrupt):
-        _swallowed.append(info.exc_value)
-        return
-    sys.__unraisablehook__(info)
 
 
 def _interrupted(exc: BaseException) -> int:

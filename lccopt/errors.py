@@ -11,6 +11,7 @@ import errno
 import os
 import re
 import signal
+import sys
 
 
 class CaseError(ValueError):
@@ -94,9 +95,30 @@ class RunInterrupted(Interrupted):
                 f"carry on with lccopt.resume({str(self.path)!r})")
 
 
+_swallowed: list[BaseException] = []   # interruptions raised where they could not propagate
+_files_in_place = False   # the command's files are in place: nothing is left to stop
+
+
 def _raise_interrupted(signum, frame):
     Interrupted.last = signum
+    if _files_in_place:
+        return   # too late to stop anything: the command ends as it would have
     raise Interrupted(signum)
+
+
+def _unraisable(info) -> None:
+    """An interruption raised inside a finaliser (``__del__``, a weak reference's callback)
+    cannot propagate: instead of a traceback, the command stops at its next commit (see
+    :func:`committing`) or ends with exit 130 once done."""
+    if isinstance(info.exc_value, KeyboardInterrupt):
+        _swallowed.append(info.exc_value)
+        return
+    sys.__unraisablehook__(info)
+
+
+def swallowed_interruption() -> BaseException | None:
+    """The first interruption that a finaliser swallowed in this command, if any."""
+    return _swallowed[0] if _swallowed else None
 
 
 def stop_on_signals() -> None:
@@ -107,6 +129,10 @@ def stop_on_signals() -> None:
 
     if threading.current_thread() is not threading.main_thread():
         return
+    global _files_in_place
+    _files_in_place = False
+    _swallowed.clear()
+    sys.unraisablehook = _unraisable
     for sig in STOP_SIGNALS:
         try:
             signal.signal(sig, _raise_interrupted)
@@ -180,3 +206,20 @@ def describe_os_error(exc: BaseException) -> str:
         m = _H5_FILE.search(str(exc))
         name = m.group(1) if m else None
     return f"{name}: {reason}" if name else reason
+
+
+@contextlib.contextmanager
+def committing():
+    """The step that moves a command's files into place (``lccopt.outdir``), so that an
+    interruption either leaves nothing or comes too late to stop anything: one that a
+    finaliser swallowed earlier stops the command before the step; a stopping signal during
+    the step waits for its end; once the step is done the command's work is in place, and
+    under the command line a stopping signal no longer stops it (it ends as it would have,
+    exit 0). A program using the library keeps its own handlers: its Ctrl-C then arrives
+    after the files are in place, as in any Python code."""
+    global _files_in_place
+    if _swallowed:
+        raise _swallowed[0]
+    with signals_deferred():
+        yield
+        _files_in_place = True

@@ -30,7 +30,7 @@ import os
 import stat
 from pathlib import Path
 
-from .errors import UsageError
+from .errors import UsageError, committing
 from .folder import Folder
 from .safeio import UnsafeFile, kind_of, named
 
@@ -166,7 +166,8 @@ class Output:
     def __exit__(self, kind, exc, tb) -> None:
         try:
             if kind is None:
-                self.publish()
+                with committing():
+                    self.publish()
         finally:
             self.close()
 

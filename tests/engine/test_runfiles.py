@@ -404,10 +404,57 @@ def test_a_report_is_written_whole_or_not_at_all(tmp_path, finished):
     wait_for(lambda: _staged_png(run), timeout=120, what="a staged figure")
     p.send_signal(signal.SIGINT)
     o, e = p.communicate(timeout=60)
-    assert p.returncode == 130, e
     assert "Traceback" not in e
-    assert {f.name: f.read_bytes() for f in (run / "report").iterdir()} == old
+    now = {f.name: f.read_bytes() for f in (run / "report").iterdir()}
+    if p.returncode == 130:
+        assert now == old
+    else:   # the signal came after the new report was in place: too late to stop anything
+        assert p.returncode == 0, e
+        assert sorted(now) == sorted(old) and all(now.values()), sorted(now)
     assert not [n for n in os.listdir(run) if n.startswith(".lccopt-")]
+
+
+# One command's files moved into place, in a process of its own with the command line's
+# signal handling: argv[1] the folder, argv[2] what happens before the files move.
+_COMMIT = """
+import os, signal, sys
+from pathlib import Path
+from lccopt.errors import stop_on_signals
+from lccopt.outdir import Output
+
+class Finaliser:   # Ctrl-C raised inside a finaliser, where it cannot propagate
+    def __del__(self):
+        signal.raise_signal(signal.SIGINT)   # its handler runs at once, inside __del__
+
+stop_on_signals()
+out, before = Path(sys.argv[1]), sys.argv[2]
+try:
+    with Output.into(out, ["a.txt"], (), False, "report") as output:
+        (output.root / "a.txt").write_bytes(b"whole")
+        if before == "finaliser":
+            Finaliser()
+except KeyboardInterrupt:
+    print("interrupted")
+    sys.exit(130)
+signal.raise_signal(signal.SIGINT)   # once the files are in place: nothing left to stop
+print("done")
+"""
+
+
+@pytest.mark.parametrize("before", ["nothing", "finaliser"])
+def test_an_interruption_leaves_nothing_or_comes_after_the_files_are_in_place(tmp_path, before):
+    """An interruption a finaliser swallowed (Python cannot raise it there) stops the command
+    before its files move, not after; a stopping signal once they are in place ends nothing."""
+    out = tmp_path / "out"
+    r = subprocess.run([sys.executable, "-c", _COMMIT, str(out), before], capture_output=True,
+                       text=True, timeout=60, cwd=REPO)
+    assert "Traceback" not in r.stderr, r.stderr
+    if before == "finaliser":
+        assert (r.returncode, r.stdout.strip()) == (130, "interrupted"), r.stderr
+        assert not out.exists() or os.listdir(out) == []
+    else:
+        assert (r.returncode, r.stdout.strip()) == (0, "done"), r.stderr
+        assert os.listdir(out) == ["a.txt"] and (out / "a.txt").read_bytes() == b"whole"
 
 
 def _simulate(case, out, *more):
