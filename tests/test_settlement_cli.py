@@ -17,7 +17,10 @@ import h5py
 import numpy as np
 import pytest
 
+from lccopt.config import load_case
+from lccopt.degradation.variants import law_variants
 from lccopt.engine.journal import read_journal
+from lccopt.report.law_variants import _objectives
 from tests.conftest import CONFIGS, lccopt_command
 
 # seconds a test: settlement runs through the command line
@@ -175,6 +178,20 @@ def test_status_and_report_speak_settlement(run):
     s = json.loads((rep / "summary.json").read_text())
     assert set(SETTLEMENT) <= set(s["best"]["objectives"])
     assert s["figures"]["settlement-profile"] == "settlement-profile.png"
+
+
+def test_the_law_check_in_processes_is_what_one_process_predicts(run):
+    """The report's 16 predictions run side by side in processes of their own: the first
+    variant's, for the reference design, is what this process predicts, bit for bit."""
+    base, case_path, _, _ = run
+    kept = json.loads((base / "runs" / "s" / "report" / "law-variants.json").read_text())
+    case = load_case(case_path)
+    label, variant = law_variants(case.degradation_spec())[0]
+    with h5py.File(base / "runs" / "s" / "results.h5", "r") as f:
+        e = f["evaluations"]
+        x = e["x"][()][list(e["id"][()]).index(0)]     # #0, the reference design
+    assert kept["variants"][0]["label"] == label
+    assert kept["variants"][0]["reference"] == _objectives(variant, case.track_design(x))
 
 
 def s_within(rep: Path) -> bool:

@@ -17,8 +17,10 @@ def law_check(run, bi: int, ri: int | None, out: Path, echo=None) -> dict | None
     variants of :func:`lccopt.degradation.variants.law_variants`): in how many the best design
     beats the reference on the run's settlement objectives.
 
-    The predictions (16; a few seconds to minutes each) are kept in ``out/law-variants.json``
-    under a key of the case, both designs and the version, and read again by a later report.
+    The predictions (16; a few seconds to minutes each) run side by side in processes of
+    their own, one per core (:func:`lccopt.fanout.call_in_processes`), and are kept in
+    ``out/law-variants.json`` under a key of the case, both designs and the version, read
+    again by a later report.
 
     Parameters
     ----------
@@ -43,8 +45,9 @@ def law_check(run, bi: int, ri: int | None, out: Path, echo=None) -> dict | None
     import hashlib
     import json
 
-    from ..degradation.assessment import predict, settlement_objectives
     from ..degradation.variants import law_variants
+    from ..engine.executors import default_workers, max_local_workers
+    from ..fanout import call_in_processes
     from ..folder import read_owned
     from ..version import __version__
 
@@ -69,20 +72,27 @@ def law_check(run, bi: int, ri: int | None, out: Path, echo=None) -> dict | None
     from ..terminal import echo as default_echo
 
     say = echo or default_echo
+    calls = [(v, case.track_design(x)) for _, v in variants for x in (xb, xr)]
+    processes = min(len(calls), default_workers(), max_local_workers()[0])
     say(f"predicting the best and the reference design under {len(variants)} variants "
-        f"of the law ({2 * len(variants)} predictions, kept in {path})...", err=True)
-    rows = []
-    for label, v in variants:
-        row = {"label": label}
-        for name, x in (("best", xb), ("reference", xr)):
-            o = settlement_objectives(predict(v, case.track_design(x)), v.limit)
-            row[name] = {k: float(o[k]) for k in o}
-        rows.append(row)
+        f"of the law ({len(calls)} predictions in {processes} process"
+        f"{'es' if processes > 1 else ''}, kept in {path})...", err=True)
+    predicted = iter(call_in_processes(_objectives, calls, processes))
+    rows = [{"label": label, "best": next(predicted), "reference": next(predicted)}
+            for label, _ in variants]
     kept = {"key": key, "variants": rows,
             "nominal": {"best": {k: float(run.obj[k][bi]) for k in keys if k in run.obj},
                         "reference": {k: float(run.obj[k][ri]) for k in keys if k in run.obj}}}
     place.write_bytes((json.dumps(kept, indent=1) + "\n").encode())
     return _verdict(kept, keys)
+
+
+def _objectives(spec, design) -> dict:
+    """One design's settlement objectives under one variant of the law (a process's call)."""
+    from ..degradation.assessment import predict, settlement_objectives
+
+    o = settlement_objectives(predict(spec, design), spec.limit)
+    return {k: float(o[k]) for k in o}
 
 
 def _verdict(kept: dict, keys: list[str]) -> dict:

@@ -1,0 +1,92 @@
+"""Calls spread over processes of their own (lccopt.fanout): the same answers as in one
+process, in order; errors and dead processes said; Ctrl-C to the process group and kill -9
+of the caller leave no process behind."""
+
+from __future__ import annotations
+
+import math
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+from lccopt.fanout import call_in_processes
+
+
+def test_the_answers_are_those_of_one_process_in_order():
+    rng = np.random.default_rng(7)
+    calls = [(rng.standard_normal((40, 40)),) for _ in range(7)]
+    here = [np.linalg.inv(*c) for c in calls]
+    there = call_in_processes(np.linalg.inv, calls, 3)
+    assert len(there) == 7
+    for a, b in zip(here, there):
+        np.testing.assert_array_equal(a, b)      # bit for bit
+    pids = call_in_processes(os.getpid, [()] * 5, 2)
+    assert len(set(pids)) == 2 and os.getpid() not in pids
+    assert pids[0::2] == [pids[0]] * 3           # dealt round-robin
+    assert call_in_processes(os.getpid, [()] * 3, 1) == [os.getpid()] * 3   # one: here
+
+
+def test_an_error_is_raised_as_itself_and_a_dead_process_is_said():
+    with pytest.raises(ValueError, match="math domain error"):
+        call_in_processes(math.sqrt, [(4.0,), (-1.0,), (9.0,)], 2)
+    with pytest.raises(RuntimeError, match=r"a process of _exit died \(exit code 3\)"):
+        call_in_processes(os._exit, [(3,), (3,)], 2)
+
+
+_CALLER = """
+import sys, time
+from lccopt.errors import stop_on_signals
+from lccopt.fanout import call_in_processes
+stop_on_signals()
+print("ready", flush=True)
+try:
+    call_in_processes(time.sleep, [(60,)] * 2, 2)
+except KeyboardInterrupt:
+    print("interrupted", flush=True)
+    sys.exit(130)
+"""
+
+
+def _group_alive(pgid: int) -> bool:
+    try:
+        os.killpg(pgid, 0)
+    except ProcessLookupError:
+        return False
+    return True
+
+
+def _children(pid: int) -> list[int]:
+    with open(f"/proc/{pid}/task/{pid}/children", encoding="ascii") as f:
+        return [int(c) for c in f.read().split()]
+
+
+@pytest.mark.parametrize("how", ["ctrl-c to the group", "kill -9 of the caller"])
+def test_no_process_outlives_its_caller(how):
+    p = subprocess.Popen([sys.executable, "-c", _CALLER], stdout=subprocess.PIPE, text=True,
+                         start_new_session=True)
+    try:
+        assert p.stdout.readline().strip() == "ready"
+        t0 = time.monotonic()
+        while len(_children(p.pid)) < 2:
+            assert time.monotonic() - t0 < 60, "the processes did not start"
+            time.sleep(0.05)
+        time.sleep(0.5)                            # their interpreters started
+        if how == "ctrl-c to the group":
+            os.killpg(p.pid, signal.SIGINT)
+            out, _ = p.communicate(timeout=30)
+            assert p.returncode == 130 and out.strip() == "interrupted"
+        else:
+            p.kill()
+            p.wait(timeout=30)
+        t0 = time.monotonic()
+        while _group_alive(p.pid):
+            assert time.monotonic() - t0 < 10, "a process outlived its caller"
+            time.sleep(0.05)
+    finally:
+        if _group_alive(p.pid):
+            os.killpg(p.pid, signal.SIGKILL)
