@@ -69,14 +69,14 @@ def law_check(run, bi: int, ri: int | None, out: Path, echo=None) -> dict | None
             return _verdict(kept, keys)
     except (OSError, ValueError):       # none kept, or not a regular file of its own
         pass
-    from ..terminal import echo as default_echo
+    from ..terminal import echo as default_echo, wrap_message
 
     say = echo or default_echo
     calls = [(v, case.track_design(x)) for _, v in variants for x in (xb, xr)]
     processes = min(len(calls), default_workers(), max_local_workers()[0])
-    say(f"predicting the best and the reference design under {len(variants)} variants "
-        f"of the law ({len(calls)} predictions in {processes} process"
-        f"{'es' if processes > 1 else ''}, kept in {path})...", err=True)
+    say(wrap_message(f"predicting the best and the reference design under {len(variants)} "
+                     f"variants of the law ({len(calls)} predictions in {processes} process"
+                     f"{'es' if processes > 1 else ''}, kept in {path})..."), err=True)
     predicted = iter(call_in_processes(_objectives, calls, processes))
     rows = [{"label": label, "best": next(predicted), "reference": next(predicted)}
             for label, _ in variants]
