@@ -69,7 +69,8 @@ def law_check(run, bi: int, ri: int | None, out: Path, echo=None) -> dict | None
             return _verdict(kept, keys)
     except (OSError, ValueError):       # none kept, or not a regular file of its own
         pass
-    from ..terminal import echo as default_echo, wrap_message
+    from ..terminal import echo as default_echo
+    from ..terminal import wrap_message
 
     say = echo or default_echo
     calls = [(v, case.track_design(x)) for _, v in variants for x in (xb, xr)]
