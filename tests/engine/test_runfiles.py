@@ -94,15 +94,21 @@ def test_one_driver_whatever_happens_to_the_lock_file(tmp_path):
     p = cli("optimise", case, "--workers", "1", "--runs", runs,
             env={**ENV, "LCCOPT_FAKE_DELAY": "0.5"})
     wait_for(lambda: n_done(run) >= 2, what="two results")
-    (run / "lock").unlink()
-    r = cli_run("status", run, env=ENV)
-    assert r.returncode == 0 and ": running," in r.stdout, r.stdout + r.stderr
-    line = _error_line(cli_run("resume", run, env=ENV))
-    assert "in use by another lccopt process" in line, line
-    (run / "lock").write_text("")      # a fresh lock file of nobody's
-    line = _error_line(cli_run("resume", run, env=ENV))
-    assert "in use by another lccopt process" in line, line
-    assert p.poll() is None and n_done(run) < 20, "checked while the first driver ran"
+    # the first driver held still while the others try (a slow machine could otherwise see
+    # it finish first); it keeps its lock and carries on afterwards
+    os.kill(p.pid, signal.SIGSTOP)
+    try:
+        (run / "lock").unlink()
+        r = cli_run("status", run, env=ENV)
+        assert r.returncode == 0 and ": running," in r.stdout, r.stdout + r.stderr
+        line = _error_line(cli_run("resume", run, env=ENV))
+        assert "in use by another lccopt process" in line, line
+        (run / "lock").write_text("")      # a fresh lock file of nobody's
+        line = _error_line(cli_run("resume", run, env=ENV))
+        assert "in use by another lccopt process" in line, line
+        assert p.poll() is None and n_done(run) < 20, "checked while the first driver ran"
+    finally:
+        os.kill(p.pid, signal.SIGCONT)
     out, err = p.communicate(timeout=180)
     assert p.returncode == 0, err
     assert_same_evaluations(reference, read_table(run))
