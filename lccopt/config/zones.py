@@ -67,8 +67,12 @@ def resolve_zone(data: dict, err) -> None:
         raise err(key, f"{written} ends {end - x_b:.3g} m past the {ers:g} m ERS, in the exit "
                        f"ballast; write {_default_text()} (it follows the layout)")
     if end < x_a - 1e-9:
+        where = getattr(err, "where", None)
+        lengths = where(("track", "ers", "slab_lengths")) if where else "track.ers.slab_lengths"
         raise err(key, f"{_point_text(evaluation['force_zone_end'])} ends {x_a - end:.3g} m "
-                       f"before the entry interface: the force zone must reach the ERS")
+                       f"before the entry interface: the force zone must reach the ERS, "
+                       f"{ers:g} m long here ({lengths}); write force_zone_end: "
+                       f"{{at: exit_interface, offset: O}} with O from -{ers:g} to 0 in the case")
 
 
 def _point_text(end: dict) -> str:

@@ -7,7 +7,7 @@ import h5py
 import pytest
 
 from lccopt.config import load_case
-from lccopt.config.zones import zone_end_x
+from lccopt.config.zones import interfaces, zone_end_x
 from lccopt.errors import CaseError
 from tests.conftest import CHEAP_SIMULATION, CONFIGS, ROOT
 
@@ -117,6 +117,22 @@ def test_a_zone_outside_the_ers_is_refused_naming_the_key(tmp_path, zone, key, w
     msg = error(p)
     assert msg.startswith(f"{p}:4: {key}: ") or msg.startswith(f"{p}:") and f" {key}: " in msg
     assert words in msg, msg
+
+
+def test_a_short_ers_under_the_inherited_zone_says_where_and_what_to_write(tmp_path):
+    """A 1.5 m slab under the reference's zone end (2 m before the far edge): the line names
+    the base file's key, where the user's own file set the slab, and the fix, which works."""
+    p = write(tmp_path, f"extends: {REFERENCE}\nname: z\ntrack:\n  ers:\n"
+                        f"    slab_lengths: [1.5 m]\n")
+    msg = error(p)
+    assert " evaluation.force_zone_end.offset: {at: exit_interface, offset: -2} ends 0.5 m " \
+           "before the entry interface" in msg, msg
+    assert f"1.5 m long here ({p}:5); write force_zone_end: {{at: exit_interface, offset: O}} " \
+           "with O from -1.5 to 0 in the case" in msg, msg
+    p.write_text(p.read_text() + "evaluation:\n  force_zone_end: {at: exit_interface, "
+                                 "offset: -1.5}\n", encoding="utf-8")
+    data = load_case(p).data
+    assert zone_end_x(data) == pytest.approx(interfaces(data)[0])   # the entry interface
 
 
 def test_the_zone_may_end_anywhere_on_the_ers(tmp_path):
