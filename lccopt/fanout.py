@@ -18,6 +18,7 @@ import pickle
 import signal
 import subprocess
 import sys
+from pathlib import Path
 from typing import Any, Callable, Sequence
 
 from .errors import STOP_SIGNALS
@@ -39,14 +40,18 @@ def call_in_processes(fn: Callable, calls: Sequence[tuple], processes: int) -> l
     shares = [list(range(i, len(calls), n)) for i in range(n)]
     prctl = _prctl()
     parent = os.getpid()
+    env = {**os.environ, **_SINGLE_THREAD}
+    here = str(Path(__file__).resolve().parents[1])   # lccopt importable even if not installed
+    env["PYTHONPATH"] = os.pathsep.join([here] + [p for p in [env.get("PYTHONPATH")] if p])
     procs: list[subprocess.Popen] = []
     try:
         for share in shares:
             p = subprocess.Popen([sys.executable, "-c", _SERVE], stdin=subprocess.PIPE,
-                                 stdout=subprocess.PIPE, env={**os.environ, **_SINGLE_THREAD},
+                                 stdout=subprocess.PIPE, env=env,
                                  preexec_fn=lambda: _child_setup(prctl, parent))
             procs.append(p)
-            try:
+            try:   # this process's sys.path first: fn's module is found as it was here
+                p.stdin.write(pickle.dumps(list(sys.path)))
                 p.stdin.write(pickle.dumps((fn, [calls[i] for i in share])))
                 p.stdin.close()
             except BrokenPipeError:   # it died at once: its exit code below says how
@@ -104,6 +109,7 @@ def _child_setup(prctl, parent: int) -> None:
 
 def _serve() -> None:
     """A process's side: its calls from stdin, their results (or the first error) on stdout."""
+    sys.path[:0] = [p for p in pickle.load(sys.stdin.buffer) if p not in sys.path]
     fn, calls = pickle.load(sys.stdin.buffer)
     out = []
     for args in calls:

@@ -90,3 +90,17 @@ def test_no_process_outlives_its_caller(how):
     finally:
         if _group_alive(p.pid):
             os.killpg(p.pid, signal.SIGKILL)
+
+
+def test_a_function_of_the_callers_own_modules_is_found(tmp_path):
+    """A function from a module only the caller's sys.path reaches (a notebook's folder, an
+    uninstalled checkout) runs in the processes as here."""
+    (tmp_path / "mine_fanout.py").write_text("def twice(v):\n    return 2 * v\n")
+    sys.path.insert(0, str(tmp_path))
+    try:
+        import mine_fanout
+
+        assert call_in_processes(mine_fanout.twice, [(1,), (2,), (3,)], 2) == [2, 4, 6]
+    finally:
+        sys.path.remove(str(tmp_path))
+        sys.modules.pop("mine_fanout", None)
