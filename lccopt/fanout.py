@@ -31,9 +31,9 @@ _PR_SET_PDEATHSIG = 1
 def call_in_processes(fn: Callable, calls: Sequence[tuple], processes: int) -> list[Any]:
     """``[fn(*args) for args in calls]``, the calls dealt round-robin to ``processes``
     processes (in this process when one is enough). ``fn`` and the arguments must pickle;
-    ``fn`` must be importable by its module's name. The first call that raises has its
-    exception raised here; a process that dies raises RuntimeError. Interrupted (Ctrl-C, any
-    exception here), the processes are killed before it propagates."""
+    ``fn`` must be importable by its module's name. A call that raises has its exception
+    raised here; a process that dies raises RuntimeError. Interrupted (Ctrl-C, any exception
+    here), the processes are killed before it propagates."""
     n = min(int(processes), len(calls))
     if n <= 1:
         return [fn(*args) for args in calls]
@@ -108,7 +108,11 @@ def _child_setup(prctl, parent: int) -> None:
 
 
 def _serve() -> None:
-    """A process's side: its calls from stdin, their results (or the first error) on stdout."""
+    """A process's side: its calls from stdin, their results (or the first error) on stdout.
+    What the calls print goes to stderr (file descriptor 1 is pointed there), never into the
+    answer."""
+    answer = os.fdopen(os.dup(1), "wb")
+    os.dup2(2, 1)
     sys.path[:0] = [p for p in pickle.load(sys.stdin.buffer) if p not in sys.path]
     fn, calls = pickle.load(sys.stdin.buffer)
     out = []
@@ -124,5 +128,5 @@ def _serve() -> None:
         kind, exc = out[-1]
         out[-1] = (kind, RuntimeError(f"{type(exc).__name__}: {exc}"))
         data = pickle.dumps(out)
-    sys.stdout.buffer.write(data)
-    sys.stdout.buffer.flush()
+    answer.write(data)
+    answer.flush()

@@ -29,6 +29,7 @@ def test_the_answers_are_those_of_one_process_in_order():
     assert len(set(pids)) == 2 and os.getpid() not in pids
     assert pids[0::2] == [pids[0]] * 3           # dealt round-robin
     assert call_in_processes(os.getpid, [()] * 3, 1) == [os.getpid()] * 3   # one: here
+    assert call_in_processes(print, [("said",)] * 2, 2) == [None, None]   # printing is no answer
 
 
 def test_an_error_is_raised_as_itself_and_a_dead_process_is_said():
