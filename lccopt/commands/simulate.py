@@ -242,6 +242,8 @@ def _simulate_realisations(case, case_path: Path, x, out: Path, plots: bool,
     track, the statistics over the realisations, one file with every track and the spread
     figure."""
     from ..config.uncertainty import uncertainty_lines
+    from ..engine.executors import default_workers, max_local_workers
+    from ..fanout import call_in_processes
     from ..problem import Problem
     from ..report.data import BEST_COLOR
     from ..report.robust import fig_spread, spread_of
@@ -260,20 +262,23 @@ def _simulate_realisations(case, case_path: Path, x, out: Path, plots: bool,
     weights = [c.weight for c in case.conditions]
     conditions = list(range(len(case.conditions))) or [-1]
     on_track, first, drawn_evs = [], [], []
-    for r in [-1, *range(case.realisations)]:
-        t0 = time.perf_counter()
-        evs = []
-        for c in conditions:
-            ev = evaluate(case.part_case(c, r), x)
+    tracks = [-1, *range(case.realisations)]
+    # the tracks side by side, one process per core (each its own process; the same numbers)
+    processes = min(len(tracks), default_workers(), max_local_workers()[0])
+    typer.echo(f"simulating {len(tracks)} tracks in {processes} process"
+               f"{'es' if processes > 1 else ''}...", err=True)
+    simulated = call_in_processes(_track, [(evaluate, case, x, r, conditions) for r in tracks],
+                                  processes)
+    for r, (evs, seconds) in zip(tracks, simulated):
+        for c, ev in zip(conditions, evs):
             where = (f"{names[c]}, " if c >= 0 else "") + (f"realisation {r}" if r >= 0 else
                                                           "the drawn track")
             _check_finite(ev.objectives, case, x, where)
-            evs.append(ev)
         combined = (combine_tracks(evs, names, weights, case.condition_mode) if names
                     else dict(evs[0].objectives))
         label = "as drawn" if r < 0 else f"realisation {r}"
         vals = "".join(f"{combined[k] * objective_display(k)[0]:14.5g}" for k in keys)
-        typer.echo(f"{label:<16}{vals}{time.perf_counter() - t0:6.2f}s")
+        typer.echo(f"{label:<16}{vals}{seconds:6.2f}s")
         if r < 0:
             drawn_evs = evs
         else:
@@ -311,6 +316,13 @@ def _simulate_realisations(case, case_path: Path, x, out: Path, plots: bool,
         paths += simulation_figures(drawn_evs[0], case.name, out)
         _said(out, paths)
     return Evaluation(objectives, drawn_evs[0].histories, drawn_evs[0].info)
+
+
+def _track(evaluate, case, x, r: int, conditions: list[int]) -> tuple[list, float]:
+    """One track (realisation ``r``, -1 the drawing) under each condition: the evaluations
+    and the seconds they took (a call in a process of its own)."""
+    t0 = time.perf_counter()
+    return [evaluate(case.part_case(c, r), x) for c in conditions], time.perf_counter() - t0
 
 
 def combine_tracks(evs, names, weights, mode) -> dict:
