@@ -5,6 +5,10 @@ simulation set on the command line, recorded in the run as any --set)."""
 from __future__ import annotations
 
 import json
+import os
+import signal
+import subprocess
+import time
 
 import h5py
 import pytest
@@ -12,7 +16,7 @@ import pytest
 from lccopt.config import load_case
 from lccopt.problem import evaluate
 from lccopt.store import read_realisations
-from tests.conftest import CONFIGS
+from tests.conftest import CONFIGS, lccopt_command, subprocess_env
 
 pytestmark = pytest.mark.slow
 
@@ -78,3 +82,42 @@ def test_optimise_status_resume_and_report(run_cli, tmp_path):
     assert "reference" in summary["realisations"]
     ref = summary["realisations"]["reference"]["F_max"]
     assert ref["tracks"] == 3 and ref["drawn"] > 0
+
+
+def test_ctrl_c_while_the_tracks_run_side_by_side_leaves_nothing(tmp_path):
+    """Ctrl-C to the process group (as a terminal sends it) while the tracks run in processes
+    of their own: exit 130 with one line, no file in --out, no process left behind."""
+    out, said = tmp_path / "sim", tmp_path / "stderr"
+    with open(said, "w") as err:
+        p = subprocess.Popen(lccopt_command() + ["simulate", str(CONFIGS / "robust.yaml"),
+                                                 "--out", str(out), *CHEAP],
+                             stdout=subprocess.DEVNULL, stderr=err, start_new_session=True,
+                             env=subprocess_env(LCCOPT_EVALUATOR="tests.engine.fakesim:evaluate",
+                                                LCCOPT_FAKE_DELAY="60"))
+    try:
+        t0 = time.monotonic()
+        while "simulating 4 tracks in" not in said.read_text():
+            assert p.poll() is None and time.monotonic() - t0 < 60, said.read_text()
+            time.sleep(0.05)
+        time.sleep(1.0)                              # the processes started, simulating
+        os.killpg(p.pid, signal.SIGINT)
+        p.wait(timeout=30)
+        text = said.read_text()
+        assert p.returncode == 130 and text.strip().endswith("lccopt: interrupted by SIGINT"), text
+        assert "Traceback" not in text
+        assert not out.exists() or os.listdir(out) == []
+        t0 = time.monotonic()
+        while _group_alive(p.pid):
+            assert time.monotonic() - t0 < 10, "a process outlived lccopt"
+            time.sleep(0.05)
+    finally:
+        if _group_alive(p.pid):
+            os.killpg(p.pid, signal.SIGKILL)
+
+
+def _group_alive(pgid: int) -> bool:
+    try:
+        os.killpg(pgid, 0)
+    except ProcessLookupError:
+        return False
+    return True
