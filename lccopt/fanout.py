@@ -43,11 +43,16 @@ def call_in_processes(fn: Callable, calls: Sequence[tuple], processes: int) -> l
     env = {**os.environ, **_SINGLE_THREAD}
     here = str(Path(__file__).resolve().parents[1])   # lccopt importable even if not installed
     env["PYTHONPATH"] = os.pathsep.join([here] + [p for p in [env.get("PYTHONPATH")] if p])
+    try:   # their stderr is this process's; none if it has none (closed: 2>&-)
+        os.fstat(2)
+        stderr = None
+    except OSError:
+        stderr = subprocess.DEVNULL
     procs: list[subprocess.Popen] = []
     try:
         for share in shares:
             p = subprocess.Popen([sys.executable, "-c", _SERVE], stdin=subprocess.PIPE,
-                                 stdout=subprocess.PIPE, env=env,
+                                 stdout=subprocess.PIPE, stderr=stderr, env=env,
                                  preexec_fn=lambda: _child_setup(prctl, parent))
             procs.append(p)
             try:   # this process's sys.path first: fn's module is found as it was here

@@ -105,3 +105,12 @@ def test_a_function_of_the_callers_own_modules_is_found(tmp_path):
     finally:
         sys.path.remove(str(tmp_path))
         sys.modules.pop("mine_fanout", None)
+
+
+def test_a_caller_without_stderr_still_gets_its_answers():
+    """A caller whose stderr is closed (2>&-): the processes print nowhere, and what a call
+    prints never reaches the answer (a pipe made then may take descriptor 2)."""
+    code = ("import os, sys; os.close(2); from lccopt.fanout import call_in_processes; "
+            "print(call_in_processes(print, [('said',)] * 2, 2), flush=True)")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert (r.returncode, r.stdout) == (0, "[None, None]\n"), r.stdout
