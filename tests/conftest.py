@@ -36,6 +36,15 @@ def subprocess_env(base=None, **extra) -> dict:
     return env
 
 
+def group_alive(pgid: int) -> bool:
+    """Whether any process of process group ``pgid`` is left (no orphan left behind)."""
+    try:
+        os.killpg(pgid, 0)
+    except ProcessLookupError:
+        return False
+    return True
+
+
 @pytest.fixture
 def run_cli(tmp_path):
     """Run ``lccopt ARGS`` in a subprocess from tmp_path; return the CompletedProcess."""

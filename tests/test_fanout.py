@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from lccopt.fanout import call_in_processes
+from tests.conftest import group_alive
 
 
 def test_the_answers_are_those_of_one_process_in_order():
@@ -53,14 +54,6 @@ except KeyboardInterrupt:
 """
 
 
-def _group_alive(pgid: int) -> bool:
-    try:
-        os.killpg(pgid, 0)
-    except ProcessLookupError:
-        return False
-    return True
-
-
 def _children(pid: int) -> list[int]:
     with open(f"/proc/{pid}/task/{pid}/children", encoding="ascii") as f:
         return [int(c) for c in f.read().split()]
@@ -85,11 +78,11 @@ def test_no_process_outlives_its_caller(how):
             p.kill()
             p.wait(timeout=30)
         t0 = time.monotonic()
-        while _group_alive(p.pid):
+        while group_alive(p.pid):
             assert time.monotonic() - t0 < 10, "a process outlived its caller"
             time.sleep(0.05)
     finally:
-        if _group_alive(p.pid):
+        if group_alive(p.pid):
             os.killpg(p.pid, signal.SIGKILL)
 
 

@@ -16,7 +16,7 @@ import pytest
 from lccopt.config import load_case
 from lccopt.problem import evaluate
 from lccopt.store import read_realisations
-from tests.conftest import CONFIGS, lccopt_command, subprocess_env
+from tests.conftest import CONFIGS, group_alive, lccopt_command, subprocess_env
 
 pytestmark = pytest.mark.slow
 
@@ -107,17 +107,9 @@ def test_ctrl_c_while_the_tracks_run_side_by_side_leaves_nothing(tmp_path):
         assert "Traceback" not in text
         assert not out.exists() or os.listdir(out) == []
         t0 = time.monotonic()
-        while _group_alive(p.pid):
+        while group_alive(p.pid):
             assert time.monotonic() - t0 < 10, "a process outlived lccopt"
             time.sleep(0.05)
     finally:
-        if _group_alive(p.pid):
+        if group_alive(p.pid):
             os.killpg(p.pid, signal.SIGKILL)
-
-
-def _group_alive(pgid: int) -> bool:
-    try:
-        os.killpg(pgid, 0)
-    except ProcessLookupError:
-        return False
-    return True
