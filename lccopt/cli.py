@@ -41,8 +41,10 @@ if Path(sys.argv[0]).name in ("lccopt", "__main__.py"):
 # spins against them (measured: ask/tell 2.5x slower, parallel efficiency 0.94 -> 0.87).
 # The simulations' banded solves are sequential anyway. An explicit setting wins. The imports
 # below it may load numpy, so they follow it (noqa: E402).
-for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
-    os.environ.setdefault(_var, "1")
+from .fanout import SINGLE_THREAD_ENV  # noqa: E402 (no numpy: it names the settings)
+
+for _var, _value in SINGLE_THREAD_ENV.items():
+    os.environ.setdefault(_var, _value)
 
 import typer  # noqa: E402
 

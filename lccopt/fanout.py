@@ -1,13 +1,15 @@
-"""Independent calls of one function spread over processes of their own, answered in order:
-the report's law check, whose settlement predictions take seconds to minutes each and need
-nothing of each other.
+"""Processes of lccopt's own: how one is started (its environment, its stopping signals, its
+death with its parent), for the engine's local workers and the calls spread here; and
+independent calls of one function spread over such processes, answered in order (a
+settlement report's law check, ``simulate``'s realisations: simulations that take seconds to
+minutes each and need nothing of each other).
 
-Each process is a fresh interpreter (``python -c``, as the engine's workers: nothing of the
-caller is inherited, and the caller's ``__main__`` is never imported again, as
-``multiprocessing``'s spawn would) that reads its share of the calls pickled on stdin and
-writes their results pickled on stdout. It ignores the stopping signals, which reach the
-whole process group (the caller stops and kills it), dies with the caller (kill -9), and runs
-single-threaded BLAS (the processes are the parallelism).
+A process of ``call_in_processes`` is a fresh interpreter (``python -c``, as the engine's
+workers: nothing of the caller is inherited, and the caller's ``__main__`` is never imported
+again, as ``multiprocessing``'s spawn would) that reads its share of the calls pickled on
+stdin and writes their results pickled on stdout. It ignores the stopping signals, which
+reach the whole process group (the caller stops and kills it), dies with the caller (kill
+-9), and runs single-threaded BLAS (the processes are the parallelism).
 """
 
 from __future__ import annotations
@@ -24,8 +26,57 @@ from typing import Any, Callable, Sequence
 from .errors import STOP_SIGNALS
 
 _SERVE = "from lccopt.fanout import _serve; _serve()"
-_SINGLE_THREAD = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
 _PR_SET_PDEATHSIG = 1
+
+# Set in every process of lccopt's own before numpy is imported: N processes use N cores.
+SINGLE_THREAD_ENV = {
+    "OMP_NUM_THREADS": "1",
+    "OPENBLAS_NUM_THREADS": "1",
+    "MKL_NUM_THREADS": "1",
+    "VECLIB_MAXIMUM_THREADS": "1",
+    "NUMEXPR_NUM_THREADS": "1",
+}
+
+
+def child_env() -> dict:
+    """The environment of a process of lccopt's own: this one's, with single-threaded BLAS
+    and lccopt's folder first on PYTHONPATH (importable even where it is not installed)."""
+    env = {**os.environ, **SINGLE_THREAD_ENV}
+    here = str(Path(__file__).resolve().parents[1])
+    env["PYTHONPATH"] = os.pathsep.join([here] + [p for p in [env.get("PYTHONPATH")] if p])
+    return env
+
+
+def ignore_stop_signals() -> None:
+    """Ignore the stopping signals: they reach the whole process group, and the parent stops
+    its processes itself. Run between fork and exec, the ignored disposition survives exec,
+    so a Ctrl-C during the interpreter's start cannot kill the process."""
+    for sig in STOP_SIGNALS:
+        signal.signal(sig, signal.SIG_IGN)
+
+
+_libc = None  # loaded once, inherited by forked children (0.2 ms each)
+
+
+def _load_libc():
+    global _libc
+    if _libc is None:
+        import ctypes
+
+        _libc = ctypes.CDLL("libc.so.6", use_errno=True)
+    return _libc
+
+
+def die_with_parent(parent_pid: int) -> None:
+    """Linux: ask the kernel to SIGKILL this process when its parent dies (kill -9 of the
+    run); exit at once if it died already. Elsewhere nothing (a process then ends on its
+    broken pipe)."""
+    try:
+        _load_libc().prctl(_PR_SET_PDEATHSIG, signal.SIGKILL)
+        if os.getppid() != parent_pid:  # the parent died before prctl
+            os._exit(1)
+    except Exception:  # noqa: BLE001 - not Linux
+        pass
 
 
 def call_in_processes(fn: Callable, calls: Sequence[tuple], processes: int) -> list[Any]:
@@ -38,11 +89,9 @@ def call_in_processes(fn: Callable, calls: Sequence[tuple], processes: int) -> l
     if n <= 1:
         return [fn(*args) for args in calls]
     shares = [list(range(i, len(calls), n)) for i in range(n)]
-    prctl = _prctl()
-    parent = os.getpid()
-    env = {**os.environ, **_SINGLE_THREAD}
-    here = str(Path(__file__).resolve().parents[1])   # lccopt importable even if not installed
-    env["PYTHONPATH"] = os.pathsep.join([here] + [p for p in [env.get("PYTHONPATH")] if p])
+    with contextlib.suppress(Exception):   # loaded here, not between fork and exec
+        _load_libc()
+    parent, env = os.getpid(), child_env()
     try:   # their stderr is this process's; none if it has none (closed: 2>&-)
         os.fstat(2)
         stderr = None
@@ -53,7 +102,7 @@ def call_in_processes(fn: Callable, calls: Sequence[tuple], processes: int) -> l
         for share in shares:
             p = subprocess.Popen([sys.executable, "-c", _SERVE], stdin=subprocess.PIPE,
                                  stdout=subprocess.PIPE, stderr=stderr, env=env,
-                                 preexec_fn=lambda: _child_setup(prctl, parent))
+                                 preexec_fn=lambda: _child_setup(parent))
             procs.append(p)
             try:   # this process's sys.path first: fn's module is found as it was here
                 p.stdin.write(pickle.dumps(list(sys.path)))
@@ -91,25 +140,11 @@ def _how(code: int) -> str:
     return f"exit code {code}"
 
 
-def _prctl():
-    """libc's prctl, loaded here rather than between fork and exec; None where there is none."""
-    try:
-        import ctypes
-
-        return ctypes.CDLL(None, use_errno=True).prctl
-    except (OSError, AttributeError):
-        return None
-
-
-def _child_setup(prctl, parent: int) -> None:
-    """Between fork and exec: ignored signals stay ignored across exec, so a Ctrl-C during
-    the interpreter's start cannot kill the process; the death signal survives exec too."""
-    for sig in STOP_SIGNALS:
-        signal.signal(sig, signal.SIG_IGN)
-    if prctl is not None:
-        prctl(_PR_SET_PDEATHSIG, signal.SIGKILL)
-        if os.getppid() != parent:   # the caller died before prctl
-            os._exit(1)
+def _child_setup(parent: int) -> None:
+    """Between fork and exec (libc loaded before the fork): the stopping signals ignored,
+    death with the caller; both survive exec."""
+    ignore_stop_signals()
+    die_with_parent(parent)
 
 
 def _serve() -> None:

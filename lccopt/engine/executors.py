@@ -25,17 +25,15 @@ from __future__ import annotations
 import contextlib
 import multiprocessing.connection as mpc
 import os
-import signal
 import socket
 import subprocess
 import sys
 import time
 from dataclasses import dataclass
-from pathlib import Path
 
-from ..errors import STOP_SIGNALS
+from ..fanout import child_env, ignore_stop_signals
 from . import awake
-from .worker import SINGLE_THREAD_ENV, Outcome, Task, _death_reason
+from .worker import Outcome, Task, _death_reason
 
 
 class ExecutorError(Exception):
@@ -132,13 +130,6 @@ def _stopped(pid: int) -> str:
     return ""
 
 
-def _ignore_stop_signals() -> None:
-    """Run in the worker between fork and exec: the ignored disposition survives exec, so
-    Ctrl-C or SIGTERM to the process group during the worker's start-up cannot kill it."""
-    for sig in STOP_SIGNALS:
-        signal.signal(sig, signal.SIG_IGN)
-
-
 _WORKER_MAIN = ("import sys; from lccopt.engine.worker import local_worker_main; "
                 "local_worker_main(*map(int, sys.argv[1:]))")
 
@@ -186,13 +177,10 @@ class LocalPool:
 
     def _spawn(self, s: _Slot) -> None:
         parent_sock, child_sock = socket.socketpair()
-        env = {**os.environ, **SINGLE_THREAD_ENV}
-        here = str(Path(__file__).resolve().parents[2])  # lccopt importable even if not installed
-        env["PYTHONPATH"] = os.pathsep.join([here] + [p for p in [env.get("PYTHONPATH")] if p])
         cmd = [sys.executable, "-c", _WORKER_MAIN, str(child_sock.fileno()), str(os.getpid()),
                str(s.index)]
-        proc = subprocess.Popen(cmd, pass_fds=[child_sock.fileno()], env=env,
-                                stdin=subprocess.DEVNULL, preexec_fn=_ignore_stop_signals)
+        proc = subprocess.Popen(cmd, pass_fds=[child_sock.fileno()], env=child_env(),
+                                stdin=subprocess.DEVNULL, preexec_fn=ignore_stop_signals)
         child_sock.close()
         s.proc, s.ready, s.task = proc, False, None
         s.conn = mpc.Connection(parent_sock.detach())

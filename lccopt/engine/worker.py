@@ -23,8 +23,8 @@ import traceback
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
-from .. import machine  # no numpy at import: the thread settings below still come first
-from ..errors import STOP_SIGNALS  # the parent handles these; a worker ignores them
+from .. import machine  # no numpy at import
+from ..fanout import die_with_parent, ignore_stop_signals
 
 DEFAULT_EVALUATOR = "lccopt.problem:evaluate"
 ENV_EVALUATOR = "LCCOPT_EVALUATOR"
@@ -33,15 +33,6 @@ ENV_EVALUATOR = "LCCOPT_EVALUATOR"
 # forked child instead, they would cost ~0.2 s of CPU per evaluation (the import time of
 # h5py and of the simulator's modules), more than the paper-case simulation itself.
 PRELOAD = ("lccopt.store", "lccopt.vti.passage")
-
-# Set in every local worker before numpy is imported: N workers use N cores.
-SINGLE_THREAD_ENV = {
-    "OMP_NUM_THREADS": "1",
-    "OPENBLAS_NUM_THREADS": "1",
-    "MKL_NUM_THREADS": "1",
-    "VECLIB_MAXIMUM_THREADS": "1",
-    "NUMEXPR_NUM_THREADS": "1",
-}
 
 
 def choose_evaluator(evaluator: str | Callable | None = None) -> str | Callable:
@@ -221,9 +212,8 @@ def local_worker_main(fd: int, parent_pid: int, slot: int) -> None:
     """
     from multiprocessing.connection import Connection
 
-    for sig in STOP_SIGNALS:
-        signal.signal(sig, signal.SIG_IGN)
-    _die_with_parent(parent_pid)
+    ignore_stop_signals()
+    die_with_parent(parent_pid)
     conn = Connection(fd)
     try:
         _, case, evaluator, path = conn.recv()
@@ -265,7 +255,7 @@ def local_worker_main(fd: int, parent_pid: int, slot: int) -> None:
             if pid == 0:  # the child takes one task from the pipe and answers it
                 code = 1
                 try:
-                    _die_with_parent(me)
+                    die_with_parent(me)
                     code = _serve_one(conn, case, evaluator, name)
                 finally:
                     os._exit(code)
@@ -311,22 +301,4 @@ def _death_reason(exitcode) -> str:
             name = f"signal {-exitcode}"
         return f"worker process died (killed by {name})"
     return f"worker process died (exit code {exitcode})"
-
-
-_libc = None  # loaded once by the worker, inherited by its forked children (0.2 ms each)
-
-
-def _die_with_parent(parent_pid: int) -> None:
-    """Linux: ask the kernel to SIGKILL this process when its parent dies (kill -9 of the run)."""
-    global _libc
-    try:
-        if _libc is None:
-            import ctypes
-
-            _libc = ctypes.CDLL("libc.so.6", use_errno=True)
-        _libc.prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
-        if os.getppid() != parent_pid:  # the parent died before prctl
-            os._exit(1)
-    except Exception:  # noqa: BLE001 - not Linux: the worker exits on the broken pipe instead
-        pass
 
