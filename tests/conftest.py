@@ -5,9 +5,12 @@ import os
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
+import contextlib  # noqa: E402
 import shutil  # noqa: E402  (after the thread settings, as every import below)
+import signal  # noqa: E402
 import subprocess  # noqa: E402
 import sys  # noqa: E402
+import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import pytest  # noqa: E402
@@ -43,6 +46,21 @@ def group_alive(pgid: int) -> bool:
     except ProcessLookupError:
         return False
     return True
+
+
+@contextlib.contextmanager
+def leaves_no_process(pgid: int, within: float = 10.0):
+    """The block ends a process group's leader; then every process of the group must be gone
+    within ``within`` seconds (else the test fails); whatever is left is killed anyway."""
+    try:
+        yield
+        t0 = time.monotonic()
+        while group_alive(pgid):
+            assert time.monotonic() - t0 < within, "a process outlived its caller"
+            time.sleep(0.05)
+    finally:
+        if group_alive(pgid):
+            os.killpg(pgid, signal.SIGKILL)
 
 
 @pytest.fixture

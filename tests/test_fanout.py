@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from lccopt.fanout import call_in_processes
-from tests.conftest import group_alive
+from tests.conftest import leaves_no_process
 
 
 def test_the_answers_are_those_of_one_process_in_order():
@@ -63,7 +63,7 @@ def _children(pid: int) -> list[int]:
 def test_no_process_outlives_its_caller(how):
     p = subprocess.Popen([sys.executable, "-c", _CALLER], stdout=subprocess.PIPE, text=True,
                          start_new_session=True)
-    try:
+    with leaves_no_process(p.pid):
         assert p.stdout.readline().strip() == "ready"
         t0 = time.monotonic()
         while len(_children(p.pid)) < 2:
@@ -77,13 +77,6 @@ def test_no_process_outlives_its_caller(how):
         else:
             p.kill()
             p.wait(timeout=30)
-        t0 = time.monotonic()
-        while group_alive(p.pid):
-            assert time.monotonic() - t0 < 10, "a process outlived its caller"
-            time.sleep(0.05)
-    finally:
-        if group_alive(p.pid):
-            os.killpg(p.pid, signal.SIGKILL)
 
 
 def test_a_function_of_the_callers_own_modules_is_found(tmp_path):

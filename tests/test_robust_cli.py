@@ -16,7 +16,7 @@ import pytest
 from lccopt.config import load_case
 from lccopt.problem import evaluate
 from lccopt.store import read_realisations
-from tests.conftest import CONFIGS, group_alive, lccopt_command, subprocess_env
+from tests.conftest import CONFIGS, lccopt_command, leaves_no_process, subprocess_env
 
 pytestmark = pytest.mark.slow
 
@@ -94,7 +94,7 @@ def test_ctrl_c_while_the_tracks_run_side_by_side_leaves_nothing(tmp_path):
                              stdout=subprocess.DEVNULL, stderr=err, start_new_session=True,
                              env=subprocess_env(LCCOPT_EVALUATOR="tests.engine.fakesim:evaluate",
                                                 LCCOPT_FAKE_DELAY="60"))
-    try:
+    with leaves_no_process(p.pid):
         t0 = time.monotonic()
         while "simulating 4 tracks in" not in said.read_text():
             assert p.poll() is None and time.monotonic() - t0 < 60, said.read_text()
@@ -106,10 +106,3 @@ def test_ctrl_c_while_the_tracks_run_side_by_side_leaves_nothing(tmp_path):
         assert p.returncode == 130 and text.strip().endswith("lccopt: interrupted by SIGINT"), text
         assert "Traceback" not in text
         assert not out.exists() or os.listdir(out) == []
-        t0 = time.monotonic()
-        while group_alive(p.pid):
-            assert time.monotonic() - t0 < 10, "a process outlived lccopt"
-            time.sleep(0.05)
-    finally:
-        if group_alive(p.pid):
-            os.killpg(p.pid, signal.SIGKILL)
