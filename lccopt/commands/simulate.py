@@ -242,7 +242,7 @@ def _simulate_realisations(case, case_path: Path, x, out: Path, plots: bool,
     track, the statistics over the realisations, one file with every track and the spread
     figure."""
     from ..config.uncertainty import uncertainty_lines
-    from ..engine.executors import default_workers, max_local_workers
+    from ..engine.executors import local_processes
     from ..fanout import call_in_processes
     from ..problem import Problem
     from ..report.data import BEST_COLOR
@@ -264,7 +264,7 @@ def _simulate_realisations(case, case_path: Path, x, out: Path, plots: bool,
     on_track, first, drawn_evs = [], [], []
     tracks = [-1, *range(case.realisations)]
     # the tracks side by side, one process per core (each its own process; the same numbers)
-    processes = min(len(tracks), default_workers(), max_local_workers()[0])
+    processes = local_processes(len(tracks))
     typer.echo(f"simulating {len(tracks)} tracks in {processes} process"
                f"{'es' if processes > 1 else ''}...", err=True)
     simulated = call_in_processes(_track, [(evaluate, case, x, r, conditions) for r in tracks],

@@ -99,6 +99,13 @@ def default_workers() -> int:
         return max(1, os.cpu_count() or 1)
 
 
+def local_processes(tasks: int) -> int:
+    """How many processes of its own a command runs ``tasks`` independent simulations in
+    (lccopt.fanout): one per core it may use, as many as the machine holds, no more than the
+    tasks."""
+    return max(1, min(tasks, default_workers(), max_local_workers()[0]))
+
+
 # A task whose process is killed by a signal this many times fails (a design that makes the
 # simulation crash every time must not hold the run); fewer times, it simply runs again.
 MAX_KILLS = 3

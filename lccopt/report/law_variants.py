@@ -46,7 +46,7 @@ def law_check(run, bi: int, ri: int | None, out: Path, echo=None) -> dict | None
     import json
 
     from ..degradation.variants import law_variants
-    from ..engine.executors import default_workers, max_local_workers
+    from ..engine.executors import local_processes
     from ..fanout import call_in_processes
     from ..folder import read_owned
     from ..version import __version__
@@ -74,7 +74,7 @@ def law_check(run, bi: int, ri: int | None, out: Path, echo=None) -> dict | None
 
     say = echo or default_echo
     calls = [(v, case.track_design(x)) for _, v in variants for x in (xb, xr)]
-    processes = min(len(calls), default_workers(), max_local_workers()[0])
+    processes = local_processes(len(calls))
     say(wrap_message(f"predicting the best and the reference design under {len(variants)} "
                      f"variants of the law ({len(calls)} predictions in {processes} process"
                      f"{'es' if processes > 1 else ''}, kept in {path})..."), err=True)
