@@ -70,9 +70,16 @@ def harmonic(x, beta: float) -> np.ndarray:
     h = (z0 + y ** (1 - beta) / (1 - beta) + 0.5 * y ** (-beta) - beta / 12 * y ** (-beta - 1)
          + beta * (beta + 1) * (beta + 2) / 720 * y ** (-beta - 3)
          - beta * (beta + 1) * (beta + 2) * (beta + 3) * (beta + 4) / 30240 * y ** (-beta - 5))
-    for j in range(int(shift.max(initial=0.0))):
-        take = shift > j                       # subtract (x + j + 1)^-β while j < shift
-        h = h - np.where(take, (x + j + 1) ** (-beta) * take, 0.0)
+    # The recurrence only where it is needed: a few entries of a load history's cycle
+    # counts are small, and running it over the whole array cost most of a prediction.
+    near = np.flatnonzero((shift > 0) & (x > 0))
+    if near.size:
+        xs, ss, hs = x.reshape(-1)[near], shift.reshape(-1)[near], h.reshape(-1)[near]
+        for j in range(int(ss.max())):
+            take = ss > j                      # subtract (x + j + 1)^-β while j < shift
+            hs = hs - np.where(take, (xs + j + 1) ** (-beta) * take, 0.0)
+        h = np.array(h, dtype=float)
+        h.reshape(-1)[near] = hs
     return np.where(x <= 0.0, 0.0, h)
 
 

@@ -24,6 +24,11 @@ def test_harmonic_number_matches_the_sum(beta):
     # increasing between the integers too (real cycle counts of a block)
     x = np.linspace(0.0, 50.0, 2001)
     assert np.all(np.diff(harmonic(x, beta)) > 0)
+    # a load history's (rows, sleepers) counts, a few small among large: as one by one
+    counts = np.array([[0.0, 3.5, 1e6], [19.99, 20.0, 7.0], [1e-3, 4e4, 0.0]])
+    one_by_one = np.array([[float(harmonic(c, beta)) for c in row] for row in counts])
+    assert np.array_equal(harmonic(counts, beta), one_by_one)
+    assert float(harmonic(5.0, beta)) == pytest.approx(np.sum(np.arange(1, 6) ** -beta), rel=1e-12)
 
 
 def brute_force_varandas(law, peaks):
