@@ -67,9 +67,15 @@ def harmonic(x, beta: float) -> np.ndarray:
     z0 = float(zeta(beta))
     shift = np.where(x < _EM_FROM, np.ceil(_EM_FROM - x), 0.0)
     y = x + shift
-    h = (z0 + y ** (1 - beta) / (1 - beta) + 0.5 * y ** (-beta) - beta / 12 * y ** (-beta - 1)
-         + beta * (beta + 1) * (beta + 2) / 720 * y ** (-beta - 3)
-         - beta * (beta + 1) * (beta + 2) * (beta + 3) * (beta + 4) / 30240 * y ** (-beta - 5))
+    # one power, the others by division: powers of whole arrays cost most of the law's time
+    y1 = y ** (1 - beta)
+    yb = y1 / y                                  # y^-β
+    yb1 = yb / y                                 # y^(-β-1)
+    inv2 = 1.0 / (y * y)
+    yb3 = yb1 * inv2
+    h = (z0 + y1 / (1 - beta) + 0.5 * yb - beta / 12 * yb1
+         + beta * (beta + 1) * (beta + 2) / 720 * yb3
+         - beta * (beta + 1) * (beta + 2) * (beta + 3) * (beta + 4) / 30240 * (yb3 * inv2))
     # The recurrence only where it is needed: a few entries of a load history's cycle
     # counts are small, and running it over the whole array cost most of a prediction.
     near = np.flatnonzero((shift > 0) & (x > 0))

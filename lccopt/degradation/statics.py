@@ -117,10 +117,10 @@ class ZoneStatics:
     def _states(self, gap, a, contact):
         kb, rest, G = self.supports.stiffness, self.supports.rest, self.G
         u = a + (kb * np.where(contact, gap, rest)) @ G
-        for out, rows in _groups(~contact):
-            o = np.flatnonzero(out)
-            uo = np.linalg.solve(_capacitance(G, kb, o), u[rows][:, o].T).T
-            u[rows] += (uo * kb[o]) @ G[o]
+        off = _OffBallast(~contact, G, kb)
+        if off.rows.size:
+            uo = off.solve(np.where(off.mask, u[off.rows[:, None], off.idx], 0.0))
+            u[off.rows] += np.einsum("rk,rkm->rm", uo * off.kb, G[off.idx])
         return u
 
     def peak_forces(self, gap, cases: WheelCases, contact=None):
@@ -139,10 +139,12 @@ class ZoneStatics:
         kb, G = self.supports.stiffness, self.G
         i = cases.own
         jac = G[i] * (kb * contact)              # e_iᵀ(I - G K_out)⁻¹ G K_c where no voids
-        for out, rows in _groups(~contact):
-            o = np.flatnonzero(out)
-            z = np.linalg.solve(_capacitance(G, kb, o).T, (kb[o][:, None] * G[o][:, i[rows]])).T
-            jac[rows] = (G[i[rows]] + z @ G[o]) * (kb * contact[rows])
+        off = _OffBallast(~contact, G, kb)
+        if off.rows.size:
+            own = i[off.rows]
+            z = off.solve(off.kb * G[off.idx, own[:, None]], transposed=True)
+            jac[off.rows] = ((G[own] + np.einsum("rk,rkm->rm", z, G[off.idx]))
+                             * (kb * contact[off.rows]))
         rows = np.arange(len(i))
         jac[rows, i] -= 1.0
         jac *= (kb[i] * contact[rows, i])[:, None]
@@ -160,23 +162,27 @@ class ZoneStatics:
         return np.maximum(gap - sup.rest - u, 0.0), self._level @ loads, c
 
 
-def _capacitance(G: np.ndarray, kb: np.ndarray, o: np.ndarray) -> np.ndarray:
-    """I - G_oo K_o: the small system of the supports ``o`` off the ballast."""
-    B = G[o][:, o] * -kb[o]
-    B.flat[::len(o) + 1] += 1.0        # without np.eye and np.ix_: this runs ~10^5 times
-    return B
+class _OffBallast:
+    """The cases with supports off the ballast, each with its own small system
+    I - G_oo K_o (o: its supports off the ballast), solved all at once: the systems are padded
+    to the largest o with identity rows and columns, which leave the others' solutions as
+    they are."""
 
+    def __init__(self, out: np.ndarray, G: np.ndarray, kb: np.ndarray):
+        self.rows = np.flatnonzero(out.any(axis=1))
+        counts = out[self.rows].sum(axis=1)
+        k = int(counts.max(initial=0))
+        self.mask = np.arange(k)[None, :] < counts[:, None]            # (cases, k)
+        # each row's supports off the ballast first, in order; the padding points at 0
+        order = np.argsort(~out[self.rows], axis=1, kind="stable")[:, :k]
+        self.idx = np.where(self.mask, order, 0)
+        self.kb = np.where(self.mask, kb[self.idx], 0.0)
+        B = -G[self.idx[:, :, None], self.idx[:, None, :]] * self.kb[:, None, :]
+        B[~(self.mask[:, :, None] & self.mask[:, None, :])] = 0.0
+        B[:, np.arange(k), np.arange(k)] += 1.0
+        self.B = B
 
-def _groups(out: np.ndarray):
-    """(out-set, case rows) of the cases with at least one support off the ballast, grouped
-    by identical out-sets (one small solve per group)."""
-    some = np.flatnonzero(out.any(axis=1))
-    if some.size == 0:
-        return []
-    # Each row's bits as one opaque key: numpy's unique over rows (axis=0) is many times slower.
-    packed = np.ascontiguousarray(np.packbits(out[some], axis=1))
-    keys = packed.view(np.dtype((np.void, packed.shape[1]))).ravel()
-    _, first, inverse = np.unique(keys, return_index=True, return_inverse=True)
-    order = np.argsort(inverse, kind="stable")
-    bounds = np.cumsum(np.bincount(inverse))[:-1]
-    return [(out[some[f]], some[r]) for f, r in zip(first, np.split(order, bounds))]
+    def solve(self, rhs: np.ndarray, transposed: bool = False) -> np.ndarray:
+        """Per case, B x = rhs (or Bᵀ x = rhs); rhs (cases, k), zero in the padding."""
+        B = np.swapaxes(self.B, 1, 2) if transposed else self.B
+        return np.linalg.solve(B, rhs[..., None])[..., 0]

@@ -263,8 +263,12 @@ class _OutSet:
         E, D = self.E, self.d
         gN, gE = Sm @ y, E @ y
         GNN, GNE = Sm @ Sm.T, Sm @ E.T
-        A = np.block([[np.eye(k) + GNN @ kap, -GNE * D],
-                      [GNE.T @ kap, np.eye(m) - self.GEE * D]])
+        A = np.empty((k + m, k + m))      # filled in place: np.block costs more than the solve
+        A[:k, :k] = GNN @ kap
+        A[:k, k:] = -GNE * D
+        A[k:, :k] = GNE.T @ kap
+        A[k:, k:] = -(self.GEE * D)
+        A.flat[::k + m + 1] += 1.0
         b = np.concatenate([gN + GNN @ c0, gE + GNE.T @ c0])
         w = np.linalg.solve(A, b)
         delta, sigma = w[:k], w[k:]
