@@ -138,6 +138,14 @@ def test_the_seed_defaults_to_the_optimisation_seed(tmp_path):
      "uncertainty.settlement_coefficient", "needs a degradation: section"),
     ("  realisations: 3\n  support_stiffness: {}\n", "q90(F_mx)", "optimisation.objectives",
      "unknown name 'q90(F_mx)'"),
+    # a newcomer's guesses: the statistics' forms are named, and the closest one
+    ("  realisations: 3\n  support_stiffness: {}\n", "q90(F_mx)", "optimisation.objectives",
+     "(did you mean 'q90(F_max)'?)"),
+    ("  realisations: 3\n  support_stiffness: {}\n", "p_beat(F_max)",
+     "optimisation.objectives", "mean(...), q1(...) to q99(...) or p_worse(...) (did you "
+     "mean 'p_worse(F_max)'?)"),
+    ("  realisations: 3\n  support_stiffness: {}\n", "Fmax", "optimisation.objectives",
+     "(did you mean 'F_max'?)"),
     ("  realisations: 3\n  support_stiffness: {}\n", "q90(years_to_limit)",
      "optimisation.objectives", "reported, not minimised"),
     ("  realisations: 3\n  support_stiffness: {}\n", "mean(max_void)",

@@ -165,6 +165,10 @@ def _names(value: Any, kind: kinds.StrList, fail) -> list:
         raise fail("expected a list of names")
     for v in value:
         if v not in kind.choices:
+            more = getattr(kind.choices, "unknown", None)
+            if more is not None:           # objectives: also a statistic of one
+                raise fail(f"unknown name {v!r} (expected some of {', '.join(kind.choices)}"
+                           f"{more(v)})")
             raise fail(f"unknown name {v!r} (expected some of {', '.join(kind.choices)})"
                        + _did_you_mean(v, kind.choices))
     if len(set(value)) != len(value):

@@ -21,6 +21,7 @@ equal the plain objective exactly.
 
 from __future__ import annotations
 
+import difflib
 import math
 import re
 
@@ -149,3 +150,23 @@ class ObjectiveNames(tuple):
             return True
         parsed = parse(name) if isinstance(name, str) else None
         return parsed is not None and tuple.__contains__(self, parsed[1])
+
+    def unknown(self, name: str) -> str:
+        """What a message about the unknown ``name`` adds: the statistics' forms, and for a
+        name shaped like one (``p_beat(F_max)``) the closest statistic."""
+        text = "; or one of them in mean(...), q1(...) to q99(...) or p_worse(...)"
+        m = re.match(r"^\s*([A-Za-z0-9_]+)\s*\((.*)\)\s*$", str(name))
+        if m is None:
+            close = difflib.get_close_matches(str(name), list(self), n=1, cutoff=0.6)
+            return f"{text}" + (f" (did you mean '{close[0]}'?)" if close else "")
+        inner = m.group(2).strip()
+        if not tuple.__contains__(self, inner):
+            close = difflib.get_close_matches(inner, list(self), n=1, cutoff=0.6)
+            if not close:
+                return text
+            inner = close[0]
+        head = m.group(1)
+        if not re.fullmatch(r"mean|q[1-9][0-9]?|p_worse", head):
+            close = difflib.get_close_matches(head, ["mean", "q90", "p_worse"], n=1, cutoff=0.3)
+            head = close[0] if close else "q90"
+        return f"{text} (did you mean '{head}({inner})'?)"
