@@ -12,7 +12,8 @@ G = (K⁻¹)_ss its flexibility at the supports' dofs, a static state with the l
 
 K = diag(k_b), c the contact set, out = not c (a support off the ballast loses its spring and
 sets its weight share k_b r_j free). Only the few supports off the ballast make the system
-differ from the identity, so each state costs a small dense solve per contact set (Woodbury).
+differ from the identity, so each state costs a small dense solve per case (Woodbury),
+all cases' at once.
 The support force of a sleeper in contact is F_j = k_j (u_j + r_j - g_j).
 
 Quasi-static wheel cases: the vehicle's static wheel loads, wheel w above sleeper i (the
