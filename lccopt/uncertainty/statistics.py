@@ -158,7 +158,7 @@ class ObjectiveNames(tuple):
         m = re.match(r"^\s*([A-Za-z0-9_]+)\s*\((.*)\)\s*$", str(name))
         if m is None:
             close = difflib.get_close_matches(str(name), list(self), n=1, cutoff=0.6)
-            return f"{text}" + (f" (did you mean '{close[0]}'?)" if close else "")
+            return text + (f" (did you mean '{close[0]}'?)" if close else "")
         inner = m.group(2).strip()
         if not tuple.__contains__(self, inner):
             close = difflib.get_close_matches(inner, list(self), n=1, cutoff=0.6)
