@@ -11,10 +11,17 @@ from ..errors import printable
 from ..report import Report, write_report
 from ..report.data import pct
 from ..terminal import wrap_items
+from ..uncertainty.statistics import is_probability
 
 
 def run_report(run: Path, format: str, out: Path | None, force: bool) -> None:
     typer.echo("\n".join(report_lines(write_report(run, format, out, force, echo=typer.echo))))
+
+
+def change(k: str, new: float, old: float) -> str:
+    """``-28.1 %``; a probability as its value against the reference design's (``0.25
+    against 1``): its relative change would read as another probability."""
+    return f"{new:.3g} against {old:.3g}" if is_probability(k) else pct(new, old)
 
 
 def report_lines(report: Report) -> list[str]:
@@ -27,10 +34,10 @@ def report_lines(report: Report) -> list[str]:
     if "best" in summary:  # a line of its own: one line would wrap on an 80-column terminal
         best = summary["best"]["objectives"]
         lines.append(f"  best #{summary['best']['id']}: " + ", ".join(
-            f"{printable(k)} {pct(best[k], data.ref_objectives.get(k, math.nan))}"
+            f"{printable(k)} {change(k, best[k], data.ref_objectives.get(k, math.nan))}"
             for k in data.objectives))
         on = [f"{k} ({side})" for k, side in summary["on_bound"].items()]
-        worse = [f"{k} {pct(best[k], data.ref_objectives[k])}" for k in summary["worse"]]
+        worse = [f"{k} {change(k, best[k], data.ref_objectives[k])}" for k in summary["worse"]]
         for head, items in (("  on a bound: ", on), ("  worse than the reference: ", worse)):
             if items:
                 lines += wrap_items(items, head)

@@ -8,6 +8,7 @@ import time
 
 from ..errors import printable, printable_lines
 from ..terminal import wrap_items, wrap_message
+from ..uncertainty.statistics import is_probability
 from ..vti.response import objective_display
 
 
@@ -55,7 +56,7 @@ def best_items(table, short: bool = False) -> list[str]:
     for k in table.objectives:
         v, r = best["objectives"].get(k), (ref or {}).get(k)
         rel = ""
-        if r and v is not None and math.isfinite(v):
+        if r and v is not None and math.isfinite(v) and not is_probability(k):
             rel = f" {(v - r) / r:+.0%}" if short else f" ({(v - r) / r:+.0%})"
         parts.append(printable(objective_text(k, v)) + rel)
     return parts
@@ -271,6 +272,7 @@ def summary_lines(rd, table, case, problem, wall: float, t_optimiser: float,
         for k in pb.objectives:
             v, r = best["objectives"].get(k), ref.get(k)
             rel = ("" if not r else " (unchanged: the reference design's)" if v == r else
+                   f" (reference design {objective_value(k, r)})" if is_probability(k) else
                    f" ({(v - r) / r:+.1%} vs reference design {objective_value(k, r)})")
             lines.append(f"  {objective_text(k, v)}{rel}")
     if best is not None and pb.realisations and ref:

@@ -12,6 +12,7 @@ from .data import (
     fnum,
     improvement_sign,
     obj_display,
+    objective_change,
     pct,
     var_value,
 )
@@ -181,7 +182,8 @@ def worse_text(run: RunData, worse: list) -> str:
     for k, r, b in worse:
         s, u = obj_display(k)
         word = "rises" if b > r else "falls"
-        parts.append(f"{k} {word} from {fnum(r * s, 4)} to {fnum(b * s, 4)} {u} ({pct(b, r)}"
+        parts.append(f"{k} {word} from {fnum(r * s, 4)} to {fnum(b * s, 4)}{' ' * bool(u)}{u} "
+                     f"({objective_change(k, b, r)}"
                      + ("" if k in run.objectives else ", not an objective of this run") + ")")
     return "**What got worse:** " + "; ".join(parts) + "."
 
@@ -204,8 +206,8 @@ def why_text(run: RunData, bi: int, ri: int | None, notes: dict) -> str:
                 parts.append(f"{name} is unchanged at {fnum(r * s, 4)} {u}")
             else:
                 word = "falls" if b < r else "rises"
-                parts.append(f"{name} {word} from {fnum(r * s, 4)} to {fnum(b * s, 4)} {u} "
-                             f"({pct(b, r)})")
+                parts.append(f"{name} {word} from {fnum(r * s, 4)} to {fnum(b * s, 4)}"
+                             f"{' ' * bool(u)}{u} ({objective_change(k, b, r)})")
     text = "Against the reference design, " + "; ".join(parts) + "." if parts else ""
     diffs = []
     for j, v in enumerate(run.variables):

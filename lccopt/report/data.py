@@ -10,6 +10,7 @@ import numpy as np
 
 from ..config.variables import Variable
 from ..config.variables import named as named_variables
+from ..uncertainty.statistics import is_probability
 from ..vti.response import OBJECTIVE_DOC, improvement_sign  # noqa: F401 (re-exported)
 from ..vti.response import objective_display as obj_display
 from .evaluations import (
@@ -316,6 +317,17 @@ def read_history(run: RunData, index: int | None, condition: str | None = None
 
 
 # ================================================================================ formatting
+
+def objective_change(k: str, new: float, old: float) -> str:
+    """Objective k's change from OLD (the reference design's) to NEW: relative, as ``pct``;
+    a probability's difference instead (``-0.75``), since its reference is always 1 and a
+    relative change of a probability would read as another probability."""
+    if not is_probability(k):
+        return pct(new, old)
+    if not (np.isfinite(new) and np.isfinite(old)):
+        return "–"
+    return "0" if new == old else f"{new - old:+.3g}"
+
 
 def fnum(v: float, sig: int = 5) -> str:
     if v is None or not np.isfinite(v):

@@ -26,6 +26,7 @@ from .data import (
     fnum,
     improvement_sign,
     obj_display,
+    objective_change,
     pct,
     var_value,
 )
@@ -217,7 +218,7 @@ def _best_section(doc: Doc, run: RunData, bi: int, ri, figs: dict) -> list[str]:
             t = run.ref_point[run.objectives.index(k)]
             tgt = f"{fnum(t * s_)} ({'reached' if b <= t else 'not reached'})"
         rows.append([f"**{k}**" if k in run.objectives else k, unit, fnum(r * s_),
-                     fnum(b * s_), pct(b, r)] + ([tgt] if run.multi else []))
+                     fnum(b * s_), objective_change(k, b, r)] + ([tgt] if run.multi else []))
     doc.table(["objective", "unit", "reference", f"best #{run.ids[bi]}", "change"]
               + (["target f^r"] if run.multi else []), rows)
     doc.p(f"Value minimised: reference {fnum(run.value[ri]) if ri is not None else '–'}, best "

@@ -54,6 +54,13 @@ def is_statistic(name: str) -> bool:
     return parse(name) is not None
 
 
+def is_probability(name: str) -> bool:
+    """Whether a name is a probability (``p_worse(F_max)``): shown against the reference
+    design's value, not as a relative change (the reference design's p_worse is always 1)."""
+    parsed = parse(name)
+    return parsed is not None and parsed[0] == "p_worse"
+
+
 def objective_of(name: str) -> str:
     """The objective a name measures: ``F_max`` for ``q90(F_max)`` or ``F_max#3``; the name
     itself otherwise."""

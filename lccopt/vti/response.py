@@ -87,8 +87,7 @@ def objective_unit(k: str) -> str:
     """
     from ..uncertainty import statistics
 
-    parsed = statistics.parse(k)
-    if parsed is not None and parsed[0] == "p_worse":
+    if statistics.is_probability(k):
         return "-"
     base = statistics.objective_of(k).split("@")[0]
     return OBJECTIVE_UNITS.get(base, "N" if base.startswith("F") else "J")

@@ -15,6 +15,7 @@ import pytest
 from lccopt.config import load_case
 from lccopt.engine.runner import optimise
 from lccopt.problem import Problem
+from lccopt.report.data import fnum
 from lccopt.store import read_conditions, read_realisations
 from lccopt.uncertainty import statistics as stats
 from tests.engine import fakesim
@@ -138,6 +139,19 @@ def test_p_worse_waits_for_the_reference_design_and_counts_the_tracks_it_loses(t
         lost = np.count_nonzero(~(rt["F_max"][i] < rt["F_max"][0])) / 4
         assert t["p_worse(F_max)"][i] == lost == t["value"][i]
     assert min(t["value"]) < 1.0
+    # shown against the reference design's 1, not as a relative change (-75 %)
+    r = cli_run("resume", run, "--budget", "9", env={"LCCOPT_EVALUATOR": FAKE})
+    assert r.returncode == 0, r.stderr
+    t = read_table(run)
+    best = f"{min(t['value']):.3g}"
+    assert f"p_worse(F_max) {best} (reference design 1)" in r.stdout + r.stderr
+    r = cli_run("report", run, "--out", tmp_path / "rep")
+    assert r.returncode == 0, r.stderr
+    assert f"p_worse(F_max) {best} against 1" in r.stdout and "p_worse(F_max) -" not in r.stdout
+    table = (tmp_path / "rep" / "report.md").read_text()
+    change = f"{min(t['value']) - 1:+.3g}"
+    assert f"| **p_worse(F_max)** | - | 1.0000 | {fnum(min(t['value']))} | {change} |" in table
+    assert f"p_worse(F_max) falls from 1.000 to {fnum(min(t['value']), 4)} ({change})" in table
 
 
 @pytest.mark.slow
