@@ -113,3 +113,28 @@ def test_the_composite_fit_needs_every_output_vector():
     assert isinstance(CompositeFit().fit(X, F, AGG), CompositeSurrogate)
     for bad in (F[:9] + [None], F[:9] + [[1.0]], F[:9] + [[np.nan, 1.0]], [[]] * 10):
         assert CompositeFit().fit(X, bad, AGG) is None  # the scalar surrogate stands in
+
+
+def test_spearman_is_scipys_to_the_last_bit_with_ties_constants_and_nans():
+    import warnings
+
+    import scipy.stats
+
+    from lccopt.optim.surrogates import spearman
+
+    rng = np.random.default_rng(7)
+    for t in range(2000):
+        n = int(rng.integers(1, 40))
+        a = rng.normal(size=n)
+        b = a * rng.normal() + rng.normal(size=n) * rng.random()
+        if t % 4 == 1:                                     # ties
+            a, b = np.round(a, 1), np.round(b, 0)
+        elif t % 4 == 2:                                   # many ties, constants
+            a, b = rng.integers(0, 3, n).astype(float), rng.integers(0, 2, n).astype(float)
+        elif t % 4 == 3 and n > 2:
+            a[rng.integers(n)] = np.nan if t % 8 == 3 else np.inf
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            expected = scipy.stats.spearmanr(a, b)[0]
+        got = spearman(a, b)
+        assert got == expected or (np.isnan(got) and np.isnan(expected)), (t, got, expected)
