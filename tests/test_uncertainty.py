@@ -344,6 +344,20 @@ def test_a_settlement_prediction_with_no_spread_is_the_drawing_s_and_a_spread_mo
 
 # -- robust statistics -----------------------------------------------------------------------
 
+def test_a_statistic_is_described_in_words_from_its_objective():
+    from lccopt.vti.response import OBJECTIVE_DOC, objective_doc
+
+    f = OBJECTIVE_DOC["F_max"]
+    assert objective_doc("q90(F_max)") == f"90 % quantile over the realisations of the track of {f}"
+    assert objective_doc("q5(F_max@v160)").startswith("5 % quantile over")
+    assert objective_doc("mean(E_max@v160)") == \
+        f"mean over the realisations of the track of {OBJECTIVE_DOC['E_max']}"
+    assert objective_doc("p_worse(F_max)") == \
+        f"probability that {f} is not below the reference design's, on a realisation of the track"
+    assert objective_doc("F_max#3") == objective_doc("F_max@v160") == f
+    assert stats.is_probability("p_worse(F_max@v160)") and not stats.is_probability("q90(F_max)")
+
+
 def test_statistic_names_parse_and_their_values():
     assert stats.parse("q90(F_max)") == ("quantile", "F_max", 0.9)
     assert stats.parse("mean(E_max@fast)") == ("mean", "E_max@fast", None)

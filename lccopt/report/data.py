@@ -11,7 +11,7 @@ import numpy as np
 from ..config.variables import Variable
 from ..config.variables import named as named_variables
 from ..uncertainty.statistics import is_probability
-from ..vti.response import OBJECTIVE_DOC, improvement_sign  # noqa: F401 (re-exported)
+from ..vti.response import improvement_sign  # noqa: F401 (re-exported)
 from ..vti.response import objective_display as obj_display
 from .evaluations import (
     load_run_case,

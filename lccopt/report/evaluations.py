@@ -10,7 +10,6 @@ import math
 import numpy as np
 
 from ..safe_h5 import h5_open_owned, h5_read
-from ..vti.response import OBJECTIVE_DOC, improvement_sign  # noqa: F401 (re-exported)
 from ..vti.response import PAPER_OBJECTIVES as OBJECTIVE_NAMES  # always a column
 
 

@@ -8,7 +8,7 @@ import math
 import numpy as np
 
 from ..config.describe import pad_facts
-from ..vti.response import objective_display, objective_unit
+from ..vti.response import objective_display, objective_doc, objective_unit
 from .comparison import (
     bound_sides,
     bounds_text,
@@ -18,7 +18,6 @@ from .comparison import (
     worse_text,
 )
 from .data import (
-    OBJECTIVE_DOC,
     PHASE_STYLE,
     ZONE_COLOR,
     RunData,
@@ -115,21 +114,22 @@ def _searched_section(doc: Doc, run: RunData) -> None:
     doc.h(2, "What was searched")
     if run.multi:
         def shown(k, v):
-            return f"{k} = {fnum(v * _table_unit(k)[0])} {_table_unit(k)[1]}"
+            scale, unit = _table_unit(k)
+            return f"{k} = {fnum(v * scale)}" + (f" {unit}" if unit != "-" else "")
 
         pt = ", ".join(shown(k, v) for k, v in zip(run.objectives, run.ref_point)) \
             if run.ref_point is not None else "not set yet"
         wst = ", ".join(shown(k, v) for k, v in zip(run.objectives, run.worst)) \
             if run.worst is not None else "–"
         doc.p("Minimise "
-              f"{', '.join(f'**{k}** ({OBJECTIVE_DOC.get(k, k)})' for k in run.objectives)} "
+              f"{', '.join(f'**{k}** ({objective_doc(k)})' for k in run.objectives)} "
               "together, scalarised by the augmented Chebyshev achievement function (paper Eq. 7, "
               f"ρ = {run.rho:g}). Reference point f^r ({run.improvement:.0%} better than the "
               f"reference design): {pt}; worst values: {wst}. The value is 0 on the reference "
               "point and negative beyond it.")
     else:
         k = run.objectives[0]
-        doc.p(f"Minimise **{k}**: {OBJECTIVE_DOC.get(k, k)} [{_table_unit(k)[1]}].")
+        doc.p(f"Minimise **{k}**: {objective_doc(k)} [{_table_unit(k)[1]}].")
     rows = []
     for v in run.variables:
         rng = f"{var_value(v, v.lower)} … {var_value(v, v.upper)}" if np.isfinite(v.lower) else "–"

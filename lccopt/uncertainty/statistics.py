@@ -29,10 +29,11 @@ import numpy as np
 
 # what a statistic's name looks like: mean(F_max), q90(E_max@fast), p_worse(F_max)
 _NAME = re.compile(r"^(mean|q([1-9][0-9]?)|p_worse)\((.+)\)$")
-STATISTIC_DOC = {
-    "mean": "mean over the realisations",
-    "quantile": "quantile over the realisations",
-    "p_worse": "probability of not beating the reference design",
+STATISTIC_DOC = {  # {doc}: what the objective means
+    "mean": "mean over the realisations of the track of {doc}",
+    "quantile": "{level:g} % quantile over the realisations of the track of {doc}",
+    "p_worse": "probability that {doc} is not below the reference design's, on a realisation "
+               "of the track",
 }
 DEFAULT_QUANTILE = 0.9
 
@@ -52,6 +53,13 @@ def parse(name: str) -> tuple[str, str, float | None] | None:
 
 def is_statistic(name: str) -> bool:
     return parse(name) is not None
+
+
+def describe(name: str, objective_doc: str) -> str:
+    """What a statistic means, given what its objective means: ``90 % quantile over the
+    realisations of the track of <objective_doc>``."""
+    kind, _, level = parse(name)
+    return STATISTIC_DOC[kind].format(doc=objective_doc, level=(level or 0) * 100)
 
 
 def is_probability(name: str) -> bool:

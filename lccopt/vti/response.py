@@ -93,6 +93,17 @@ def objective_unit(k: str) -> str:
     return OBJECTIVE_UNITS.get(base, "N" if base.startswith("F") else "J")
 
 
+def objective_doc(k: str) -> str:
+    """What an objective means, in one line: OBJECTIVE_DOC's, a statistic's in words
+    (``90 % quantile over the realisations of the track of max - min of ...``), a
+    condition's (``F_max@v160``) or a realisation's as its objective's; else the name."""
+    from ..uncertainty import statistics
+
+    base = statistics.objective_of(k)
+    doc = OBJECTIVE_DOC.get(base.split("@")[0], base)
+    return statistics.describe(k, doc) if statistics.is_statistic(k) else doc
+
+
 def objective_display(k: str) -> tuple[float, str]:
     """The scale and unit people read an objective in: forces in kN,
     energies in J, settlements in mm.

@@ -152,6 +152,9 @@ def test_p_worse_waits_for_the_reference_design_and_counts_the_tracks_it_loses(t
     change = f"{min(t['value']) - 1:+.3g}"
     assert f"| **p_worse(F_max)** | - | 1.0000 | {fnum(min(t['value']))} | {change} |" in table
     assert f"p_worse(F_max) falls from 1.000 to {fnum(min(t['value']), 4)} ({change})" in table
+    assert "Minimise **p_worse(F_max)**: probability that max - min of the contact forces in " \
+        "the force zone is not below the reference design's, on a realisation of the track [-]." \
+        in table
 
 
 @pytest.mark.slow
