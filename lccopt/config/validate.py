@@ -28,17 +28,21 @@ _FLOAT_RE = re.compile(
 )
 
 
-def check(value: Any, kind: Any, path: tuple, lines: dict, file: str) -> Any:
-    """Validate one value against its kind; return the typed value."""
+def check(value: Any, kind: Any, path: tuple, lines: dict, file: str,
+          root: Any = None) -> Any:
+    """Validate one value against its kind; return the typed value. ``root``: the kind of
+    the whole file (default ``kind``), where an unknown key is looked for elsewhere."""
+    root = kind if root is None else root
+
     def fail(msg: str, at: tuple = path) -> CaseError:
         return CaseError(f"{locate(lines, at, file)}: {dotted(at) or '<top>'}: {msg}")
 
     def sub(v: Any, s: Any, key) -> Any:
-        return check(v, s, path + (key,), lines, file)
+        return check(v, s, path + (key,), lines, file, root)
 
     if isinstance(kind, kinds.Section):
         return _section(value, kind, sub, fail, lambda k: lines.get(path + (k,), file + ":1"),
-                        path)
+                        path, root)
     if isinstance(kind, (kinds.Named, kinds.Items)):
         return _collection(value, kind, sub, fail, path)
     if isinstance(kind, kinds.TextOrSection):
@@ -47,14 +51,14 @@ def check(value: Any, kind: Any, path: tuple, lines: dict, file: str) -> Any:
             if len(keys) != 1:
                 raise fail(f"expected a mapping with one of the keys "
                            f"{' or '.join(repr(k) for k in kind.sections)}")
-            return check(value, kind.sections[keys[0]], path, lines, file)
+            return check(value, kind.sections[keys[0]], path, lines, file, root)
         if not isinstance(value, str):
             raise fail(f"expected a file name or a mapping, got {value!r:.60}")
         return value
     if isinstance(kind, kinds.NumOrSection):
         if isinstance(value, dict):
-            return check(value, kind.section, path, lines, file)
-        return check(value, kind.number, path, lines, file)
+            return check(value, kind.section, path, lines, file, root)
+        return check(value, kind.number, path, lines, file, root)
     if isinstance(kind, kinds.Rows):
         return _rows(value, fail)
     if isinstance(kind, kinds.Num):
@@ -87,26 +91,48 @@ def _did_you_mean(word: str, choices) -> str:
     return f" (did you mean '{close[0]}'?)" if close else ""
 
 
-def unknown_key(key: str, known, path: tuple) -> str:
+def unknown_key(key: str, known, path: tuple, root: Any = None) -> str:
     """The message for an unknown key: the closest known key, else the keys if they are few,
-    else where they are documented."""
+    else where they are documented; and where the key is known in ``root`` (a key written in
+    the wrong section: ``slab_lengths`` under track.layout), unless the few keys say it all."""
     close = difflib.get_close_matches(str(key), list(known), n=1, cutoff=0.6)
-    if close:
-        return f"unknown key (did you mean '{close[0]}'?)"
-    if len(known) <= 5:
+    if len(known) <= 5 and not close:
         return f"unknown key (expected one of: {', '.join(known)})"
+    homes = list(dict.fromkeys(dotted(h + (str(key),)) for h in key_homes(root, str(key))
+                               if h != path))
+    elsewhere = " or ".join(homes[:2]) + (" or ..." if len(homes) > 2 else "")
+    if close:
+        return f"unknown key (did you mean '{close[0]}'{' or ' + elsewhere if homes else ''}?)"
     where = dotted(tuple(p for p in path if isinstance(p, str))) or "the top level"
-    return f"unknown key (the keys of {where}: docs/case-reference.md)"
+    also = f"; or did you mean {elsewhere}?" if homes else ""
+    return f"unknown key (the keys of {where}: docs/case-reference.md{also})"
 
 
-def _section(value: Any, kind: kinds.Section, sub, fail, line_of, path: tuple) -> dict:
+def key_homes(kind: Any, key: str, path: tuple = ()) -> list[tuple]:
+    """The paths of the sections of ``kind`` that hold ``key`` (a collection's entries as
+    ``<name>`` or ``[0]``)."""
+    if isinstance(kind, kinds.Section):
+        return ([path] if key in kind.fields else []) + [
+            h for k, f in kind.fields.items() for h in key_homes(f, key, path + (k,))]
+    if isinstance(kind, (kinds.Named, kinds.Items)):
+        return key_homes(kind.item, key, path + ("<name>" if isinstance(kind, kinds.Named)
+                                                 else 0,))
+    if isinstance(kind, kinds.TextOrSection):
+        return [h for s in kind.sections.values() for h in key_homes(s, key, path)]
+    if isinstance(kind, kinds.NumOrSection):
+        return key_homes(kind.section, key, path)
+    return []
+
+
+def _section(value: Any, kind: kinds.Section, sub, fail, line_of, path: tuple,
+             root: Any = None) -> dict:
     """A section: no unknown key, every required key, defaults for the others."""
     if not isinstance(value, dict):
         raise fail(f"expected a section (mapping), got {type(value).__name__}")
     for k in value:
         if k not in kind.fields:
             raise CaseError(f"{line_of(k)}: {dotted(path + (k,))}: "
-                            f"{unknown_key(k, kind.fields, path)}")
+                            f"{unknown_key(k, kind.fields, path, root)}")
     out = {}
     for key, field_kind in kind.fields.items():
         if value.get(key) is None:  # absent, or written as null

@@ -89,3 +89,21 @@ def test_an_unknown_key_gets_the_closest_known_key(tmp_path, text, key, message)
     where = msg.split(": ")[0]
     assert msg == f"{where}: {key}: {message}"
     assert len(msg) - len(where) <= 80       # the message itself fits a terminal line
+
+
+@pytest.mark.parametrize("text, key, message", [
+    ("track:\n  layout:\n    slab_lengths: [4.5]\n", "track.layout.slab_lengths",
+     "unknown key (did you mean 'exit_length' or track.ers.slab_lengths?)"),
+    ("optimisation:\n  realisations: 4\n", "optimisation.realisations",
+     "unknown key (the keys of optimisation: docs/case-reference.md; or did you mean "
+     "uncertainty.realisations?)"),
+    ("vehicle:\n  description: x\n", "vehicle.description",
+     "unknown key (the keys of vehicle: docs/case-reference.md; or did you mean description?)"),
+])
+def test_a_key_written_in_the_wrong_section_is_told_where_it_belongs(tmp_path, text, key,
+                                                                      message):
+    p = tmp_path / "c.yaml"
+    p.write_text(f"extends: {CONFIGS / 'reference.yaml'}\nname: k\n" + text)
+    with pytest.raises(CaseError) as exc:
+        load_case(p)
+    assert str(exc.value) == f"{p}:{3 + text.count(chr(10)) - 1}: {key}: {message}"
