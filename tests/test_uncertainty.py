@@ -356,6 +356,11 @@ def test_a_statistic_is_described_in_words_from_its_objective():
         f"probability that {f} is not below the reference design's, on a realisation of the track"
     assert objective_doc("F_max#3") == objective_doc("F_max@v160") == f
     assert stats.is_probability("p_worse(F_max@v160)") and not stats.is_probability("q90(F_max)")
+    # a figure's axis: a probability has no unit to bracket
+    from lccopt.report.data import with_unit
+    from lccopt.vti.response import objective_display
+    assert [with_unit(k, objective_display(k)[1]) for k in ("p_worse(F_max)", "q90(F_max)")] \
+        == ["p_worse(F_max)", "q90(F_max) [kN]"]
 
 
 def test_statistic_names_parse_and_their_values():

@@ -360,10 +360,15 @@ def var_value(v: Variable, value: float) -> str:
     return f"{value * v.scale:.4g}"
 
 
+def with_unit(name: str, unit: str) -> str:
+    """``F_max [kN]``; a dimensionless value (a probability, a count) without brackets."""
+    return f"{name} [{unit}]" if unit else name
+
+
 def value_label(run: RunData) -> tuple[float, str]:
     """(scale, axis label) of the value the optimiser minimised."""
     if run.multi:
         return 1.0, f"ASF value (Eq. 7) of {', '.join(run.objectives)} [-]"
     k = run.objectives[0]
     s, u = obj_display(k)
-    return s, f"{k} [{u}]"
+    return s, with_unit(k, u)

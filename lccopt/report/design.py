@@ -17,6 +17,7 @@ from .data import (
     improvement_sign,
     obj_display,
     var_value,
+    with_unit,
 )
 from .evaluations import OBJECTIVE_NAMES
 from .plotting import pyplot, save_figure
@@ -120,7 +121,7 @@ def fig_conditions(run: RunData, bi: int, ri: int | None, out: Path) -> Path | N
                              (run.obj[k][bi] * scale, BEST_COLOR)):
                 ax.axvline(v, color=color, lw=1.2, ls="--")
         bold = k in run.objectives or any(o.startswith(k + "@") for o in run.objectives)
-        ax.set_title(f"{k} [{unit}]", fontweight="bold" if bold else "normal", fontsize=10)
+        ax.set_title(with_unit(k, unit), fontweight="bold" if bold else "normal", fontsize=10)
         ax.set_xlim(0, max(np.nanmax(r), np.nanmax(b)) * 1.25)
         ax.grid(axis="y", visible=False)
     for ax in axes[:, 0]:

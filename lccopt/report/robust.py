@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from ..uncertainty import statistics as stats
-from .data import BEST_COLOR, OKABE_ITO, REF_COLOR, RunData, fnum, obj_display
+from .data import BEST_COLOR, OKABE_ITO, REF_COLOR, RunData, fnum, obj_display, with_unit
 from .plotting import pyplot, save_figure
 
 NOMINAL_COLOR = OKABE_ITO["purple"]
@@ -96,7 +96,7 @@ def fig_spread(designs: list[Spread], keys: list[str], out: Path, title: str,
             labels.append(text)
         ax.set_xticks(range(n_cols), labels, fontsize=8)
         ax.set_xlim(-0.5, n_cols - 0.4)
-        ax.set_ylabel(f"{key} [{unit}]" if unit else key)
+        ax.set_ylabel(with_unit(key, unit))
         ax.grid(axis="x", visible=False)
     # a legend of the marks, once, under the panels
     handles = [
@@ -220,7 +220,7 @@ def robust_section(doc, run: RunData, designs: list[Spread], figs: dict) -> dict
             entry[k] = {"drawn": d.drawn.get(k, float("nan")), "mean": stats.mean(v),
                         f"q{round(q * 100)}": stats.quantile(v, q), "beats_reference": w,
                         "tracks": m}
-            rows.append([d.label.replace("\n", " "), f"{k} [{unit}]",
+            rows.append([d.label.replace("\n", " "), with_unit(k, unit),
                          fnum(d.drawn.get(k, float("nan")) * s_, 4), fnum(stats.mean(v) * s_, 4),
                          fnum(stats.quantile(v, q) * s_, 4),
                          "–" if d is designs[0] else f"{w} of {m} ({w / m:.0%})"])

@@ -19,6 +19,7 @@ from .data import (
     fnum,
     obj_display,
     value_label,
+    with_unit,
 )
 from .plotting import log_ticks, pyplot, save_figure
 
@@ -199,7 +200,7 @@ def _objective_histories(run: RunData, out: Path) -> Path:
         r = run.ref_objectives.get(name, math.nan) * scale
         if np.isfinite(r):
             ax.axhline(r, color=REF_COLOR, lw=0.8, ls="--", zorder=2)
-        ax.set_ylabel(f"{name} [{unit}]")
+        ax.set_ylabel(with_unit(name, unit))
     # two lines: long objective names (a settlement's) made one line wider than the figure
     np.atleast_1d(axes)[0].set_title(f"Search history of '{run.name}': {run.n} of {run.budget} "
                                      f"evaluations ({run.state})\nthe run minimises the ASF of "
