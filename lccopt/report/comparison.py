@@ -173,6 +173,11 @@ def worse_objectives(run: RunData, bi: int) -> list[tuple[str, float, float]]:
     return out
 
 
+def amount(value: float, unit: str) -> str:
+    """``5.37 kN``; a dimensionless value without a trailing space."""
+    return f"{fnum(value, 4)} {unit}".rstrip()
+
+
 def worse_text(run: RunData, worse: list) -> str:
     """'What got worse' as a sentence: every reported objective the best design makes worse."""
     if not worse:
@@ -182,7 +187,7 @@ def worse_text(run: RunData, worse: list) -> str:
     for k, r, b in worse:
         s, u = obj_display(k)
         word = "rises" if b > r else "falls"
-        parts.append(f"{k} {word} from {fnum(r * s, 4)} to {fnum(b * s, 4)}{' ' * bool(u)}{u} "
+        parts.append(f"{k} {word} from {fnum(r * s, 4)} to {amount(b * s, u)} "
                      f"({objective_change(k, b, r)}"
                      + ("" if k in run.objectives else ", not an objective of this run") + ")")
     return "**What got worse:** " + "; ".join(parts) + "."
@@ -203,11 +208,11 @@ def why_text(run: RunData, bi: int, ri: int | None, notes: dict) -> str:
             setter = run.setting_condition(k, bi)
             name = f"{k} (worst case, set by {setter})" if setter and _worst_case(run) else k
             if abs(b - r) <= UNCHANGED * abs(r):
-                parts.append(f"{name} is unchanged at {fnum(r * s, 4)} {u}")
+                parts.append(f"{name} is unchanged at {amount(r * s, u)}")
             else:
                 word = "falls" if b < r else "rises"
-                parts.append(f"{name} {word} from {fnum(r * s, 4)} to {fnum(b * s, 4)}"
-                             f"{' ' * bool(u)}{u} ({objective_change(k, b, r)})")
+                parts.append(f"{name} {word} from {fnum(r * s, 4)} to {amount(b * s, u)} "
+                             f"({objective_change(k, b, r)})")
     text = "Against the reference design, " + "; ".join(parts) + "." if parts else ""
     diffs = []
     for j, v in enumerate(run.variables):
