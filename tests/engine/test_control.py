@@ -35,9 +35,28 @@ def _lccopt(*args, env=None, shell_redirect: str = "", cwd=None, **kw) -> subpro
                             start_new_session=True, **kw)
 
 
+def _catches(pid: int, sig: int, timeout: float = 30.0) -> None:
+    """Wait until process PID has a handler for SIG (Linux: its SigCgt mask). Before it, the
+    interpreter is still starting and a signal ends it as any program (nothing of lccopt's
+    has run, nothing is lost); on a crowded machine that start alone can outlast the delays
+    below, so they count from the moment lccopt catches the signal."""
+    status = Path(f"/proc/{pid}/status")
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        try:
+            fields = dict(line.split(":", 1) for line in status.read_text().splitlines())
+        except OSError:
+            return   # no /proc (or the process is gone): the delays alone, as elsewhere
+        if int(fields["SigCgt"], 16) >> (sig - 1) & 1:
+            return
+        time.sleep(0.005)
+
+
 def _stopped(args, sig, after: float, env=None) -> subprocess.CompletedProcess:
-    """Start ``lccopt ARGS``, send SIG to its process group AFTER seconds, wait."""
+    """Start ``lccopt ARGS``, send SIG to its process group AFTER seconds from the moment it
+    catches SIG, wait."""
     p = _lccopt(*args, env=env)
+    _catches(p.pid, sig)
     time.sleep(after)
     try:
         os.killpg(p.pid, sig)
