@@ -6,8 +6,8 @@ minutes each and need nothing of each other).
 
 A process of ``call_in_processes`` is a fresh interpreter (``python -c``, as the engine's
 workers: nothing of the caller is inherited, and the caller's ``__main__`` is never imported
-again, as ``multiprocessing``'s spawn would) that reads its share of the calls pickled on
-stdin and writes their results pickled on stdout. It ignores the stopping signals, which
+again, as ``multiprocessing``'s spawn would) that reads its calls pickled on stdin, one at a
+time, and answers each pickled on stdout before it is handed the next. It ignores the stopping signals, which
 reach the whole process group (the caller stops and kills it), dies with the caller (kill
 -9), and runs single-threaded BLAS (the processes are the parallelism).
 """
@@ -80,15 +80,18 @@ def die_with_parent(parent_pid: int) -> None:
 
 
 def call_in_processes(fn: Callable, calls: Sequence[tuple], processes: int) -> list[Any]:
-    """``[fn(*args) for args in calls]``, the calls dealt round-robin to ``processes``
-    processes (in this process when one is enough). ``fn`` and the arguments must pickle;
-    ``fn`` must be importable by its module's name. A call that raises has its exception
-    raised here; a process that dies raises RuntimeError. Interrupted (Ctrl-C, any exception
-    here), the processes are killed before it propagates."""
+    """``[fn(*args) for args in calls]``, spread over ``processes`` processes (in this process
+    when one is enough), answered in order. Each process is handed the next call as soon as it
+    has answered its last, so calls of unequal cost (a settlement prediction that tamps twice
+    as often, a realisation with hanging sleepers) keep every process busy to the end. ``fn``
+    and the arguments must pickle; ``fn`` must be importable by its module's name. A call that
+    raises has its exception raised here; a process that dies raises RuntimeError.
+    Interrupted (Ctrl-C, any exception here), the processes are killed before it propagates."""
+    from multiprocessing.connection import wait
+
     n = min(int(processes), len(calls))
     if n <= 1:
         return [fn(*args) for args in calls]
-    shares = [list(range(i, len(calls), n)) for i in range(n)]
     with contextlib.suppress(Exception):   # loaded here, not between fork and exec
         _load_libc()
     parent, env = os.getpid(), child_env()
@@ -98,28 +101,51 @@ def call_in_processes(fn: Callable, calls: Sequence[tuple], processes: int) -> l
     except OSError:
         stderr = subprocess.DEVNULL
     procs: list[subprocess.Popen] = []
+    results: list[Any] = [None] * len(calls)
+    todo = iter(range(len(calls)))
+
+    def hand_next(p: subprocess.Popen) -> bool:
+        """Send ``p`` the next call (True), or tell it there is none (False)."""
+        i = next(todo, None)
+        try:
+            pickle.dump(None if i is None else (i, calls[i]), p.stdin)
+            p.stdin.flush()
+        except BrokenPipeError:   # it died: its end of file below says how
+            pass
+        if i is None:
+            with contextlib.suppress(OSError):
+                p.stdin.close()
+        return i is not None
+
     try:
-        for share in shares:
+        for _ in range(n):
             p = subprocess.Popen([sys.executable, "-c", _SERVE], stdin=subprocess.PIPE,
                                  stdout=subprocess.PIPE, stderr=stderr, env=env,
                                  preexec_fn=lambda: _child_setup(parent))
             procs.append(p)
             try:   # this process's sys.path first: fn's module is found as it was here
-                p.stdin.write(pickle.dumps(list(sys.path)))
-                p.stdin.write(pickle.dumps((fn, [calls[i] for i in share])))
-                p.stdin.close()
-            except BrokenPipeError:   # it died at once: its exit code below says how
+                pickle.dump(list(sys.path), p.stdin)
+                pickle.dump(fn, p.stdin)
+            except BrokenPipeError:
                 pass
-        results: list[Any] = [None] * len(calls)
-        for share, p in zip(shares, procs):
-            answer = p.stdout.read()
-            code = p.wait()
-            if code != 0:
-                raise RuntimeError(f"a process of {fn.__name__} died ({_how(code)})")
-            for i, (kind, value) in zip(share, pickle.loads(answer)):
+        busy = {p.stdout: p for p in procs if hand_next(p)}
+        while busy:
+            for stdout in wait(list(busy)):
+                p = busy.pop(stdout)
+                try:   # one answer per call handed, written whole: this read cannot stall
+                    i, kind, value = pickle.load(stdout)
+                except EOFError:
+                    raise RuntimeError(f"a process of {fn.__name__} died ({_how(p.wait())})") \
+                        from None
                 if kind == "error":
                     raise value
                 results[i] = value
+                if hand_next(p):
+                    busy[stdout] = p
+        for p in procs:
+            code = p.wait()
+            if code != 0:
+                raise RuntimeError(f"a process of {fn.__name__} died ({_how(code)})")
         return results
     finally:
         for p in procs:
@@ -148,25 +174,31 @@ def _child_setup(parent: int) -> None:
 
 
 def _serve() -> None:
-    """A process's side: its calls from stdin, their results (or the first error) on stdout.
-    What the calls print goes to stderr (file descriptor 1 is pointed there), never into the
-    answer."""
+    """A process's side: its calls from stdin, one at a time, each answered on stdout as
+    ``(index, "ok", result)`` or ``(index, "error", exception)`` before the next is read; it
+    ends at a None or end of file. What the calls print goes to stderr (file descriptor 1 is
+    pointed there), never into the answers."""
     answer = os.fdopen(os.dup(1), "wb")
     os.dup2(2, 1)
-    sys.path[:0] = [p for p in pickle.load(sys.stdin.buffer) if p not in sys.path]
-    fn, calls = pickle.load(sys.stdin.buffer)
-    out = []
-    for args in calls:
+    calls = sys.stdin.buffer
+    sys.path[:0] = [p for p in pickle.load(calls) if p not in sys.path]
+    fn = pickle.load(calls)
+    while True:
         try:
-            out.append(("ok", fn(*args)))
+            call = pickle.load(calls)
+        except EOFError:
+            return
+        if call is None:
+            return
+        i, args = call
+        try:
+            out = (i, "ok", fn(*args))
         except Exception as exc:  # noqa: BLE001 - raised again in the caller
-            out.append(("error", exc))
-            break
-    try:
-        data = pickle.dumps(out)
-    except Exception:  # noqa: BLE001 - an exception that does not pickle: its words instead
-        kind, exc = out[-1]
-        out[-1] = (kind, RuntimeError(f"{type(exc).__name__}: {exc}"))
-        data = pickle.dumps(out)
-    answer.write(data)
-    answer.flush()
+            out = (i, "error", exc)
+        try:
+            data = pickle.dumps(out)
+        except Exception as why:  # noqa: BLE001 - an answer that does not pickle: words
+            what = out[2] if out[1] == "error" else why
+            data = pickle.dumps((i, "error", RuntimeError(f"{type(what).__name__}: {what}")))
+        answer.write(data)
+        answer.flush()

@@ -28,9 +28,32 @@ def test_the_answers_are_those_of_one_process_in_order():
         np.testing.assert_array_equal(a, b)      # bit for bit
     pids = call_in_processes(os.getpid, [()] * 5, 2)
     assert len(set(pids)) == 2 and os.getpid() not in pids
-    assert pids[0::2] == [pids[0]] * 3           # dealt round-robin
     assert call_in_processes(os.getpid, [()] * 3, 1) == [os.getpid()] * 3   # one: here
     assert call_in_processes(print, [("said",)] * 2, 2) == [None, None]   # printing is no answer
+
+
+def pid_after(seconds: float) -> int:
+    time.sleep(seconds)
+    return os.getpid()
+
+
+def test_a_long_call_does_not_hold_the_calls_after_it():
+    """Each process is handed the next call when it has answered its last: while one works
+    on a long call, the other answers all the short ones (dealt out in advance, half of them
+    would wait behind the long one)."""
+    pids = call_in_processes(pid_after, [(3.0,)] + [(0.0,)] * 5, 2)
+    assert len(set(pids[1:])) == 1 and pids[1] != pids[0], pids
+
+
+def test_an_answer_that_does_not_pickle_is_said():
+    with pytest.raises(RuntimeError, match="cannot pickle"):
+        call_in_processes(_a_lock, [(), ()], 2)
+
+
+def _a_lock():
+    import threading
+
+    return threading.Lock()
 
 
 def test_an_error_is_raised_as_itself_and_a_dead_process_is_said():

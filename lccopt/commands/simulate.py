@@ -195,6 +195,8 @@ def _simulate_settlement(case, case_path: Path, x, out: Path, plots: bool, evalu
                f"{info.get('settlement_simulations', '?')} simulations, "
                f"{info.get('settlement_blocks', '?')} blocks, {wall:.1f} s")
     typer.echo("  (the law's values, not a forecast: not calibrated to a measured crossing)")
+    if info.get("settlement_tamping"):
+        typer.echo("  (tamped: each measure is its worst over the horizon, not at the horizon)")
     _echo_objectives(o, [k for k in (*SETTLEMENT_OBJECTIVES, "years_to_limit") if k in o])
     if not info.get("settlement_limit_reached", True):
         typer.echo(f"  (the limit, {info['settlement_limit_measure']} "

@@ -21,30 +21,32 @@ import numpy as np
 from ..vti.response import OBJECTIVE_DOC, SETTLEMENT_OBJECTIVES
 from .data import BEST_COLOR, DPI, OKABE_ITO, fnum
 
-# What each settlement objective measures, for the report's summary (docs/settlement.md).
+# What each settlement objective measures, for the report's summary (docs/settlement.md); a
+# state measure is taken at the horizon, or for a tamped track at its worst over the horizon
+# (SettlementResult.objectives): {when} and {force_when} say which.
 MEANING = {
     "level_d1_max": "the largest deviation of the rail's longitudinal level in EN 13848's D1 "
-                    "band (wavelengths 3-25 m) over the approach and the ERS at the horizon: "
+                    "band (wavelengths 3-25 m) over the approach and the ERS {when}: "
                     "what a track recording car reports as an isolated defect",
     "level_d1_std": "the standard deviation of the rail's D1 level over the approach and the "
-                    "ERS at the horizon (EN 13848-6 takes it over 200 m sections: there it "
+                    "ERS {when} (EN 13848-6 takes it over 200 m sections: there it "
                     "would be smaller by the root of the window's share of 200 m)",
     "rail_step": "how far the rail sits below its level at the slab's edge within 3 m of the "
-                 "approach at the horizon (the slab's own settlement included)",
-    "rail_angle": "the largest slope of the rail within 3 m either side of the interface at "
-                  "the horizon, in mm/m: the ramp a wheel runs down off the slab",
+                 "approach {when} (the slab's own settlement included)",
+    "rail_angle": "the largest slope of the rail within 3 m either side of the interface "
+                  "{when}, in mm/m: the ramp a wheel runs down off the slab",
     "differential_settlement": "the largest minus the smallest settlement of the settling "
-                               "sleepers' ballast at the horizon: how uneven the approach has "
+                               "sleepers' ballast {when}: how uneven the approach has "
                                "become (the slab is not in it; reported, not what the rail "
                                "does)",
-    "max_settlement": "the largest settlement of a settling sleeper at the horizon",
-    "max_void": "the largest gap between a sleeper and its ballast at rest at the horizon: a "
+    "max_settlement": "the largest settlement of a settling sleeper {when}",
+    "max_void": "the largest gap between a sleeper and its ballast at rest {when}: a "
                 "hanging sleeper, held up by the rail",
     "level_std": "the standard deviation of the rail's level at rest (its own weight) over the "
-                 "settling zone and 3 m either side, at the horizon (not the EN 13848 band "
+                 "settling zone and 3 m either side, {when} (not the EN 13848 band "
                  "over 200 m)",
-    "force_growth": "the largest wheel-rail force of the last simulation over the new "
-                    "track's: how much the settled geometry amplifies the dynamic load",
+    "force_growth": "the largest wheel-rail force {force_when} over the new track's: how "
+                    "much the settled geometry amplifies the dynamic load",
     "maintenance_rate": "1 / years_to_limit: how often the limit is reached, in 1/year "
                         "(the minimised form of a life: smaller is better)",
     "interventions": "the tampings over the horizon (each when the limit was reached; the "
@@ -409,13 +411,15 @@ def _limit_years(h: dict, measure: str, value: float) -> str:
     return _years_text(float(y))
 
 
-def meaning_items(limit: tuple[str, float] | None) -> list[str]:
+def meaning_items(limit: tuple[str, float] | None, tamped: bool = False) -> list[str]:
     """The settlement objectives and what each measures.
 
     Parameters
     ----------
     limit
         (measure, value [m]) that years_to_limit counts to, said where it counts; or None.
+    tamped
+        whether the track is tamped (its state measures are then its worst over the horizon).
 
     Returns
     -------
@@ -424,7 +428,9 @@ def meaning_items(limit: tuple[str, float] | None) -> list[str]:
     """
     out = []
     for k in (*SETTLEMENT_OBJECTIVES, "years_to_limit"):
-        text = MEANING.get(k, OBJECTIVE_DOC.get(k, k))
+        text = MEANING.get(k, OBJECTIVE_DOC.get(k, k)).format(
+            when="at its worst over the horizon" if tamped else "at the horizon",
+            force_when="over the horizon" if tamped else "of the last simulation")
         if limit and k in ("maintenance_rate", "years_to_limit"):
             text += f"; the limit: {limit[0]} reaching {limit[1] * 1e3:g} mm"
         out.append(f"**{k}**: {text}")

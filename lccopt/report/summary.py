@@ -125,8 +125,9 @@ def _searched_section(doc: Doc, run: RunData) -> None:
               f"{', '.join(f'**{k}** ({objective_doc(k)})' for k in run.objectives)} "
               "together, scalarised by the augmented Chebyshev achievement function (paper Eq. 7, "
               f"ρ = {run.rho:g}). Reference point f^r ({run.improvement:.0%} better than the "
-              f"reference design): {pt}; worst values: {wst}. The value is 0 on the reference "
-              "point and negative beyond it.")
+              f"reference design): {pt}; worst values (a scale, each objective weighed by "
+              f"1/(worst - f^r), not a bound a design can reach): {wst}. The value is 0 on the "
+              "reference point and negative beyond it.")
     else:
         k = run.objectives[0]
         doc.p(f"Minimise **{k}**: {objective_doc(k)} [{_table_unit(k)[1]}].")
@@ -361,17 +362,20 @@ def _settlement_section(doc: Doc, run: RunData, designs: list, limit, check, fig
                  f"({', '.join(law_items(deg['law']))}), {deg['settling_sleepers']} settling "
                  f"sleepers next to the slab")
     tamping = ""
-    if info.get("settlement_tamping"):
+    tamped = bool(info.get("settlement_tamping"))
+    if tamped:
         tamping = (f" The track is tamped whenever the limit is reached (the "
                    f"{info.get('settlement_unreachable_sleepers', '?')} sleepers next to the "
                    f"slab out of the machine's reach are not lifted; the tamped ballast "
-                   f"settles anew).")
+                   f"settles anew). Its state cycles between tampings, so each measure of "
+                   f"it is its worst over the horizon, not its state at the horizon (one "
+                   f"moment of the cycle: just tamped, or about to be).")
     doc.p(f"Every design's settlement was predicted {what} (docs/settlement.md): blocks of load "
           f"cycles, each sleeper's ballast settling by the law from the pressure under it at "
           f"every axle, its subgrade by its own law, the track re-simulated as it settles."
           f"{tamping} The millimetres are the law's values, not a forecast: the law is not "
-          f"calibrated to a measured crossing. The objectives at the horizon:")
-    doc.ul(meaning_items(limit))
+          f"calibrated to a measured crossing. The objectives:")
+    doc.ul(meaning_items(limit, tamped))
     for d in designs:
         doc.p(facts(d))
     captions = {

@@ -48,7 +48,7 @@ OBJECTIVES = {o.name: o for o in (
     Objective("max_settlement", "m", "largest of any settling sleeper", "settlement"),
     Objective("max_void", "m", "largest void under a sleeper", "settlement"),
     Objective("level_std", "m", "std of the rail level, zone +- 3 m", "settlement"),
-    Objective("force_growth", "-", "wheel force: at the horizon / new", "settlement"),
+    Objective("force_growth", "-", "largest wheel force: settled / new", "settlement"),
     Objective("maintenance_rate", "1/year", "1 / years_to_limit", "settlement"),
     Objective("interventions", "-", "tampings over the horizon", "settlement"),
     Objective("years_to_limit", "year", "until the limit (or the horizon)", "reported"),
