@@ -7,9 +7,9 @@ minutes each and need nothing of each other).
 A process of ``call_in_processes`` is a fresh interpreter (``python -c``, as the engine's
 workers: nothing of the caller is inherited, and the caller's ``__main__`` is never imported
 again, as ``multiprocessing``'s spawn would) that reads its calls pickled on stdin, one at a
-time, and answers each pickled on stdout before it is handed the next. It ignores the stopping signals, which
-reach the whole process group (the caller stops and kills it), dies with the caller (kill
--9), and runs single-threaded BLAS (the processes are the parallelism).
+time, and answers each pickled on stdout before it is handed the next. It ignores the
+stopping signals, which reach the whole process group (the caller stops and kills it), dies
+with the caller (kill -9), and runs single-threaded BLAS (the processes are the parallelism).
 """
 
 from __future__ import annotations
