@@ -158,7 +158,11 @@ def test_status_and_report_speak_settlement(run):
     assert "the limit: level_d1_max reaching 1 mm" in md
     assert "| **level_d1_max** | mm |" in md
     assert "The track is tamped whenever the limit is reached" in md
-    assert re.search(r"tamped \d+ times over the horizon \(after ", md), md
+    assert re.search(r"tamped \d+ times over the horizon, each when level_d1_max reached "
+                     r"[\d.]+ mm \(after ", md), md
+    # a tamped track's state measures are said to be its worst over the horizon
+    assert "each measure of it is its worst over the horizon" in md
+    assert "over the approach and the ERS at its worst over the horizon" in md
     assert "the law's values, not a forecast" in md
     # the traffic in the words check uses, not a condition's name and a rate
     assert ("of the traffic (500,000 bogie passages a year (2 axles each), axle load 174 kN; "

@@ -377,25 +377,27 @@ def facts(d: Design) -> str:
            f"{hanging} sleeper(s) hang over a void of more than 0.5 mm (largest "
            f"{fnum(v.max() * 1e3, 3)} mm, {abs(x[int(np.argmax(v))]):.2f} m from the slab)")
     measure, value = info.get("settlement_limit_measure"), info.get("settlement_limit_value")
-    if measure and value:
+    tamped = np.asarray(h.get("settlement_tamped", np.zeros(len(s))), bool)
+    t = np.asarray(h["settlement_years"], float)[tamped]
+    if info.get("settlement_tamping") and t.size:
+        # a tamping is done at the end of the block that reaches the limit: its time is the
+        # years_to_limit of a tamped track, so the limit is said through the tampings
+        shown = ", ".join(_years_text(float(v)) for v in t[:6]) + (", ..." if t.size > 6
+                                                                    else "")
+        out += (f"; tamped {t.size} time{'s' if t.size > 1 else ''} over the horizon, each "
+                f"when {measure} reached {value * 1e3:g} mm (after {shown})")
+    elif measure and value:
         reached = info.get("settlement_limit_reached")
         out += (f"; {measure} reaches {value * 1e3:g} mm after "
                 f"{_limit_years(h, measure, value)}" if reached else
                 f"; {measure} stays below {value * 1e3:g} mm over the horizon")
-    tamped = np.asarray(h.get("settlement_tamped", np.zeros(len(s))), bool)
-    if info.get("settlement_tamping"):
-        t = np.asarray(h["settlement_years"], float)[tamped]
-        if t.size:
-            shown = ", ".join(_years_text(float(v)) for v in t[:6]) + (", ..." if t.size > 6
-                                                                        else "")
-            out += (f"; tamped {t.size} time{'s' if t.size > 1 else ''} over the horizon "
-                    f"(after {shown})")
-        else:
+        if info.get("settlement_tamping"):
             out += "; never tamped over the horizon"
-        if float(info.get("settlement_tamping_ineffective", -1.0)) >= 0:
-            when = _years_text(float(info["settlement_tamping_ineffective"]))
-            out += (f"; a tamping after {when} left the limit reached (the sleepers out of "
-                    f"reach): tamping ended there")
+    if info.get("settlement_tamping") and float(info.get("settlement_tamping_ineffective",
+                                                         -1.0)) >= 0:
+        when = _years_text(float(info["settlement_tamping_ineffective"]))
+        out += (f"; a tamping after {when} left the limit reached (the sleepers out of "
+                f"reach): tamping ended there")
     sims = info.get("settlement_simulations")
     return out + (f" ({sims} simulations)." if sims else ".")
 
