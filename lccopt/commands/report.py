@@ -9,6 +9,7 @@ import typer
 
 from ..errors import printable
 from ..report import Report, write_report
+from ..report.comparison import fixed_limit
 from ..report.data import pct
 from ..terminal import wrap_items
 from ..uncertainty.statistics import is_probability
@@ -24,6 +25,14 @@ def change(k: str, new: float, old: float) -> str:
     return f"{new:.3g} against {old:.3g}" if is_probability(k) else pct(new, old)
 
 
+def _on_bound(data, name: str, side: str) -> str:
+    """``x_r1 (upper)``; a bound no case can widen says why: ``x_l (lower: no Type II strip)``,
+    else the line would read as advice to widen it."""
+    v = next((v for v in data.variables if v.name == name), None)
+    limit = fixed_limit(data, v, side).split(":")[0] if v is not None else ""
+    return f"{name} ({side}{f': {limit}' if limit else ''})"
+
+
 def report_lines(report: Report) -> list[str]:
     """The lines that sum a written report up: the run, its best design against the
     reference, what sits on a bound or got worse, and what was written where."""
@@ -36,7 +45,7 @@ def report_lines(report: Report) -> list[str]:
         lines.append(f"  best #{summary['best']['id']}: " + ", ".join(
             f"{printable(k)} {change(k, best[k], data.ref_objectives.get(k, math.nan))}"
             for k in data.objectives))
-        on = [f"{k} ({side})" for k, side in summary["on_bound"].items()]
+        on = [_on_bound(data, k, side) for k, side in summary["on_bound"].items()]
         worse = [f"{k} {change(k, best[k], data.ref_objectives[k])}" for k in summary["worse"]]
         for head, items in (("  on a bound: ", on), ("  worse than the reference: ", worse)):
             if items:

@@ -66,8 +66,9 @@ _TRAINS = {
 }
 DEGRADATION = Section({
     "horizon_years": Num("the horizon: the settlement objectives are the track's state after "
-                         "this many years of the traffic. Default 10 years (when "
-                         "horizon_axle_passes is not given)", "year", gt=0, le=200.0,
+                         "this many years of the traffic (a tamped track's: its worst over "
+                         "them). Default 10 years (when horizon_axle_passes is not given)",
+                         "year", gt=0, le=200.0,
                          required=False, keep_absent=True),
     "horizon_axle_passes": Num("the horizon in axle passes of the modelled rail, all "
                                "conditions together (instead of horizon_years)", gt=0, le=1e10,

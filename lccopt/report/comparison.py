@@ -98,7 +98,7 @@ def bound_sides(run: RunData, bi: int) -> list[str]:
     return out
 
 
-def _fixed_limit(run: RunData, v, side: str) -> str:
+def fixed_limit(run: RunData, v, side: str) -> str:
     """Why a bound cannot be widened ('' if it can): a count of none, a strip over the whole
     ERS."""
     if side == "lower" and v.group in ("strengthened_sleepers", "type_ii_strip") and v.lower <= 0:
@@ -137,7 +137,7 @@ def bounds_text(run: RunData, bi: int, sides: list[str]) -> str:
     for v, side, x in on:
         items.append(f"`{v.name}` = {var_value(v, x)}{f' {v.unit}' if v.unit else ''} "
                      f"({side} bound)")
-        limit = _fixed_limit(run, v, side)
+        limit = fixed_limit(run, v, side)
         if limit:
             fixed.append(f"`{v.name}` ({limit})")
         else:
