@@ -84,15 +84,16 @@ class Format(str, enum.Enum):
 
 def _version(value: bool) -> None:
     if value:
-        from .version import __version__
+        from .version import version_text
 
-        typer.echo(f"lccopt {__version__}")
+        typer.echo(f"lccopt {version_text()}")
         raise typer.Exit()
 
 
 @app.callback()
 def _main_options(version: bool = typer.Option(False, "--version", callback=_version, is_eager=True,
-                                                help="print the version and exit")) -> None:
+                                                help="print the version and the fingerprint of "
+                                                     "the code, and exit")) -> None:
     """Optimise railway level crossings and their transition zones."""
 
 

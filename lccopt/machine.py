@@ -7,7 +7,9 @@ OpenBLAS picks for the CPU (``OPENBLAS_CORETYPE`` overrides the pick) and the SI
 dispatches to (``NPY_DISABLE_CPU_FEATURES`` turns some off). Measured: pinning both repeats
 another machine's runs to the last printed digit. They are recorded with the versions of each
 run (run.json, the journal, results.h5), in each evaluation's file (the worker's entries) and
-in ``lccopt simulate``'s file, and compared on resume.
+in ``lccopt simulate``'s file, and compared on resume, with the fingerprint of the code that
+computed them (the version number changes at releases only: two checkouts of one version can
+model the track differently).
 """
 
 from __future__ import annotations
@@ -66,22 +68,30 @@ def numpy_simd() -> str:
 
 
 # The entries, as recorded (beside the versions, in evaluation files' /info).
-ENTRIES = ("blas_kernels", "numpy_simd")
+ENTRIES = ("blas_kernels", "numpy_simd", "lccopt_code")
+# How the resume note names them
+LABELS = {"lccopt_code": "lccopt's code"}
 
 
 @functools.cache  # fixed once the libraries are loaded
 def describe() -> dict:
-    """The entries recorded beside the library versions."""
+    """The entries recorded beside the library versions: the machine's numerics and the code
+    that computes with them."""
+    from .version import code_fingerprint
+
     try:
         blas = blas_kernels()
     except Exception:  # noqa: BLE001 - a record, never a reason to stop a run
         blas = "unknown"
-    return {"blas_kernels": blas, "numpy_simd": numpy_simd()}
+    try:
+        code = code_fingerprint()
+    except OSError:    # a package file unreadable: a record, never a reason to stop a run
+        code = "unknown"
+    return {"blas_kernels": blas, "numpy_simd": numpy_simd(), "lccopt_code": code}
 
 
-# Versions and machine entries whose change makes a resumed run's later proposals differ from
-# an uninterrupted run's (lccopt's own version does not: the journal records the optimiser's
-# settings, and resume uses them).
+# Versions and entries whose change makes a resumed run's later designs differ from an
+# uninterrupted run's (lccopt's version number says less than its code's fingerprint)
 NUMERIC_KEYS = ("numpy", "scipy", *ENTRIES)
 
 
@@ -95,12 +105,14 @@ def resume_note(started: dict, now: dict) -> str | None:
     changed = [k for k in NUMERIC_KEYS if k in started and k in now and started[k] != now[k]]
     if not changed:
         return None
-    was = ", ".join(f"{k} {started[k]}" for k in changed)
-    here = ", ".join(f"{k} {now[k]}" for k in changed)
+    was = ", ".join(f"{LABELS.get(k, k)} {started[k]}" for k in changed)
+    here = ", ".join(f"{LABELS.get(k, k)} {now[k]}" for k in changed)
     pins = _pins(started, now, changed)
     hint = f" (resume with {pins} to match its start)" if pins else ""
+    code = (", and this code's model values them (lccopt --version prints a code's fingerprint)"
+            if "lccopt_code" in changed else "")
     return (f"this run began with {was}; here {here}: the designs it evaluates from here on may "
-            f"differ from an uninterrupted run's{hint}")
+            f"differ from an uninterrupted run's{code}{hint}")
 
 
 def _plain(value) -> str:

@@ -9,11 +9,12 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from pathlib import Path
 
 from ..errors import printable
 from ..terminal import wrap_items
-from .events import RUN
+from .events import RUN, SESSION
 from .journal import JournalError, read_journal
 from .progress import best_text, hms
 from .run import Run
@@ -56,10 +57,28 @@ def status_lines(run: Path) -> list[str]:
         lines += [f"  tracks: {tracks.get('count')} realisations (seed {tracks.get('seed')}) "
                   f"and the drawn track per design,",
                   f"          their fingerprint {tracks.get('fingerprint')}"]
+    lines += _codes(events)
     lines += _timing(table, budget, running)
     if not table.finished and not running:
         lines.append(f"  carry on with: lccopt resume {rd.path}")
     return lines
+
+
+def _codes(events: list[dict]) -> list[str]:
+    """A line when the run's sessions ran more than one version of lccopt's code (its start
+    and each session's end record it): designs evaluated by each may not compare."""
+    codes = []
+    for ev in events:
+        if ev.get("event") in (RUN, SESSION) and isinstance(ev.get("versions"), dict):
+            code = ev["versions"].get("lccopt_code")
+            # a crafted journal shows nothing of its own on the terminal
+            code = code if isinstance(code, str) and re.fullmatch(r"[0-9a-f]{16}", code) else None
+            if code and code not in codes:
+                codes.append(code)
+    if len(codes) < 2:
+        return []
+    return ["  lccopt's code changed between sessions (values may not compare):",
+            *wrap_items([codes[0], *(f"then {c}" for c in codes[1:])], "    ")]
 
 
 def _timing(table: Run, budget: int, running: bool) -> list[str]:

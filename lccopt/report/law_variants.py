@@ -49,7 +49,7 @@ def law_check(run, bi: int, ri: int | None, out: Path, echo=None) -> dict | None
     from ..engine.executors import local_processes
     from ..fanout import call_in_processes
     from ..folder import read_owned
-    from ..version import __version__
+    from ..version import code_fingerprint
 
     case = run.case
     if case is None or case.degradation is None or ri is None or bi == ri:
@@ -58,7 +58,7 @@ def law_check(run, bi: int, ri: int | None, out: Path, echo=None) -> dict | None
     spec = case.degradation_spec()
     variants = law_variants(spec)
     xb, xr = (np.asarray(run.x[i], float) for i in (bi, ri))
-    key = hashlib.sha256(json.dumps([case.resolved, xb.tolist(), xr.tolist(), __version__,
+    key = hashlib.sha256(json.dumps([case.resolved, xb.tolist(), xr.tolist(), code_fingerprint(),
                                      [v[0] for v in variants]]).encode()).hexdigest()
     place = out / CHECK_FILE            # staged: written whole with the rest of the report
     path = place.shown                  # where the last report of this folder kept it

@@ -122,3 +122,51 @@ def test_each_evaluation_file_records_the_machine_of_the_worker_that_ran_it(tmp_
         _, ev = read_evaluation(run / f"evals/{i:06d}.h5")
         assert ev.info["blas_kernels"] == OTHER and ev.info["numpy_simd"] == NATIVE["numpy_simd"]
     assert machine.describe()["blas_kernels"] == NATIVE["blas_kernels"] != OTHER
+
+
+def test_a_run_resumed_by_other_code_says_so_and_each_file_names_the_code_that_computed_it(
+        tmp_path):
+    """The version number changes at releases only; the code's fingerprint tells two checkouts
+    apart. A run begun by one copy of lccopt and resumed by an edited copy: the resume says so
+    once, `status` lists both codes in order, each evaluation file names its own."""
+    import re
+    import shutil
+
+    code = tmp_path / "code"
+    shutil.copytree(REPO / "lccopt", code / "lccopt", symlinks=True,
+                    ignore=shutil.ignore_patterns("__pycache__"))
+    # run from tmp_path: `python -c` puts the working directory (a checkout) first on the path
+    env = {"LCCOPT_EVALUATOR": FAKE, "PYTHONPATH": f"{code}{os.pathsep}{REPO}"}
+
+    def version() -> str:
+        r = cli_run("--version", env=env, cwd=tmp_path)
+        assert r.returncode == 0, r.stderr
+        return re.fullmatch(r"lccopt \S+ \(code ([0-9a-f]{16})\)\n", r.stdout).group(1)
+
+    case = write_case(tmp_path, "c", budget=4, initial=3)
+    run = tmp_path / "runs" / "c"
+    first = version()
+    r = cli_run("optimise", case, "--workers", "1", "--runs", tmp_path / "runs", env=env,
+                    cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert json.loads((run / "run.json").read_text())["versions"]["lccopt_code"] == first
+    r = cli_run("status", run, env=env, cwd=tmp_path)
+    assert r.returncode == 0 and "code changed" not in r.stdout, r.stdout
+
+    with open(code / "lccopt" / "vti" / "track.py", "a") as fh:   # another model, same version
+        fh.write("\n# edited\n")
+    second = version()
+    assert second != first
+    case.write_text(case.read_text().replace("budget: 4", "budget: 6"))
+    r = cli_run("resume", run, "--allow-changed-case", env=env, cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    notes = [line for line in r.stderr.splitlines() if "lccopt's code" in line]
+    assert len(notes) == 1 and first in notes[0] and second in notes[0], r.stderr
+    assert "may differ" in notes[0] and "resume with" not in notes[0], notes
+    r = cli_run("status", run, env=env, cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert (f"  lccopt's code changed between sessions (values may not compare):\n"
+            f"    {first}, then {second}\n") in r.stdout, r.stdout
+    codes = [read_evaluation(run / "evals" / f"{i:06d}.h5")[1].info["lccopt_code"]
+             for i in range(6)]
+    assert codes == [first] * 4 + [second] * 2, codes
