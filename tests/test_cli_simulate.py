@@ -142,9 +142,11 @@ def test_simulate_refuses_to_overwrite_without_force(run_cli, tmp_path):
 
 def test_version_format_enum_and_plain_flags(run_cli):
     from lccopt import __version__
+    from lccopt.version import code_fingerprint
 
     v = run_cli("--version")
-    assert v.returncode == 0 and v.stdout.strip() == f"lccopt {__version__}"
+    assert v.returncode == 0, v.stderr
+    assert v.stdout.strip() == f"lccopt {__version__} (code {code_fingerprint()})"
     bad = run_cli("report", "nowhere", "--format", "pdf")
     assert bad.returncode == 2 and "'pdf' is not one of" in bad.stderr
     for cmd in ("optimise", "simulate", "resume"):

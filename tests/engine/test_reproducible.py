@@ -205,7 +205,7 @@ def test_a_run_of_an_optimiser_this_lccopt_does_not_have_is_refused_in_one_line(
     run = optimise(case, workers=1, runs=tmp_path, evaluator=FAKE, progress=False)
     case.write_text(case.read_text().replace("budget: 6", "budget: 8"))
     _first_line_changed(run, **changes)
-    with pytest.raises(JournalError, match="made by lccopt 0.1.0 on 20"):
+    with pytest.raises(JournalError, match=r"made by lccopt 0\.1\.0 \(code [0-9a-f]{16}\) on 20"):
         restore(Problem.from_case(load_case(case)), _events(run), None)
     r = cli_run("resume", run, "--allow-changed-case", env={"LCCOPT_EVALUATOR": FAKE})
     assert r.returncode == 2 and "Traceback" not in r.stderr
