@@ -378,3 +378,23 @@ def test_statistic_names_parse_and_their_values():
     assert stats.statistic("p_worse(F_max)", ref, 4, ref) == 1.0
     same = {f"F_max#{r}": 0.1 + 0.2 for r in range(7)}
     assert stats.statistic("mean(F_max)", same, 7) == 0.1 + 0.2       # exact, not 0.30000000004
+
+
+def test_the_cost_of_a_design_fits_an_80_column_terminal_with_conditions_or_settlement(tmp_path):
+    """The longest cost lines: a settlement prediction's simulations and several conditions."""
+    settle = tmp_path / "s.yaml"
+    settle.write_text(f"extends: {REFERENCE.parent / 'settlement.yaml'}\nname: s\nuncertainty:\n"
+                      f"  realisations: 8\n  settlement_coefficient: {{cov: 0.2}}\n")
+    lines = uncertainty_lines(load_case(settle))
+    assert "    per design: 9 tracks (the drawing and 8 realisations):" in lines, lines
+    assert any(re.fullmatch(r"      9 tasks, up to [\d,]+ simulations", ln) for ln in lines), lines
+    traffic = tmp_path / "t.yaml"
+    traffic.write_text(f"extends: {REFERENCE}\nname: t\nconditions:\n"
+                       f"  - {{name: fast, speed: 200 km/h}}\n"
+                       f"  - {{name: slow, speed: 60 km/h, direction: leave}}\n"
+                       f"uncertainty:\n  realisations: 6\n  support_stiffness: {{cov: 0.3}}\n")
+    lines = uncertainty_lines(load_case(traffic))
+    assert lines[lines.index("    per design: 7 tracks (the drawing and 6 realisations)") + 1] \
+        == "      x 2 conditions = 14 tasks", lines
+    for case_lines in (uncertainty_lines(load_case(settle)), lines):
+        assert max(len(line) for line in case_lines) <= 80, case_lines

@@ -23,6 +23,7 @@ import hashlib
 
 import numpy as np
 
+from ..terminal import WIDTH
 from ..uncertainty import fields
 from ..uncertainty import statistics as stats
 from ..vti.response import REPORTED_ONLY, SETTLEMENT_OBJECTIVES
@@ -294,11 +295,13 @@ def uncertainty_lines(case, *, cost: bool = True, budget: bool = True) -> list[s
     tasks, sims = simulations_per_design(case)
     each = (f" x {len(case.conditions)} conditions" if case.conditions else "")
     designs = (case.optimisation or {}).get("budget") if budget else None
-    head = (f"    per design: {n + 1} tracks (the drawing and {n} realisations){each} = "
-            f"{tasks} tasks")
-    if sims != tasks:
-        head += f", up to {sims:,} simulations"
-    lines.append(head)
+    head = f"    per design: {n + 1} tracks (the drawing and {n} realisations)"
+    tail = f"{each} = {tasks} tasks" + (f", up to {sims:,} simulations" if sims != tasks else "")
+    # the count on a line of its own where both would not fit an 80-column terminal
+    if len(head + tail) <= WIDTH:
+        lines.append(head + tail)
+    else:
+        lines += [head + ("" if each else ":"), "      " + tail.lstrip(" =")]
     most = most_realisations(data, case.traffic)
     lines.append(f"    at most {most} realisations: " + (
         "the section's limit" if most == MAX_REALISATIONS else
