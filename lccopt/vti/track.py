@@ -97,8 +97,9 @@ def wheel_window(scenario: Scenario, entry_x: np.ndarray) -> tuple[float, float,
     x_start > x_end. (Starting inside the ERS, run_in before zone_end, put E_max 10 % low for
     the 3-dof vehicle and 12 % for the VIRM half car at run_in = 2 m: the start transient next
     to the zone and the missing passage of the far interface; from the exit side E_max agrees
-    to 0.2 % between 10 and 20 m of run.) Trailing wheels may lie beyond a rail end at the
-    start or the end of a run: they rest on a rigid continuation of the rail."""
+    to 0.2 % between 10 and 20 m of run.) A trailing wheel beyond a rail end rests on a rigid
+    continuation of the rail; a case's check starts every wheel at least 2 m inside the rail
+    (``config.checks.START_MARGIN``: rolling onto its end shakes the vehicle)."""
     zones, sim, layout = scenario.zones, scenario.settings, scenario.track.layout
     zone_start = float(entry_x[zones.sleepers - 1])
     zone_end = scenario.track.position(zones.force_zone_end)

@@ -195,3 +195,22 @@ def test_simulate_command_runs_a_half_car(tmp_path):
     with h5py.File(tmp_path / "out" / "simulation.h5") as f:
         assert f["histories/contact_force_wheels"].shape[1] == 4
         assert f["info"].attrs["vehicle_type"] == "half-car"
+
+
+@pytest.mark.parametrize("direction,key,short,fits", [("enter", "entry_length", 37.0, 38.0),
+                                                      ("leave", "exit_length", 25.0, 26.0)])
+def test_a_wheel_that_would_start_off_the_rail_or_at_its_end_is_refused(tmp_path, direction, key,
+                                                                        short, fits):
+    """Every wheel of a half car starts at least 2 m inside the modelled rail: its last wheel
+    rolling onto the rail's end puts F_max and E_max off by percents (docs/model.md); the
+    message names the layout length that is short, and by how much."""
+    text = (f"extends: {CONFIGS / 'vehicles' / 'virm-half-car.yaml'}\nname: c\nsimulation:\n"
+            f"  direction: {direction}\ntrack:\n  layout:\n    {key}: {short}\n")
+    p, msg = case_error(tmp_path, text)
+    assert msg.startswith(f"{p}:{line_of(text, key)}: track.layout.{key}: the vehicle's last "
+                          f"wheel would start at "), msg
+    assert "shakes the vehicle through the run (every wheel starts at least 2 m inside)" in msg
+    assert msg.endswith(f"{key} {short:g} m is {0.8 if direction == 'enter' else 0.5:g} m "
+                        f"short"), msg
+    p.write_text(text.replace(f"{key}: {short}", f"{key}: {fits}"))
+    assert load_case(p).data["track"]["layout"][key] == fits
