@@ -16,10 +16,11 @@ def code_fingerprint() -> str:
     """16 hex digits of a sha256 over every Python file of the package (path and bytes): two
     installs with the same fingerprint run the same code, whatever the version number says."""
     root = Path(__file__).resolve().parent
+    files = sorted(p for p in root.rglob("*.py") if "__pycache__" not in p.parts)
+    if not files:   # imported from an archive or compiled files only: nothing to tell apart
+        return "unknown"
     digest = hashlib.sha256()
-    for path in sorted(root.rglob("*.py")):
-        if "__pycache__" in path.parts:
-            continue
+    for path in files:
         rel = path.relative_to(root).as_posix()
         digest.update(rel.encode() + b"\0" + path.read_bytes() + b"\0")
     return digest.hexdigest()[:16]
