@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import functools
 import hashlib
+import re
 from pathlib import Path
 
 __version__ = "0.1.0"
@@ -29,3 +30,11 @@ def code_fingerprint() -> str:
 def version_text() -> str:
     """``0.1.0 (code 3f2a9c1b0e4d5a6f)``: what ``lccopt --version`` prints and runs name."""
     return f"{__version__} (code {code_fingerprint()})"
+
+
+def recorded_code(versions) -> str | None:
+    """The code fingerprint a run's ``versions`` record names, or None (none recorded, or
+    not a fingerprint: a journal is a file anyone may edit, and nothing of its own reaches
+    the terminal)."""
+    code = versions.get("lccopt_code") if isinstance(versions, dict) else None
+    return code if isinstance(code, str) and re.fullmatch(r"[0-9a-f]{16}", code) else None

@@ -16,6 +16,7 @@ import re
 import numpy as np
 
 from ..problem import Problem
+from ..version import recorded_code
 from .events import ASKED, CASE_CHANGED, EXHAUSTED, REFERENCE, RESULTS, SCHEDULE
 from .journal import JournalError, line_mark
 from .run import Run
@@ -123,8 +124,8 @@ def _made_by(first: dict) -> str:
     version = versions.get("lccopt") if isinstance(versions, dict) else None
     if not (isinstance(version, str) and re.fullmatch(r"[\w.+-]{1,30}", version)):
         version = None   # a crafted journal shows nothing of its own on the terminal
-    code = versions.get("lccopt_code") if isinstance(versions, dict) else None
-    if isinstance(code, str) and re.fullmatch(r"[0-9a-f]{16}", code):
+    code = recorded_code(versions)
+    if code:
         version = f"{version or '(version unknown)'} (code {code})"
     when = str(first.get("time", ""))[:10]
     if not re.fullmatch(r"\d{4}-\d{2}-\d{2}", when):

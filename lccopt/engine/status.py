@@ -9,11 +9,11 @@ from __future__ import annotations
 
 import json
 import math
-import re
 from pathlib import Path
 
 from ..errors import printable
 from ..terminal import wrap_items
+from ..version import recorded_code
 from .events import RUN, SESSION
 from .journal import JournalError, read_journal
 from .progress import best_text, hms
@@ -69,12 +69,9 @@ def _codes(events: list[dict]) -> list[str]:
     and each session's end record it): designs evaluated by each may not compare."""
     codes = []
     for ev in events:
-        if ev.get("event") in (RUN, SESSION) and isinstance(ev.get("versions"), dict):
-            code = ev["versions"].get("lccopt_code")
-            # a crafted journal shows nothing of its own on the terminal
-            code = code if isinstance(code, str) and re.fullmatch(r"[0-9a-f]{16}", code) else None
-            if code and code not in codes:
-                codes.append(code)
+        code = recorded_code(ev.get("versions")) if ev.get("event") in (RUN, SESSION) else None
+        if code and code not in codes:
+            codes.append(code)
     if len(codes) < 2:
         return []
     return ["  lccopt's code changed between sessions (values may not compare):",
