@@ -147,7 +147,7 @@ def test_a_run_resumed_by_other_code_says_so_and_each_file_names_the_code_that_c
     run = tmp_path / "runs" / "c"
     first = version()
     r = cli_run("optimise", case, "--workers", "1", "--runs", tmp_path / "runs", env=env,
-                    cwd=tmp_path)
+                cwd=tmp_path)
     assert r.returncode == 0, r.stderr
     assert json.loads((run / "run.json").read_text())["versions"]["lccopt_code"] == first
     r = cli_run("status", run, env=env, cwd=tmp_path)
