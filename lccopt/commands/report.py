@@ -9,7 +9,7 @@ import typer
 
 from ..errors import printable
 from ..report import Report, write_report
-from ..report.comparison import fixed_limit
+from ..report.comparison import drawn_only, fixed_limit
 from ..report.data import pct
 from ..terminal import wrap_items
 from ..uncertainty.statistics import is_probability
@@ -46,7 +46,8 @@ def report_lines(report: Report) -> list[str]:
             f"{printable(k)} {change(k, best[k], data.ref_objectives.get(k, math.nan))}"
             for k in data.objectives))
         on = [_on_bound(data, k, side) for k, side in summary["on_bound"].items()]
-        worse = [f"{k} {change(k, best[k], data.ref_objectives[k])}" for k in summary["worse"]]
+        worse = [f"{k}{' as drawn' if drawn_only(data, k) else ''} "
+                 f"{change(k, best[k], data.ref_objectives[k])}" for k in summary["worse"]]
         for head, items in (("  on a bound: ", on), ("  worse than the reference: ", worse)):
             if items:
                 lines += wrap_items(items, head)

@@ -95,17 +95,30 @@ def unknown_key(key: str, known, path: tuple, root: Any = None) -> str:
     """The message for an unknown key: the closest known key, else the keys if they are few,
     else where they are documented; and where the key is known in ``root`` (a key written in
     the wrong section: ``slab_lengths`` under track.layout), unless the few keys say it all."""
-    close = difflib.get_close_matches(str(key), list(known), n=1, cutoff=0.6)
+    close = (difflib.get_close_matches(str(key), list(known), n=1, cutoff=0.6)
+             or _sharing_a_word(str(key), known))
     if len(known) <= 5 and not close:
         return f"unknown key (expected one of: {', '.join(known)})"
     homes = list(dict.fromkeys(dotted(h + (str(key),)) for h in key_homes(root, str(key))
                                if h != path))
     elsewhere = " or ".join(homes[:2]) + (" or ..." if len(homes) > 2 else "")
     if close:
-        return f"unknown key (did you mean '{close[0]}'{' or ' + elsewhere if homes else ''}?)"
+        named = " or ".join(f"'{c}'" for c in close)
+        return f"unknown key (did you mean {named}{' or ' + elsewhere if homes else ''}?)"
     where = dotted(tuple(p for p in path if isinstance(p, str))) or "the top level"
     also = f"; or did you mean {elsewhere}?" if homes else ""
     return f"unknown key (the keys of {where}: docs/case-reference.md{also})"
+
+
+def _sharing_a_word(key: str, known) -> list[str]:
+    """The known keys (two at most) that share a word with ``key``, a plural or a slip of
+    a letter allowed (``voids`` -> ``initial_void``), for a key too unlike any whole key."""
+    words = [w for w in key.lower().split("_") if len(w) >= 4]
+    shared = {k: sum(bool(difflib.get_close_matches(w, k.split("_"), n=1, cutoff=0.8))
+                     for w in words) for k in known}
+    most = max(shared.values(), default=0)
+    matches = [k for k, n in shared.items() if n == most]
+    return matches if most and len(matches) <= 2 else []
 
 
 def key_homes(kind: Any, key: str, path: tuple = ()) -> list[tuple]:

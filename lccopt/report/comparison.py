@@ -178,6 +178,12 @@ def amount(value: float, unit: str) -> str:
     return f"{fnum(value, 4)} {unit}".rstrip()
 
 
+def drawn_only(run: RunData, k: str) -> bool:
+    """Whether ``k`` is a plain objective of a run over realisations of the track: there it
+    is the drawing's value, and its statistics (``q90(E_max)``) are what the run judged."""
+    return bool(run.realisations) and "(" not in k
+
+
 def worse_text(run: RunData, worse: list) -> str:
     """'What got worse' as a sentence: every reported objective the best design makes worse."""
     if not worse:
@@ -187,7 +193,8 @@ def worse_text(run: RunData, worse: list) -> str:
     for k, r, b in worse:
         s, u = obj_display(k)
         word = "rises" if b > r else "falls"
-        parts.append(f"{k} {word} from {fnum(r * s, 4)} to {amount(b * s, u)} "
+        drawn = " on the track as drawn" if drawn_only(run, k) else ""
+        parts.append(f"{k}{drawn} {word} from {fnum(r * s, 4)} to {amount(b * s, u)} "
                      f"({objective_change(k, b, r)}"
                      + ("" if k in run.objectives else ", not an objective of this run") + ")")
     return "**What got worse:** " + "; ".join(parts) + "."

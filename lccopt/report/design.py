@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .comparison import drawn_only
 from .data import (
     BEST_COLOR,
     OKABE_ITO,
@@ -41,9 +42,9 @@ def fig_best_vs_reference(run: RunData, bi: int, ri: int | None, out: Path) -> P
     colors = [OKABE_ITO["blue"] if b else OKABE_ITO["vermillion"] for b in better]
     y = np.arange(len(names))
     a1.barh(y, np.nan_to_num(ch), color=colors)
-    a1.set_yticks(y, names)
-    for t in a1.get_yticklabels():
-        if t.get_text() in run.objectives:
+    a1.set_yticks(y, [f"{k} (as drawn)" if drawn_only(run, k) else k for k in names])
+    for t, k in zip(a1.get_yticklabels(), names):
+        if k in run.objectives:
             t.set_fontweight("bold")
     a1.invert_yaxis()
     a1.axvline(0, color="k", lw=0.8)

@@ -12,6 +12,7 @@ from ..vti.response import objective_display, objective_doc, objective_unit
 from .comparison import (
     bound_sides,
     bounds_text,
+    drawn_only,
     kind_text,
     why_text,
     worse_objectives,
@@ -218,7 +219,9 @@ def _best_section(doc: Doc, run: RunData, bi: int, ri, figs: dict) -> list[str]:
         if run.multi and run.ref_point is not None and k in run.objectives:
             t = run.ref_point[run.objectives.index(k)]
             tgt = f"{fnum(t * s_)} ({'reached' if b <= t else 'not reached'})"
-        rows.append([f"**{k}**" if k in run.objectives else k, unit, fnum(r * s_),
+        name = (f"**{k}**" if k in run.objectives
+                else k + (" (as drawn)" if drawn_only(run, k) else ""))
+        rows.append([name, unit, fnum(r * s_),
                      fnum(b * s_), objective_change(k, b, r)] + ([tgt] if run.multi else []))
     doc.table(["objective", "unit", "reference", f"best #{run.ids[bi]}", "change"]
               + (["target f^r"] if run.multi else []), rows)

@@ -79,6 +79,11 @@ def test_every_key_has_a_row_with_its_unit_default_and_range():
      "unknown key (the keys of vehicle: docs/case-reference.md)"),
     ("track:\n  sleeper:\n    weight: 125\n", "track.sleeper.weight",
      "unknown key (expected one of: mass, bearing_area)"),
+    # too unlike a whole key, but sharing a word with it (a plural, the words swapped)
+    ("uncertainty:\n  realisations: 4\n  voids: {probability: 0.1}\n", "uncertainty.voids",
+     "unknown key (did you mean 'initial_void'?)"),
+    ("uncertainty:\n  realisations: 4\n  damping_support: {}\n",
+     "uncertainty.damping_support", "unknown key (did you mean 'support_damping'?)"),
 ])
 def test_an_unknown_key_gets_the_closest_known_key(tmp_path, text, key, message):
     p = tmp_path / "c.yaml"

@@ -137,3 +137,28 @@ def test_a_force_highest_at_the_windows_end_is_not_called_a_peak():
         in text, text
     assert "against 102.0 kN 0.70 m after the slab edge for the reference design" in text, text
     assert pct(0.99999, 1.0) == "0.0 %" and pct(1.0, 1.0) == "0 %" and pct(1.1, 1.0) == "+10.0 %"
+
+
+def test_a_plain_objective_of_a_run_over_realisations_is_named_as_drawn():
+    """In a robust run E_max is the drawn track's value and q90(E_max) the optimised one: a
+    best design worse as drawn must not read as worse at what the run minimised."""
+    from types import SimpleNamespace
+
+    from lccopt.commands.report import report_lines
+    from lccopt.report.comparison import worse_text
+
+    worse = [("E_max", 0.861, 4.428)]
+    robust = SimpleNamespace(realisations=6, objectives=["q90(E_max)"])
+    text = worse_text(robust, worse + [("q90(E_max)", 17.0, 18.0)])
+    assert "E_max on the track as drawn rises from 0.8610 to 4.428 J" in text, text
+    assert "q90(E_max) rises" in text, text
+    drawn = SimpleNamespace(realisations=0, objectives=["E_max"])
+    assert worse_text(drawn, worse).startswith("**What got worse:** E_max rises"), worse
+    run = SimpleNamespace(
+        name="r", n=20, budget=20, state="finished", objectives=["q90(E_max)"], realisations=6,
+        ref_objectives={"q90(E_max)": 20.35, "E_max": 0.861}, variables=[])
+    summary = {"best": {"id": 19, "objectives": {"q90(E_max)": 17.44, "E_max": 4.428}},
+               "on_bound": {}, "worse": ["E_max"], "seconds": 1.0}
+    lines = report_lines(SimpleNamespace(run=run, summary=summary, figures=[], files=[],
+                                         path="out"))
+    assert "  worse than the reference: E_max as drawn +414.3 %" in lines, lines
