@@ -1,0 +1,106 @@
+"""A clean-up after a robust run, measured on the runs of the robust-design study
+(docs/robust.md, "Study"; Boesel, Nelson & Kim, "Using ranking and selection to 'clean up'
+after simulation optimization", Operations Research 51(5), 2003): the run's best few designs
+by its own objective are simulated on validation realisations the run never saw, and the one
+best there is the answer. Minimising a quantile over a few realisations picks the design whose
+tracks happened to favour it (the winner's curse); fresh tracks judge the finalists without
+that bias.
+
+Run after ``robust_study`` into the same folder (it reads the robust runs and the study's
+fresh judging case, and judges the chosen designs there):
+
+    nice -n 10 python -m benchmarks.robust.cleanup_study settlement --seeds 1 2 3 \\
+        --keep 5 --validation 16 --out /tmp/robust-b80
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+from benchmarks.robust.robust_study import CASES, LEVEL, VARIATION, case_text, judge
+from lccopt.uncertainty import statistics as stats
+
+
+def finalists(run: Path, keep: int) -> dict[str, np.ndarray]:
+    """The ``keep`` best distinct designs of a run by the value it minimised, best first,
+    named ``#id``."""
+    with h5py.File(run / "results.h5") as f:
+        ev = f["evaluations"]
+        x, value, ids = ev["x"][()], ev["value"][()], ev["id"][()]
+        best = int(f["best"].attrs["id"])
+    out: dict[str, np.ndarray] = {}
+    for i in np.argsort(value, kind="stable"):
+        if np.isfinite(value[i]) and not any(np.array_equal(x[i], y) for y in out.values()):
+            out[f"#{int(ids[i])}"] = x[i]
+        if len(out) == keep:
+            break
+    assert next(iter(out)) == f"#{best}", (run, best, list(out))
+    return out
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("case", choices=sorted(CASES))
+    ap.add_argument("--seeds", type=int, nargs="+", required=True)
+    ap.add_argument("--keep", type=int, default=5)
+    ap.add_argument("--validation", type=int, default=16)
+    ap.add_argument("--validation-seed", type=int, default=2000,
+                    help="the validation tracks of optimiser seed s are drawn from this + s")
+    ap.add_argument("--fresh", type=int, default=40)
+    ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--out", type=Path, required=True)
+    a = ap.parse_args()
+    what = CASES[a.case]
+    obj = what["objective"]
+    judged = stats.quantile_name(obj, LEVEL)
+    scale, unit = (1e-3, "kN") if obj.startswith("F") else (1e3, "mm")
+    fresh_path = a.out / f"{a.case}-fresh.yaml"
+    summary = {}
+    print(f"| seed | nominal | robust (#) | cleaned up (#) | q90 of the {a.keep} finalists "
+          f"on {a.validation} validation tracks |\n|---|---:|---:|---:|---|")
+    for seed in a.seeds:
+        run = a.out / "runs" / f"{a.case}-robust-s{seed}"
+        with h5py.File(run / "results.h5") as f:
+            budget = int(f.attrs["budget"])
+        final = finalists(run, a.keep)
+        variation = VARIATION.format(realisations=a.validation,
+                                     seed=a.validation_seed + seed) + what["variation"]
+        vpath = a.out / f"{a.case}-validation-s{seed}.yaml"
+        vpath.write_text(case_text(f"{a.case}-validation-s{seed}", what, judged, budget, seed,
+                                   variation))
+        val = judge(vpath, final, a.validation, a.workers, obj,
+                    a.out / "validation" / f"s{seed}")
+        q_val = {k: stats.quantile(v["tracks"], LEVEL) for k, v in val.items()}
+        chosen = min(q_val, key=q_val.get)
+        first = next(iter(final))
+        # the run's own optimum is judged under the study's name (its kept values reused)
+        name = f"robust s{seed}" if chosen == first else f"cleanup s{seed}"
+        designs = {f"nominal s{seed}": None, f"robust s{seed}": final[first], name: final[chosen]}
+        nominal = json.loads((a.out / "fresh" / f"nominal-s{seed}.json").read_text())["x"]
+        designs[f"nominal s{seed}"] = np.asarray(nominal, float)
+        fresh = judge(fresh_path, designs, a.fresh, a.workers, obj, a.out / "fresh")
+        q = {k: stats.quantile(v["tracks"], LEVEL) for k, v in fresh.items()}
+        summary[seed] = {"finalists": {k: float(v) for k, v in q_val.items()},
+                         "chosen": chosen, "fresh_q90": {k: float(v) for k, v in q.items()}}
+        fin = ", ".join(f"{k} {v * scale:.3f}" for k, v in q_val.items())
+        print(f"| {seed} | {q[f'nominal s{seed}'] * scale:.3f} | "
+              f"{q[f'robust s{seed}'] * scale:.3f} ({first}) | {q[name] * scale:.3f} "
+              f"({chosen}) | {fin} |", flush=True)
+    (a.out / f"{a.case}-cleanup-s{'-'.join(map(str, a.seeds))}.json").write_text(
+        json.dumps(summary, indent=1))
+    for seed, s in summary.items():
+        f = s["fresh_q90"]
+        n = f[f"nominal s{seed}"]
+        c = f[f"robust s{seed}"] if s["chosen"] == next(iter(s["finalists"])) else \
+            f[f"cleanup s{seed}"]
+        print(f"seed {seed}: cleaned-up q90 {c * scale:.4g} vs nominal {n * scale:.4g} {unit} "
+              f"({(c - n) / n:+.1%})")
+
+
+if __name__ == "__main__":
+    main()
