@@ -359,6 +359,9 @@ def _conditions(data: dict, path: Path, lines: dict, err,
                       f"missing key 'speed' (vehicle '{c['vehicle']}' has none)")
         vehicle["speed"] = speed
         sim = dict(data["simulation"])
+        # a condition runs the case's way unless it says otherwise, as it takes its vehicle
+        # and rail profile
+        c["direction"] = c["direction"] or sim.get("direction") or "enter"
         sim["direction"] = c["direction"]
         if c["irregularity"] is not None:
             c["irregularity"] = rows.add(profile_rows(c["irregularity"], path, lines, err,

@@ -355,8 +355,8 @@ _CONDITIONS = Items(Section({
                    default="case", required=False),
     "speed": Num("running speed (default: the vehicle's)", required=False, **SPEED),
     "direction": Str("enter: from the designed ballast side into the ERS; leave: from the ERS "
-                     "onto the designed side", ("enter", "leave"), default="enter",
-                     required=False),
+                     "onto the designed side. Default: the case's simulation.direction",
+                     ("enter", "leave"), default=None, required=False),
     # the same forms as simulation.irregularity (default: that one); none: a smooth rail
     "irregularity": _IRREGULARITY,
     "weight": Num("weight of the condition in the weighted mean (conditions: mean)", gt=0,

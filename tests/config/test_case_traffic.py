@@ -50,3 +50,19 @@ def test_the_rough_profile_is_representative_of_its_spectrum(traffic):
     sim = case.simulation
     here = (x >= window[1] - sim["run_in"]) & (x <= window[2] + sim["run_out"])
     assert np.sqrt(np.mean(r[here] ** 2)) == pytest.approx(target, rel=0.10)
+
+
+def test_a_condition_runs_the_cases_way_unless_it_says_otherwise(tmp_path):
+    """A case that leaves the crossing (simulation.direction) with conditions that do not say
+    their direction: they leave too, as they take the case's vehicle and rail profile; a
+    condition that says `enter` enters. (They entered silently whatever the case said.)"""
+    p = tmp_path / "c.yaml"
+    p.write_text(f"extends: {CONFIGS / 'reference.yaml'}\nname: c\n"
+                 "simulation: {direction: leave}\n"
+                 "conditions:\n  - {name: same, speed: 140 km/h}\n"
+                 "  - {name: other, speed: 140 km/h, direction: enter}\n")
+    case = load_case(p)
+    assert [c.direction for c in case.conditions] == ["leave", "enter"]
+    assert [case.condition_case(i).simulation["direction"] for i in (0, 1)] == ["leave", "enter"]
+    p.write_text(p.read_text().replace("simulation: {direction: leave}\n", ""))
+    assert [c.direction for c in load_case(p).conditions] == ["enter", "enter"]
