@@ -101,7 +101,7 @@ def load_case(path):
     return load(_path(path, "path", "a case file"))
 
 
-def simulate(case, design=None):
+def simulate(case, design=None, realisation=None):
     """Simulate one design of a case (one simulation per traffic condition).
 
     Parameters
@@ -113,6 +113,10 @@ def simulate(case, design=None):
         as ``--design`` and the case file's ``reference`` take it: pad stiffness in MN/m,
         spans and the Type II strip in m (multiples of 0.1 m), counts as they are; default
         the case's reference design.
+    realisation : int, optional
+        for a case with ``uncertainty:``, the realisation of the track to simulate the design
+        on (0 to ``uncertainty.realisations`` - 1, the same tracks a run uses); default the
+        track as drawn. (``lccopt simulate`` runs the drawing and every realisation.)
 
     Returns
     -------
@@ -125,7 +129,7 @@ def simulate(case, design=None):
     TypeError
         ``case`` or ``design`` of a wrong type.
     ValueError
-        the design is not a valid design of the case.
+        the design is not a valid design of the case, or the case has no such realisation.
     """
     import numpy as np
 
@@ -146,9 +150,18 @@ def simulate(case, design=None):
             x = from_user(case, x)
         except ValueError as exc:
             raise ValueError(f"design: {exc}") from None
+    r = -1
+    if realisation is not None:
+        if isinstance(realisation, bool) or not isinstance(realisation, (int, np.integer)):
+            raise TypeError(f"realisation must be a whole number, not {realisation!r}"[:200])
+        if not 0 <= realisation < case.realisations:
+            raise ValueError(f"realisation {realisation}: the case has "
+                             + (f"realisations 0-{case.realisations - 1}" if case.realisations
+                                else "no uncertainty: section, only the track as drawn"))
+        r = int(realisation)
     if case.conditions:
-        return {c.name: evaluate(case.condition_case(i), x) for i, c in enumerate(case.conditions)}
-    return evaluate(case, x)
+        return {c.name: evaluate(case.part_case(i, r), x) for i, c in enumerate(case.conditions)}
+    return evaluate(case.part_case(-1, r), x)
 
 
 def optimise(case, *, workers=None, scheduler=None, runs="runs", force=False, progress=True):

@@ -37,6 +37,32 @@ def test_simulate_a_traffic_case_gives_each_condition(tmp_path):
     assert out["fast"].objectives["F_max"] != out["slow"].objectives["F_max"]
 
 
+def test_simulate_a_realisation_of_the_track(tmp_path):
+    """A case with uncertainty: the drawing by default, any realisation by its number (the
+    tracks a run evaluates every design on, as part_case gives them to the workers)."""
+    import pytest
+
+    from lccopt.problem import evaluate
+
+    spread = ("uncertainty:\n  realisations: 3\n  seed: 4\n"
+              "  support_stiffness: {cov: 0.3, correlation_length: 0}\n")
+    case = lccopt.load_case(write_case(tmp_path, "apirob", extra=spread))
+    drawn = lccopt.simulate(case).objectives
+    assert drawn == lccopt.simulate(lccopt.load_case(write_case(tmp_path, "plain"))).objectives
+    second = lccopt.simulate(case, realisation=2).objectives
+    assert second == evaluate(case.part_case(-1, 2), case.reference).objectives
+    assert second["F_max"] != drawn["F_max"]
+    assert lccopt.simulate(case, realisation=1).objectives["F_max"] != second["F_max"]
+    for bad, kind, text in ((3, ValueError, "realisation 3: the case has realisations 0-2"),
+                            (-1, ValueError, "realisations 0-2"),
+                            (1.0, TypeError, "realisation must be a whole number"),
+                            (True, TypeError, "realisation must be a whole number")):
+        with pytest.raises(kind, match=text):
+            lccopt.simulate(case, realisation=bad)
+    with pytest.raises(ValueError, match="no uncertainty: section"):
+        lccopt.simulate(tmp_path / "plain.yaml", realisation=0)
+
+
 def test_optimise_and_resume_from_python(tmp_path, monkeypatch):
     monkeypatch.setenv("LCCOPT_EVALUATOR", "tests.engine.fakesim:evaluate")
     case = write_case(tmp_path, "apiopt", budget=6, initial=4)
