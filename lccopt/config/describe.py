@@ -186,10 +186,29 @@ def zone_line(case) -> str:
     at = (f"{abs(point.offset):g} m {side} the {where}" if point.offset else f"the {where}")
     # along the track from the entry slab edge, as every figure measures
     past = zone_end_x(case.data) - interfaces(case.data)[0]
-    return "\n".join(wrap_items(
+    lines = wrap_items(
         [f"{case.evaluation['sleepers']} sleepers; force to {at}",
          f"{abs(past):.4g} m {'past' if past >= 0 else 'before'} the entry slab edge"],
-        "zone: ", width=WIDTH - 2))
+        "zone: ", width=WIDTH - 2)
+    reach = rail_on_compound_length(case.data)
+    x_a, x_b = interfaces(case.data)
+    if past < reach:
+        short = (f"; on a {x_b - x_a:g} m ERS the exit interface's reach (about 2/beta) "
+                 f"overlaps it too" if x_b - x_a < 3 * reach else "")
+        lines += wrap_message(
+            f"warning: the force zone reaches {max(past, 0.0):.3g} m into the ERS, less than "
+            f"the {reach:.2f} m of 1/beta (the rail on the slab's compound): the force's "
+            f"peak past the entry interface (0.63 m for the paper's crossing) may lie "
+            f"outside it, and F_max with it{short} (docs/model.md, 'The objectives')",
+            WIDTH - 2).split("\n")
+    return "\n".join(lines)
+
+
+def rail_on_compound_length(data: dict) -> float:
+    """1/beta [m] of the rail on the ERS's compound, (4 EI / k)^(1/4): the length over which a
+    change of support under the rail shows in its deflection and the wheel's force."""
+    rail, compound = data["track"]["rail"], data["track"]["ers"]["compound"]
+    return (4.0 * rail["youngs_modulus"] * rail["second_moment"] / compound["stiffness"]) ** 0.25
 
 
 def optimisation_line(case) -> str:

@@ -135,6 +135,25 @@ def test_a_short_ers_under_the_inherited_zone_says_where_and_what_to_write(tmp_p
     assert zone_end_x(data) == pytest.approx(interfaces(data)[0])   # the entry interface
 
 
+def test_check_warns_of_a_zone_that_may_miss_the_force_peak_past_the_entry(run_cli, tmp_path):
+    """A 2 m slab under the default zone end (2 m before the far edge) measures nothing of
+    the ERS; a zone ending 0.5 m into a 12 m ERS can miss the peak at 0.63 m; 3 m is enough
+    (1/beta of the paper's rail on its compound: 0.92 m). Warned, not refused: still valid."""
+    for text, words in [
+            ("track:\n  ers:\n    slab_lengths: [2 m]\n",
+             ["reaches 0 m into the ERS", "0.92 m", "on a 2 m ERS the exit interface's reach"]),
+            ("evaluation:\n  force_zone_end: {at: entry_interface, offset: 0.5}\n",
+             ["reaches 0.5 m into the ERS", "may lie outside it, and F_max with it ("]),
+            ("track:\n  ers:\n    slab_lengths: [3 m]\n", [])]:
+        write(tmp_path, f"extends: {REFERENCE}\nname: z\n" + text)
+        r = run_cli("check", "c.yaml")
+        assert r.returncode == 0, r.stderr
+        out = " ".join(r.stdout.split())
+        assert ("warning: the force zone" in out) == bool(words), out
+        assert all(w in out for w in words), out
+        assert all(len(line) <= 80 for line in r.stdout.splitlines()), r.stdout
+
+
 def test_the_zone_may_end_anywhere_on_the_ers(tmp_path):
     for at, offset, x in [("entry_interface", 0.0, 100.0), ("entry_interface", 12.0, 112.0),
                           ("exit_interface", 0.0, 112.0), ("exit_interface", -11.5, 100.5)]:
