@@ -21,7 +21,7 @@ from ..config import design_items, load_case, parse_design
 from ..config.describe import condition_lines, vehicle_line, zone_line
 from ..outdir import Output
 from ..store import write_evaluation
-from ..terminal import wrap_items
+from ..terminal import WIDTH, wrap_items
 from ..vti.response import (
     OBJECTIVE_DOC,
     PAPER_OBJECTIVES,
@@ -139,8 +139,13 @@ def _simulate_conditions(case, case_path: Path, x, out: Path, plots: bool, evalu
     names = [c.name for c in case.conditions]
     _echo_setting(case, case_path, x)
     keys = list(PAPER_OBJECTIVES)
+    label = {"worst": "worst case", "mean": "weighted mean",
+             "each": "worst case"}[case.condition_mode]
+    # as wide as the longest name, as far as 80 columns allow (the values take the rest)
+    width = min(max(len("condition"), len(label), *map(len, names)) + 1,
+                WIDTH - 12 * len(keys) - 7)
     head = "".join(f"{k + ' [' + objective_display(k)[1] + ']':>12}" for k in keys)
-    typer.echo(f"{'condition':<22}{head}{'time':>7}")
+    typer.echo(f"{'condition':<{width}}{head}{'time':>7}")
     evs = []
     for i, c in enumerate(case.conditions):
         t0 = time.perf_counter()
@@ -148,17 +153,15 @@ def _simulate_conditions(case, case_path: Path, x, out: Path, plots: bool, evalu
         _check_finite(ev.objectives, case, x, c.name)
         evs.append(ev)
         vals = "".join(f"{ev.objectives[k] * objective_display(k)[0]:12.5g}" for k in keys)
-        typer.echo(f"{c.name[:21]:<22}{vals}{time.perf_counter() - t0:6.2f}s")
+        typer.echo(f"{c.name[:width - 1]:<{width}}{vals}{time.perf_counter() - t0:6.2f}s")
         if ev.info.get("contact_loss_steps"):
             typer.echo(f"WARNING: {c.name}: contact lost (force <= 0) in "
                        f"{ev.info['contact_loss_steps']} steps", err=True)
     weights = [c.weight for c in case.conditions]
     combined = combine_conditions([e.objectives for e in evs], names, weights,
                                   case.condition_mode)
-    label = {"worst": "worst case", "mean": "weighted mean",
-             "each": "worst case"}[case.condition_mode]
     vals = "".join(f"{combined[k] * objective_display(k)[0]:12.5g}" for k in keys)
-    typer.echo(f"{label:<22}{vals}")
+    typer.echo(f"{label:<{width}}{vals}")
     p = out / "simulation.h5"
     write_condition_evaluations((p.folder, p.name), evs, x, case.names, names,
                                 weights, combined,
@@ -167,8 +170,12 @@ def _simulate_conditions(case, case_path: Path, x, out: Path, plots: bool, evalu
     if plots:
         from ..report.simulation import simulation_figures
 
-        for c, ev in zip(case.conditions, evs):
-            _said(out, simulation_figures(ev, case.name, out.sub(c.name)))
+        drawn = [simulation_figures(ev, case.name, out.sub(c.name))
+                 for c, ev in zip(case.conditions, evs)]
+        # one line for them all: three plots a condition would fill the terminal
+        folder = Path(str(drawn[0][0])).parent.parent / "<condition>"
+        out.lines.extend(wrap_items([Path(str(p)).name for p in drawn[0]], "plots: "))
+        out.lines.append(f"  of each condition, in {folder}/")
     return Evaluation(combined, evs[0].histories, evs[0].info)
 
 

@@ -196,6 +196,26 @@ def test_simulate_runs_every_condition_and_prints_their_combination(tmp_path):
     assert conds["v80"].info["speed"] == pytest.approx(22.22222222222222)
 
 
+def test_simulate_prints_long_condition_names_whole_and_its_plots_in_one_line(tmp_path):
+    """configs/traffic.yaml's names run to 24 characters: cut at 21 its two freight
+    conditions read 'freight-100-enter-smo' and '...-rou'; three plot lines a condition were
+    42 lines for its 14."""
+    names = ("freight-100-enter-smooth", "freight-100-enter-rough")
+    path = conditions_case(tmp_path, "".join(f"  - {{name: {n}, speed: 30.0}}\n" for n in names))
+    r = cli_run("simulate", path, "--out", tmp_path / "sim")
+    assert r.returncode == 0, r.stderr
+    lines = r.stdout.splitlines()
+    assert [ln.split()[0] for ln in lines if ln.startswith("freight-")] == list(names)
+    assert max(len(ln) for ln in lines if not ln.startswith(("case ", "histories"))
+               and str(tmp_path) not in ln) <= 80
+    plots = [ln for ln in lines if "png" in ln]
+    assert plots == ["plots: contact_force.png, sleeper_energy.png, displacement.png"], lines
+    assert f"  of each condition, in {tmp_path / 'sim'}/<condition>/" in lines, lines
+    for n in names:
+        assert sorted(os.listdir(tmp_path / "sim" / n)) == [
+            "contact_force.png", "displacement.png", "sleeper_energy.png"]
+
+
 @pytest.mark.slow
 def test_conditions_on_dask_give_the_process_pools_evaluations_and_files(tmp_path):
     pytest.importorskip("distributed")
