@@ -172,6 +172,14 @@ def test_status_and_report_speak_settlement(run):
     assert re.search(r"the best design beats the reference design in level_d1_max and "
                      r"interventions in \d of 8", md), md
     assert ("within the model's uncertainty" in md) == s_within(rep)
+    # the first report said what it runs, and how long to expect when a minute or more
+    said = " ".join(run[3].stderr.split())
+    assert "predicting the best and the reference design under 8 variants of the law (16 " \
+           "predictions in" in said, said
+    with h5py.File(base / "runs" / "s" / "results.h5") as f:
+        walls = f["evaluations/wall_time"][()]
+    procs = int(said.split("predictions in ")[1].split()[0])
+    assert ("at the run's" in said) == (np.median(walls) * -(-16 // procs) >= 60), said
     t0 = time.monotonic()                     # a second report reads the kept predictions
     again = cli("report", base / "runs" / "s", cwd=base)
     assert again.returncode == 0 and "predicting the best" not in again.stderr, again.stderr

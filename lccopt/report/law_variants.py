@@ -3,6 +3,7 @@ reference re-predicted under the law's variants, and what that says in words."""
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -75,9 +76,14 @@ def law_check(run, bi: int, ri: int | None, out: Path, echo=None) -> dict | None
     say = echo or default_echo
     calls = [(v, case.track_design(x)) for _, v in variants for x in (xb, xr)]
     processes = local_processes(len(calls))
+    # a prediction costs about what a design cost the run: say how long to expect
+    each = float(np.nanmedian(run.wall_time)) if np.isfinite(run.wall_time).any() else math.nan
+    rounds = -(-len(calls) // processes)
+    expect = (f", about {_duration(each * rounds)} at the run's {each:.0f} s a design"
+              if math.isfinite(each) and each * rounds >= 60 else "")
     say(wrap_message(f"predicting the best and the reference design under {len(variants)} "
                      f"variants of the law ({len(calls)} predictions in {processes} process"
-                     f"{'es' if processes > 1 else ''}, kept in {path})..."), err=True)
+                     f"{'es' if processes > 1 else ''}{expect}, kept in {path})..."), err=True)
     predicted = iter(call_in_processes(_objectives, calls, processes))
     rows = [{"label": label, "best": next(predicted), "reference": next(predicted)}
             for label, _ in variants]
@@ -86,6 +92,11 @@ def law_check(run, bi: int, ri: int | None, out: Path, echo=None) -> dict | None
                         "reference": {k: float(run.obj[k][ri]) for k in keys if k in run.obj}}}
     place.write_bytes((json.dumps(kept, indent=1) + "\n").encode())
     return _verdict(kept, keys)
+
+
+def _duration(seconds: float) -> str:
+    """``4 min``, ``1.5 h``."""
+    return f"{seconds / 60:.0f} min" if seconds < 5400 else f"{seconds / 3600:.1f} h"
 
 
 def _objectives(spec, design) -> dict:
