@@ -7,6 +7,7 @@ import math
 
 import numpy as np
 
+from ..uncertainty.statistics import is_statistic
 from .data import (
     RunData,
     fnum,
@@ -181,7 +182,7 @@ def amount(value: float, unit: str) -> str:
 def drawn_only(run: RunData, k: str) -> bool:
     """Whether ``k`` is a plain objective of a run over realisations of the track: there it
     is the drawing's value, and its statistics (``q90(E_max)``) are what the run judged."""
-    return bool(run.realisations) and "(" not in k
+    return bool(run.realisations) and not is_statistic(k)
 
 
 def worse_text(run: RunData, worse: list) -> str:
