@@ -87,6 +87,12 @@ def test_check_and_simulate_say_what_the_prediction_does(tmp_path):
     assert "settlement after 0.2 years" in out and " mm " in out
     assert "(the law's values, not a forecast: not calibrated to a measured crossing)" in out
     assert re.search(r"\n  tamped [1-9]\d* time\(s\): after 0\.05", out), out
+    # 4 simulations for a tamped track: budget-bound, and said so in lines that fit
+    note = " ".join(r.stderr.split("note: ")[1].split())
+    assert note.startswith("the prediction used all 4 simulations it may "
+                           "(degradation.max_simulations) and spread them wider than the 4 kN "
+                           "tolerance asks"), r.stderr
+    assert all(len(line) <= 80 for line in r.stderr.splitlines()), r.stderr
     sim = tmp_path / "runs" / "s-simulate"
     for png in ("contact_force", "sleeper_energy", "displacement", "settlement-history",
                 "settlement-profile"):
