@@ -106,9 +106,10 @@ def _simulate_one(case, case_path: Path, x, out, plots: bool, evaluate) -> Evalu
         scale, unit = objective_display(k)
         typer.echo(f"  {k:<6} = {v * scale:10.5g} {unit:<2}  {OBJECTIVE_DOC.get(k, '')}")
     if info["contact_loss_steps"]:
-        typer.echo(f"WARNING: contact lost (force <= 0) in {info['contact_loss_steps']} steps, "
-                   f"first at {info['contact_loss_first_position']:.2f} m; the linear contact "
-                   f"spring pulled the wheel", err=True)
+        typer.echo(wrap_message(
+            f"WARNING: contact lost (force <= 0) in {info['contact_loss_steps']} steps, first "
+            f"at {info['contact_loss_first_position']:.2f} m; the linear contact spring "
+            f"pulled the wheel"), err=True)
     _write(out, ev, x, case)
     if plots:
         from ..report.simulation import simulation_figures
