@@ -275,7 +275,8 @@ def summary_lines(rd, table, case, problem, wall: float, t_optimiser: float,
                    f" (reference design {objective_value(k, r)})" if is_probability(k) else
                    f" ({(v - r) / r:+.1%} vs reference design {objective_value(k, r)})")
             lines.append(f"  {objective_text(k, v)}{rel}")
-    if best is not None and pb.realisations and ref:
+    # the reference design against itself beats it nowhere: nothing to say
+    if best is not None and pb.realisations and ref and best["id"] != 0:
         lines += wrap_items(realisation_wins(pb, best["objectives"], ref),
                             "  beats the reference design on the same tracks: ")
     lines.append(f"results: {rd.results_path}")

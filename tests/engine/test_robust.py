@@ -248,3 +248,28 @@ def test_realisations_on_dask_give_the_process_pools_evaluations_and_files(tmp_p
                                   realisation_table(run)["F_max"])
     evs = read_realisations(run / b["file"][0])     # written by the parent from the evaluations
     assert [e.objectives["F_max"] for e in evs] == list(realisation_table(run)["F_max"][0])
+
+
+def test_a_best_design_that_is_the_reference_is_not_said_to_beat_it_nowhere(tmp_path):
+    """The session's last lines: 'beats the reference design on the same tracks: F_max on
+    5 of 8' for a better design; nothing of the kind when the best is the reference (it
+    read 'F_max on 0 of 3 realisations', as if the run had found a worse design)."""
+    from types import SimpleNamespace
+
+    from lccopt.engine.progress import summary_lines
+
+    case = load_case(robust_case(tmp_path))
+    problem = Problem.from_case(case)
+    ref = {"q90(F_max)": 2.0, "mean(E_max)": 1.0,
+           **{stats.realisation_key(k, r): 1.0 + r for k in ("F_max", "E_max") for r in range(4)}}
+    better = {k: v * 0.9 for k, v in ref.items()}
+    rd = SimpleNamespace(path=tmp_path, results_path=tmp_path / "results.h5")
+    for best_id, objectives, said in ((0, ref, False), (7, better, True)):
+        best = {"id": best_id, "phase": "local", "restart": 0, "value": 0.1,
+                "x": case.reference, "objectives": objectives}
+        table = SimpleNamespace(n_done=8, n_failed=0, best=lambda b=best: b,
+                                reference={"objectives": ref}, rows={})
+        text = "\n".join(summary_lines(rd, table, case, problem, 1.0, 0.1, 0.1))
+        assert ("beats the reference design on the same tracks" in text) == said, text
+        if said:
+            assert "F_max on 4 of 4 realisations" in text, text
