@@ -22,7 +22,15 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from benchmarks.robust.robust_study import CASES, LEVEL, VARIATION, case_text, judge
+from benchmarks.robust.robust_study import (
+    CASES,
+    LEVEL,
+    VARIATION,
+    case_text,
+    display,
+    judge,
+    kept_design,
+)
 from lccopt.uncertainty import statistics as stats
 
 
@@ -75,7 +83,7 @@ def main() -> None:
     what = CASES[a.case]
     obj = what["objective"]
     judged = stats.quantile_name(obj, LEVEL)
-    scale, unit = (1e-3, "kN") if obj.startswith("F") else (1e3, "mm")
+    scale, unit = display(obj)
     fresh_path = a.out / f"{a.case}-fresh.yaml"
     summary = {}
     print(f"| seed | nominal | robust (#) | cleaned up (#) | q90 of the {a.keep} finalists "
@@ -97,15 +105,15 @@ def main() -> None:
         first = next(iter(final))
         # the run's own optimum is judged under the study's name (its kept values reused)
         name = f"robust s{seed}" if chosen == first else f"cleanup s{seed}"
-        designs = {f"nominal s{seed}": None, f"robust s{seed}": final[first], name: final[chosen]}
-        nominal = json.loads((a.out / "fresh" / f"nominal-s{seed}.json").read_text())["x"]
-        designs[f"nominal s{seed}"] = np.asarray(nominal, float)
+        designs = {f"nominal s{seed}": kept_design(a.out, f"nominal s{seed}"),
+                   f"robust s{seed}": final[first], name: final[chosen]}
         fresh = judge(fresh_path, designs, a.fresh, a.workers, obj, a.out / "fresh")
         q = {k: stats.quantile(v["tracks"], LEVEL) for k, v in fresh.items()}
         ranked = ranked_right(fresh[f"nominal s{seed}"]["tracks"],
                               fresh[f"robust s{seed}"]["tracks"], (8, 16))
         summary[seed] = {"finalists": {k: float(v) for k, v in q_val.items()},
-                         "chosen": chosen, "fresh_q90": {k: float(v) for k, v in q.items()},
+                         "chosen": chosen, "chosen_q90": float(q[name]),
+                         "fresh_q90": {k: float(v) for k, v in q.items()},
                          "ranked_right": ranked}
         fin = ", ".join(f"{k} {v * scale:.3f}" for k, v in q_val.items())
         print(f"| {seed} | {q[f'nominal s{seed}'] * scale:.3f} | "
@@ -114,10 +122,7 @@ def main() -> None:
     (a.out / f"{a.case}-cleanup-s{'-'.join(map(str, a.seeds))}.json").write_text(
         json.dumps(summary, indent=1))
     for seed, s in summary.items():
-        f = s["fresh_q90"]
-        n = f[f"nominal s{seed}"]
-        c = f[f"robust s{seed}"] if s["chosen"] == next(iter(s["finalists"])) else \
-            f[f"cleanup s{seed}"]
+        n, c = s["fresh_q90"][f"nominal s{seed}"], s["chosen_q90"]
         print(f"seed {seed}: cleaned-up q90 {c * scale:.4g} vs nominal {n * scale:.4g} {unit} "
               f"({(c - n) / n:+.1%}); the nominal optimum ranked below the robust one by "
               + ", ".join(f"{m} of {k} random fresh tracks in {p:.0%} of draws"

@@ -79,6 +79,17 @@ def _simulate(task):
     return r, evaluate(_CASE.part_case(-1, r), np.asarray(x, float)).objectives
 
 
+def display(objective: str) -> tuple[float, str]:
+    """(scale, unit) the study prints an objective in: forces in kN, settlement in mm."""
+    return (1e-3, "kN") if objective.startswith("F") else (1e3, "mm")
+
+
+def kept_design(out: Path, name: str) -> np.ndarray:
+    """The design a study judged on its fresh tracks under ``name`` (``nominal s1``)."""
+    path = out / "fresh" / f"{name.replace(' ', '-')}.json"
+    return np.asarray(json.loads(path.read_text())["x"], float)
+
+
 def finished(run: Path) -> bool:
     try:
         with h5py.File(run / "results.h5") as f:
@@ -179,8 +190,7 @@ def main() -> None:
     designs = {"reference": case.reference, **designs}
     values = judge(judge_path, designs, a.fresh, a.workers, obj, out / "fresh")
     ref = values["reference"]["tracks"]
-    scale = 1e-3 if obj.startswith("F") else 1e3
-    unit = "kN" if obj.startswith("F") else "mm"
+    scale, unit = display(obj)
     rows, summary = [], {}
     for k, v in values.items():
         t = v["tracks"]

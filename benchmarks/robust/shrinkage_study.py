@@ -25,7 +25,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from benchmarks.robust.robust_study import CASES, LEVEL, judge
+from benchmarks.robust.robust_study import CASES, LEVEL, display, judge, kept_design
 from lccopt.uncertainty import statistics as stats
 
 
@@ -59,7 +59,7 @@ def main() -> None:
     a = ap.parse_args()
     obj = CASES[a.case]["objective"]
     fresh_n = a.fresh or (100 if a.case == "paper" else 40)
-    scale, unit = (1e-3, "kN") if obj.startswith("F") else (1e3, "mm")
+    scale, unit = display(obj)
     summary = {}
     print("| seed | weight w | nominal | robust optimum (#) | shrunk choice (#) |\n"
           "|---:|---:|---:|---:|---:|")
@@ -74,9 +74,8 @@ def main() -> None:
         pick = int(np.argmin(s))
         first = int(np.argmin(value[ok]))
         robust_x = x[ok][first]
-        designs = {f"nominal s{seed}": np.asarray(json.loads(
-            (a.out / "fresh" / f"nominal-s{seed}.json").read_text())["x"], float),
-            f"robust s{seed}": robust_x}
+        designs = {f"nominal s{seed}": kept_design(a.out, f"nominal s{seed}"),
+                   f"robust s{seed}": robust_x}
         name = f"robust s{seed}" if pick == first else f"shrunk s{seed}"
         designs[name] = x[ok][pick]
         got = judge(a.out / f"{a.case}-fresh.yaml", designs, fresh_n, a.workers, obj,
