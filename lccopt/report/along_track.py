@@ -10,13 +10,13 @@ import numpy as np
 
 from .data import BEST_COLOR, REF_COLOR, RunData, fnum
 from .plotting import (
-    ALONG_TRACK,
     from_slab_edge,
     pyplot,
     range_bracket,
     save_figure,
     sleeper_ticks,
     speed_text,
+    wheel_position_label,
     zone_marks,
 )
 
@@ -78,7 +78,7 @@ def fig_contact_force(run: RunData, best: tuple, ref: tuple, bi: int, out: Path,
                 transform=ax.get_xaxis_transform(), va="top",
                 ha="left", fontsize=8)
     speed = speed_text(info, run.case)
-    ax.set(xlabel=f"wheel position {ALONG_TRACK} (the vehicle comes from the left)",
+    ax.set(xlabel=wheel_position_label(info),
            ylabel="wheel-rail contact force [kN]",
            title="Contact "
                  "force: best against reference design" + (f", vehicle at {speed}" if speed else "")

@@ -329,7 +329,7 @@ def fig_settlement_profile(designs: list[Design], out: Path, title: str,
     a1.text(0.1, 0.02, said, transform=a1.get_xaxis_transform(), fontsize=8, color="0.3")
     a1.set(ylabel="lowering (settlement) [mm]",
            title="ballast under each sleeper (markers) and the rail's level at rest (thin)")
-    a2.set(xlabel="position from the slab edge [m] (the vehicle comes from the left)",
+    a2.set(xlabel="position from the slab edge [m] (the designed side left, the slab right)",
            ylabel="void under the sleeper [mm]", title="voids: sleepers hanging from the rail")
     a1.legend(loc="lower left", frameon=False, fontsize=7.5, ncol=max(1, len(designs)))
     fig.suptitle(title)

@@ -12,11 +12,11 @@ import numpy as np
 from ..vti.response import Evaluation
 from .data import OKABE_ITO, TYPE_II_COLOR
 from .plotting import (
-    ALONG_TRACK,
     from_slab_edge,
     range_bracket,
     sleeper_ticks,
     speed_text,
+    wheel_position_label,
     zone_marks,
 )
 
@@ -51,7 +51,7 @@ def _along_track(plt, ev: Evaluation, height: float):
     if info["type_ii_end"] > info["interface_entry"]:
         ax.axvspan(info["interface_entry"], info["type_ii_end"], ymin=0.025, ymax=0.05,
                    color=TYPE_II_COLOR, label="Type II strip")
-    ax.set_xlabel(f"wheel position {ALONG_TRACK} (the vehicle comes from the left)")
+    ax.set_xlabel(wheel_position_label(info))
     return fig, ax, x, origin, info
 
 

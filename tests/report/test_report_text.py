@@ -162,3 +162,28 @@ def test_a_plain_objective_of_a_run_over_realisations_is_named_as_drawn():
     lines = report_lines(SimpleNamespace(run=run, summary=summary, figures=[], files=[],
                                          path="out"))
     assert "  worse than the reference: E_max as drawn +414.3 %" in lines, lines
+
+
+def test_a_passage_figure_says_which_side_the_vehicle_comes_from():
+    """The designed side is always drawn on the left: a vehicle leaving the ERS comes from the
+    right (a leave case's figures said "from the left")."""
+    from lccopt.report.plotting import wheel_position_label
+
+    assert wheel_position_label({"direction": "enter"}).endswith("comes from the left)")
+    assert wheel_position_label({"direction": "leave"}).endswith("comes from the right)")
+    assert wheel_position_label({}).endswith("comes from the left)")   # older evaluations
+
+
+def test_axes_show_whole_values_not_an_offset():
+    """F_rms around a 110 kN static load spread by 0.02 kN: the ticks read 110.41, not 0.01
+    under a "+1.104e2" an engineer can miss."""
+    from lccopt.report.plotting import pyplot
+
+    plt = pyplot()
+    fig, ax = plt.subplots()
+    ax.plot([0, 1], [110.405, 110.428])
+    fig.canvas.draw()
+    assert ax.yaxis.get_major_formatter().get_offset() == ""
+    assert all(float(t.get_text().replace("\u2212", "-")) > 110 for t in ax.get_yticklabels()
+               if t.get_text())
+    plt.close(fig)
