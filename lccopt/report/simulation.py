@@ -27,13 +27,9 @@ def simulation_figures(ev: Evaluation, name: str, out) -> list:
     """Write contact_force.png, sleeper_energy.png and displacement.png of one simulation
     (``name``: the case's, for the titles) into ``out`` (a folder's path, or an
     ``outdir.Staged`` folder); return their paths."""
-    import matplotlib
+    from .plotting import pyplot, save_figure
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from .plotting import save_figure
-
+    plt = pyplot()   # the report's style: whole values on the axes, the same fonts and grid
     paths = []
     for draw, file in zip((_contact_force, _sleeper_energy, _displacement), FILES):
         paths.append(save_figure(draw(plt, ev, name), out / file, dpi=120))
