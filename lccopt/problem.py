@@ -91,6 +91,8 @@ class Problem:
     # the robust statistics recorded for every design (``complete``)
     realisations: int = 0
     statistics: tuple[str, ...] = ()
+    # designs proposed right after the reference design (optimisation.start_designs)
+    start_designs: tuple[tuple[float, ...], ...] = ()
 
     @classmethod
     def from_case(cls, case: Case) -> "Problem":
@@ -128,6 +130,7 @@ class Problem:
                      else ()),
             realisations=case.realisations,
             statistics=tuple(robust.recorded(objectives)) if case.realisations else (),
+            start_designs=case.start_designs,
         )
 
     # -- design space -----------------------------------------------------------------------
@@ -183,7 +186,8 @@ class Problem:
     def space(self):
         from .optim.space import DesignSpace
 
-        return DesignSpace.of(self.variables, given=[list(self.reference)])
+        return DesignSpace.of(self.variables,
+                              given=[list(self.reference)] + [list(x) for x in self.start_designs])
 
     def optimiser_settings(self):
         """The optimiser settings of a new run of this problem (``optim.settings.Settings``):

@@ -30,6 +30,7 @@ from .checks import (
     check_profile,
     check_railpad,
     simulation_size,
+    start_designs,
 )
 from .degradation import check_degradation, degradation_spec
 from .profile_files import RowCount, profile_rows
@@ -133,6 +134,12 @@ class Case:
     # the variables' reference design, bounds and kinds, in internal units
     reference = property(lambda self: self._column("reference"))
     lower = property(lambda self: self._column("lower"))
+
+    @property
+    def start_designs(self) -> tuple[tuple[float, ...], ...]:
+        """optimisation.start_designs in internal units (checked when the case was read),
+        without the reference design and repeats."""
+        return start_designs(self.data, self.variables)
     upper = property(lambda self: self._column("upper"))
     integer = property(lambda self: self._column("integer", bool))
     log = property(lambda self: self._column("log", bool), doc="searched on a log scale")
@@ -308,6 +315,7 @@ def load_case(path: str | Path, overrides=(), text: str | None = None,
                                        f"{dotted(('design', key, k))}")
     check_design_space(data, variables, err)
     check_optimisation(data, err, len(variables))
+    start_designs(data, variables, err)
     rows = RowCount(err)
     at = ("simulation", "irregularity")
     data["simulation"]["irregularity"] = rows.add(

@@ -427,3 +427,37 @@ def spectrum_problem(irregularity: dict, length: float) -> tuple[str, str] | Non
         return "wavelengths", (f"the band [{lo:g}, {hi:g}] m holds no wavelength {length:g} m / m "
                                f"(m whole) of the {length:g} m track: widen it")
     return None
+
+
+def start_designs(data: dict, variables, err=None) -> tuple[tuple[float, ...], ...]:
+    """``optimisation.start_designs`` as design vectors in internal units, each variable not
+    written at its reference value; a design equal to the reference or to an earlier one is
+    left out (the optimiser evaluates a design once). With ``err``, a name that is not a
+    variable or a value outside its bounds raises it at the value's key."""
+    opt = data.get("optimisation") or {}
+    by_name = {v.name: v for v in variables}
+    out: list[tuple[float, ...]] = [tuple(v.reference for v in variables)]
+    for i, design in enumerate(opt.get("start_designs") or ()):
+        x = {v.name: v.reference for v in variables}
+        for name, value in design.items():
+            at = ("optimisation", "start_designs", i, name)
+            v = by_name.get(name)
+            if v is None:
+                raise err(at, f"not a design variable of this case (its variables: "
+                              f"{', '.join(by_name)})")
+            try:
+                x[name] = v.from_case(value)
+            except ValueError as exc:
+                bare = not isinstance(value, str) and v.kind.unit not in ("", "m")
+                hint = (f" (a bare number is in {v.internal_unit}: write {value:g} "
+                        f"{v.kind.unit}?)" if bare else "")
+                raise err(at, f"{exc}{hint}") from None
+        vector = tuple(x[v.name] for v in variables)
+        if vector not in out:
+            out.append(vector)
+    budget = opt.get("budget")
+    if err is not None and budget is not None and len(out) > budget:
+        raise err(("optimisation", "start_designs"),
+                  f"{len(out) - 1} designs and the reference design exceed the budget of "
+                  f"{budget}")
+    return tuple(out[1:])

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..vti.specs import ELEMENT_UNIT
-from .units import UnitError, to_si
+from .units import UnitError, accepted, to_si
 from .units import split as split_quantity
 
 
@@ -136,6 +136,19 @@ class Variable:
         if self.integer and q != round(q):
             raise ValueError(f"{self.name} = {value:g}{u} must be a whole number")
         return min(max(q, self.lower), self.upper)
+
+    def from_case(self, value) -> float:
+        """A value as a case file writes it, a number in SI (N/m, m; a count as it is) or a
+        number with its unit (``540 MN/m``, ``0.3 m``), as the checked internal value
+        (ValueError)."""
+        si = {"N/m": "N/m", "elements": "m"}.get(self.internal_unit, "-")
+        if isinstance(value, str):
+            quantity = split_quantity(value)
+            if quantity is None:
+                raise ValueError(f"expected a number or a number with its unit, got {value!r}")
+            number, unit = quantity
+            value = to_si(number, unit, si) if unit else number    # UnitError is a ValueError
+        return self.from_user(value / accepted(si).get(self.kind.unit, 1.0))
 
     def _old_hint(self, value: float) -> str:
         """`` (if that is in N/m, write 214 MN/m)`` when the value, read in the internal unit,
