@@ -439,6 +439,9 @@ def start_designs(data: dict, variables, err=None) -> tuple[tuple[float, ...], .
     out: list[tuple[float, ...]] = [tuple(v.reference for v in variables)]
     for i, design in enumerate(opt.get("start_designs") or ()):
         x = {v.name: v.reference for v in variables}
+        if isinstance(design, str):
+            design = _design_text(design, lambda msg, i=i: err(("optimisation", "start_designs",
+                                                                 i), msg))
         for name, value in design.items():
             at = ("optimisation", "start_designs", i, name)
             v = by_name.get(name)
@@ -461,3 +464,17 @@ def start_designs(data: dict, variables, err=None) -> tuple[tuple[float, ...], .
                   f"{len(out) - 1} designs and the reference design exceed the budget of "
                   f"{budget}")
     return tuple(out[1:])
+
+
+def _design_text(text: str, fail) -> dict:
+    """``x_r1=539.6 MN/m, x_n=0`` (a design as status and report print it) as a mapping."""
+    out = {}
+    for item in text.replace("\n", " ").split(","):
+        name, eq, value = item.partition("=")
+        if not item.strip():
+            continue
+        if not eq or not name.strip() or not value.strip():
+            raise fail(f"expected name=value pairs, like 'x_r1=540 MN/m, x_n=0', got "
+                       f"{item.strip()!r:.40}")
+        out[name.strip()] = value.strip()
+    return out

@@ -314,10 +314,11 @@ _OPTIMISATION = Section({
                           "above the budget", integer=True, ge=2, le=10_000, required=False),
     "start_designs": Designs(
         "designs the optimiser evaluates first, after the reference design, as part of the "
-        "initial design: each a mapping of variables to values, as status and report show "
-        "them ({x_r1: 540 MN/m, x_s3: 0.3 m, x_n: 0}); a bare number is in SI (N/m, m), a "
-        "variable left out keeps its reference value. For instance another run's optimum "
-        "(a nominal run's, for a robust one: docs/robust.md)", required=False,
+        "initial design: each a mapping of variables to values ({x_r1: 540 MN/m, x_s3: 0.3 m, "
+        "x_n: 0}; a bare number is in SI, N/m or m) or the text status prints (\"x_r1=540 "
+        "MN/m, x_s3=0.3 m, x_n=0\"); a variable left out keeps its reference value. For "
+        "instance another run's optimum (a nominal run's, for a robust one: docs/robust.md)",
+        required=False,
         keep_absent=True),
     "seed": Num("random seed", integer=True, ge=0, default=0, required=False),
     "timeout": Num("per-evaluation timeout", "s", gt=0, default=600.0, required=False),

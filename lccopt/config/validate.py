@@ -218,7 +218,8 @@ def _names(value: Any, kind: kinds.StrList, fail) -> list:
 
 
 def _designs(value: Any, kind: kinds.Designs, fail, path: tuple) -> list | None:
-    """A list of {variable name: number or quantity text}; the names and values are checked
+    """A list of {variable name: number or quantity text}, or of text as status prints a
+    design (``x_r1=200 MN/m, x_n=4``); the names and values are checked
     against the case's variables later (lccopt.config.checks.start_designs)."""
     if value is None:
         return None
@@ -227,6 +228,8 @@ def _designs(value: Any, kind: kinds.Designs, fail, path: tuple) -> list | None:
     if len(value) > kind.max_items:
         raise fail(f"at most {kind.max_items} designs, got {len(value)}")
     for i, d in enumerate(value):
+        if isinstance(d, str) and d.strip():      # as status prints it: "x_r1=200 MN/m, ..."
+            continue
         if not isinstance(d, dict) or not d:
             raise fail(f"expected a mapping of design variables to values, like "
                        f"{{x_r1: 200 MN/m, x_n: 4}}, got {d!r:.60}", path + (i,))
@@ -234,7 +237,7 @@ def _designs(value: Any, kind: kinds.Designs, fail, path: tuple) -> list | None:
             if isinstance(v, bool) or not isinstance(v, (int, float, str)):
                 raise fail(f"expected a number or a number with its unit, got {v!r:.60}",
                            path + (i, k))
-    return [dict(d) for d in value]
+    return [d if isinstance(d, str) else dict(d) for d in value]
 
 
 def _rows(value: Any, fail) -> ProfileText:

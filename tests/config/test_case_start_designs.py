@@ -87,3 +87,18 @@ def test_check_prints_them_and_a_bad_one_exits_2(tmp_path, run_cli):
     assert out.stderr.strip().splitlines() == [
         f"lccopt: error: {bad}:7: optimisation.start_designs[0].x_s3: x_s3 = 0.2 m is outside "
         f"[0.3, 0.7] m"]
+
+
+def test_a_design_as_status_prints_it(tmp_path):
+    """Copied from `lccopt status` (wrapped over two lines): the same as the mapping."""
+    text = ('    - "x_r1=539.6 MN/m, x_r2=158.6 MN/m, x_r3=50 MN/m, x_n=0, x_s1=0.7 m,\n'
+            '       x_s2=0.7 m, x_s3=0.3 m, x_l=0 m"\n')
+    case = load_case(case_with(tmp_path, text))
+    np.testing.assert_allclose(case.start_designs[0], [539.6e6, 158.6e6, 50e6, 0, 7, 7, 3, 0])
+    with pytest.raises(CaseError, match=r"c\.yaml:7: optimisation\.start_designs\[0\]: expected "
+                                        r"name=value pairs, like 'x_r1=540 MN/m, x_n=0', got "
+                                        r"'x_r1 540 MN/m'"):
+        load_case(case_with(tmp_path, '    - "x_r1 540 MN/m, x_n=0"\n'))
+    with pytest.raises(CaseError, match=r"c\.yaml:7: optimisation\.start_designs\[0\]\.x_n: "
+                                        r"x_n = -1 is outside"):
+        load_case(case_with(tmp_path, '    - "x_r1=540 MN/m, x_n=-1"\n'))
