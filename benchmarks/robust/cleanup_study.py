@@ -11,6 +11,9 @@ fresh judging case, and judges the chosen designs there):
 
     nice -n 10 python -m benchmarks.robust.cleanup_study settlement --seeds 1 2 3 \\
         --keep 5 --validation 16 --out /tmp/robust-b80
+
+``--start-nominal`` cleans up the runs of ``robust_study --start-nominal`` (the robust run
+started from the nominal optimum), with that start design among the finalists.
 """
 
 from __future__ import annotations
@@ -31,6 +34,7 @@ from benchmarks.robust.robust_study import (
     judge,
     kept_design,
 )
+from lccopt.config import load_case
 from lccopt.uncertainty import statistics as stats
 
 
@@ -79,7 +83,12 @@ def main() -> None:
     ap.add_argument("--fresh", type=int, default=40)
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--out", type=Path, required=True)
+    ap.add_argument("--start-nominal", action="store_true",
+                    help="the study's robust runs started from the nominal optimum "
+                         "(robust_study --start-nominal): clean those up, their start design "
+                         "among the finalists")
     a = ap.parse_args()
+    robust = "robust-start" if a.start_nominal else "robust"
     what = CASES[a.case]
     obj = what["objective"]
     judged = stats.quantile_name(obj, LEVEL)
@@ -89,10 +98,13 @@ def main() -> None:
     print(f"| seed | nominal | robust (#) | cleaned up (#) | q90 of the {a.keep} finalists "
           f"on {a.validation} validation tracks |\n|---|---:|---:|---:|---|")
     for seed in a.seeds:
-        run = a.out / "runs" / f"{a.case}-robust-s{seed}"
+        run = a.out / "runs" / f"{a.case}-{robust}-s{seed}"
         with h5py.File(run / "results.h5") as f:
             budget = int(f.attrs["budget"])
         final = finalists(run, a.keep)
+        for k, x in enumerate(load_case(run / "case.yaml").start_designs, 1):
+            if not any(np.array_equal(x, y) for y in final.values()):
+                final[f"start {k}"] = np.asarray(x, float)
         variation = VARIATION.format(realisations=a.validation,
                                      seed=a.validation_seed + seed) + what["variation"]
         vpath = a.out / f"{a.case}-validation-s{seed}.yaml"
@@ -103,23 +115,28 @@ def main() -> None:
         q_val = {k: stats.quantile(v["tracks"], LEVEL) for k, v in val.items()}
         chosen = min(q_val, key=q_val.get)
         first = next(iter(final))
-        # the run's own optimum is judged under the study's name (its kept values reused)
-        name = f"robust s{seed}" if chosen == first else f"cleanup s{seed}"
-        designs = {f"nominal s{seed}": kept_design(a.out, f"nominal s{seed}"),
-                   f"robust s{seed}": final[first], name: final[chosen]}
+        # the run's own optimum and the nominal one are judged under the study's names
+        # (their kept values reused)
+        nominal = kept_design(a.out, f"nominal s{seed}")
+        name = (f"{robust} s{seed}" if chosen == first else
+                f"nominal s{seed}" if np.array_equal(final[chosen], nominal) else
+                f"{robust}-cleanup s{seed}")
+        designs = {f"nominal s{seed}": nominal, f"{robust} s{seed}": final[first],
+                   name: final[chosen]}
         fresh = judge(fresh_path, designs, a.fresh, a.workers, obj, a.out / "fresh")
         q = {k: stats.quantile(v["tracks"], LEVEL) for k, v in fresh.items()}
         ranked = ranked_right(fresh[f"nominal s{seed}"]["tracks"],
-                              fresh[f"robust s{seed}"]["tracks"], (8, 16))
+                              fresh[f"{robust} s{seed}"]["tracks"], (8, 16))
         summary[seed] = {"finalists": {k: float(v) for k, v in q_val.items()},
                          "chosen": chosen, "chosen_q90": float(q[name]),
                          "fresh_q90": {k: float(v) for k, v in q.items()},
                          "ranked_right": ranked}
         fin = ", ".join(f"{k} {v * scale:.3f}" for k, v in q_val.items())
         print(f"| {seed} | {q[f'nominal s{seed}'] * scale:.3f} | "
-              f"{q[f'robust s{seed}'] * scale:.3f} ({first}) | {q[name] * scale:.3f} "
+              f"{q[f'{robust} s{seed}'] * scale:.3f} ({first}) | {q[name] * scale:.3f} "
               f"({chosen}) | {fin} |", flush=True)
-    (a.out / f"{a.case}-cleanup-s{'-'.join(map(str, a.seeds))}.json").write_text(
+    tag = "-start" if a.start_nominal else ""
+    (a.out / f"{a.case}-cleanup{tag}-s{'-'.join(map(str, a.seeds))}.json").write_text(
         json.dumps(summary, indent=1))
     for seed, s in summary.items():
         n, c = s["fresh_q90"][f"nominal s{seed}"], s["chosen_q90"]

@@ -102,3 +102,11 @@ def test_a_design_as_status_prints_it(tmp_path):
     with pytest.raises(CaseError, match=r"c\.yaml:7: optimisation\.start_designs\[0\]\.x_n: "
                                         r"x_n = -1 is outside"):
         load_case(case_with(tmp_path, '    - "x_r1=540 MN/m, x_n=-1"\n'))
+
+
+def test_a_pad_in_n_per_m_is_kept_to_the_last_digit(tmp_path):
+    """Another run's optimum written in SI is that design, not one a rounding away."""
+    pads = [539558244.514084, 158577803.97069946, 1197636854.0833058]
+    text = "    - {" + ", ".join(f"x_r{i + 1}: {p!r}" for i, p in enumerate(pads)) + "}\n"
+    case = load_case(case_with(tmp_path, text))
+    assert list(case.start_designs[0][:3]) == pads
