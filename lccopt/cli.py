@@ -139,8 +139,9 @@ def simulate(
         None,
         help="design x in the case's order, comma-separated: "
              "pad stiffness x_r1..x_rN in MN/m, then x_n, the spans x_s1.. and "
-             "the strip x_l in m (0.1 m steps); e.g. 214,155,50,5,0.6,0.7,0.3,0 "
-             "(default: the case's reference design)"),
+             "the strip x_l in m (0.1 m steps); e.g. 214,155,50,5,0.6,0.7,0.3,0; "
+             "or by name as status prints it: \"x_r1=214 MN/m, x_n=5\" (the others "
+             "at the reference) (default: the case's reference design)"),
     out: Optional[Path] = typer.Option(
         None, help="output directory (default: runs/<case name>-simulate)"),
     no_plots: bool = typer.Option(False, "--no-plots", help="skip the PNG plots"),

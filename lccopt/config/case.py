@@ -29,6 +29,7 @@ from .checks import (
     check_optimisation,
     check_profile,
     check_railpad,
+    named_design,
     simulation_size,
     start_designs,
 )
@@ -394,8 +395,11 @@ def _conditions(data: dict, path: Path, lines: dict, err,
 
 def parse_design(text: str, case: Case) -> np.ndarray:
     """Parse ``--design 214,155,50,5,0.6,0.7,0.3,0`` (in the units shown: pads in MN/m, spans
-    and the strip in m, counts as they are) into a checked design vector in internal units
-    (raises ValueError)."""
+    and the strip in m, counts as they are) or ``--design "x_r1=214 MN/m, x_n=5"`` (as status
+    prints a design; a variable left out at its reference, a bare number in SI) into a checked
+    design vector in internal units (raises ValueError)."""
+    if "=" in text:
+        return np.array(named_design(text, case.variables, lambda _, msg: ValueError(msg)))
     try:
         x = [float(t) for t in text.replace(" ", "").split(",") if t]
     except ValueError:

@@ -16,6 +16,7 @@ from ..vti.vehicle import vehicle_length, vehicle_type
 from .build import spectrum_profile, track_length, vehicle_spec
 from .profiles import MAX_DIP, cover_problem, profile_array
 from .schema import DEFAULT_INITIAL_POINTS
+from .units import split as split_quantity
 from .zones import zone_end_x
 
 STEPS_PER_CONTACT_PERIOD = 5  # Newmark (average acceleration) shortens nothing, but lengthens the
@@ -435,27 +436,14 @@ def start_designs(data: dict, variables, err=None) -> tuple[tuple[float, ...], .
     left out (the optimiser evaluates a design once). With ``err``, a name that is not a
     variable or a value outside its bounds raises it at the value's key."""
     opt = data.get("optimisation") or {}
-    by_name = {v.name: v for v in variables}
     out: list[tuple[float, ...]] = [tuple(v.reference for v in variables)]
     for i, design in enumerate(opt.get("start_designs") or ()):
-        x = {v.name: v.reference for v in variables}
-        if isinstance(design, str):
-            design = _design_text(design, lambda msg, i=i: err(("optimisation", "start_designs",
-                                                                 i), msg))
-        for name, value in design.items():
-            at = ("optimisation", "start_designs", i, name)
-            v = by_name.get(name)
-            if v is None:
-                raise err(at, f"not a design variable of this case (its variables: "
-                              f"{', '.join(by_name)})")
-            try:
-                x[name] = v.from_case(value)
-            except ValueError as exc:
-                bare = not isinstance(value, str) and v.kind.unit not in ("", "m")
-                hint = (f" (a bare number is in {v.internal_unit}: write {value:g} "
-                        f"{v.kind.unit}?)" if bare else "")
-                raise err(at, f"{exc}{hint}") from None
-        vector = tuple(x[v.name] for v in variables)
+        at = ("optimisation", "start_designs", i)
+
+        def fail(name, msg, at=at):
+            return (err or (lambda _, m: ValueError(m)))(at + ((name,) if name else ()), msg)
+
+        vector = named_design(design, variables, fail)
         if vector not in out:
             out.append(vector)
     budget = opt.get("budget")
@@ -464,6 +452,34 @@ def start_designs(data: dict, variables, err=None) -> tuple[tuple[float, ...], .
                   f"{len(out) - 1} designs and the reference design exceed the budget of "
                   f"{budget}")
     return tuple(out[1:])
+
+
+def named_design(design, variables, fail) -> tuple[float, ...]:
+    """A design written by its variables' names, a mapping (``{x_r1: 540 MN/m, x_n: 0}``) or
+    the text status prints (``x_r1=540 MN/m, x_n=0``), as a vector in internal units; a
+    variable left out keeps its reference value, a bare number is in SI (N/m, m).
+    ``fail(name, message)`` gives the exception for a bad name or value (name None: the text
+    as a whole)."""
+    if isinstance(design, str):
+        design = _design_text(design, lambda msg: fail(None, msg))
+    by_name = {v.name: v for v in variables}
+    x = {v.name: v.reference for v in variables}
+    for name, value in design.items():
+        v = by_name.get(name)
+        if v is None:
+            raise fail(name, f"{name} is not a design variable of this case (its variables: "
+                             f"{', '.join(by_name)})")
+        try:
+            x[name] = v.from_case(value)
+        except ValueError as exc:
+            number = value if not isinstance(value, str) else split_quantity(value)
+            bare = isinstance(number, (int, float)) or (number is not None and not number[1])
+            hint = ""
+            if bare and v.kind.unit not in ("", "m"):
+                shown = number if isinstance(number, (int, float)) else number[0]
+                hint = f" (a bare number is in {v.internal_unit}: write {shown:g} {v.kind.unit}?)"
+            raise fail(name, f"{exc}{hint}") from None
+    return tuple(x[v.name] for v in variables)
 
 
 def _design_text(text: str, fail) -> dict:

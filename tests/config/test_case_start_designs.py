@@ -4,7 +4,7 @@ variables, and one line naming file, line and key for each kind of bad one."""
 import numpy as np
 import pytest
 
-from lccopt.config import load_case
+from lccopt.config import load_case, parse_design
 from lccopt.errors import CaseError
 from tests.conftest import CONFIGS
 
@@ -110,3 +110,18 @@ def test_a_pad_in_n_per_m_is_kept_to_the_last_digit(tmp_path):
     text = "    - {" + ", ".join(f"x_r{i + 1}: {p!r}" for i, p in enumerate(pads)) + "}\n"
     case = load_case(case_with(tmp_path, text))
     assert list(case.start_designs[0][:3]) == pads
+
+
+def test_design_option_takes_a_design_as_status_prints_it():
+    """--design "x_r1=540 MN/m, ..." (copied from status) is the same design as the
+    positional form; a bare pad value is caught by its bounds and told how to write it."""
+    case = load_case(REFERENCE)
+    named = parse_design("x_r1=539.6 MN/m, x_r2=158.6 MN/m, x_r3=50 MN/m, x_n=0, x_s1=0.7 m,\n"
+                         "     x_s2=0.7 m, x_s3=0.3 m, x_l=0 m", case)
+    np.testing.assert_allclose(named, parse_design("539.6,158.6,50,0,0.7,0.7,0.3,0", case))
+    partial = parse_design("x_n=3", case)
+    assert partial[3] == 3 and np.array_equal(np.delete(partial, 3), np.delete(case.reference, 3))
+    with pytest.raises(ValueError, match=r"a bare number is in N/m: write 539\.6 MN/m\?"):
+        parse_design("x_r1=539.6", case)
+    with pytest.raises(ValueError, match=r"x_q is not a design variable of this case"):
+        parse_design("x_q=1", case)
