@@ -87,6 +87,8 @@ def main() -> None:
                     help="the study's robust runs started from the nominal optimum "
                          "(robust_study --start-nominal): clean those up, their start design "
                          "among the finalists")
+    ap.add_argument("--with-nominal", action="store_true",
+                    help="the nominal optimum among the finalists (of runs not started from it)")
     a = ap.parse_args()
     robust = "robust-start" if a.start_nominal else "robust"
     what = CASES[a.case]
@@ -102,7 +104,10 @@ def main() -> None:
         with h5py.File(run / "results.h5") as f:
             budget = int(f.attrs["budget"])
         final = finalists(run, a.keep)
-        for k, x in enumerate(load_case(run / "case.yaml").start_designs, 1):
+        starts = list(load_case(run / "case.yaml").start_designs)
+        if a.with_nominal:
+            starts.append(kept_design(a.out, f"nominal s{seed}"))
+        for k, x in enumerate(starts, 1):
             if not any(np.array_equal(x, y) for y in final.values()):
                 final[f"start {k}"] = np.asarray(x, float)
         variation = VARIATION.format(realisations=a.validation,
@@ -135,7 +140,7 @@ def main() -> None:
         print(f"| {seed} | {q[f'nominal s{seed}'] * scale:.3f} | "
               f"{q[f'{robust} s{seed}'] * scale:.3f} ({first}) | {q[name] * scale:.3f} "
               f"({chosen}) | {fin} |", flush=True)
-    tag = "-start" if a.start_nominal else ""
+    tag = ("-start" if a.start_nominal else "") + ("-with-nominal" if a.with_nominal else "")
     (a.out / f"{a.case}-cleanup{tag}-s{'-'.join(map(str, a.seeds))}.json").write_text(
         json.dumps(summary, indent=1))
     for seed, s in summary.items():
