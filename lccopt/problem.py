@@ -91,8 +91,6 @@ class Problem:
     # the robust statistics recorded for every design (``complete``)
     realisations: int = 0
     statistics: tuple[str, ...] = ()
-    # designs proposed right after the reference design (optimisation.start_designs)
-    start_designs: tuple[tuple[float, ...], ...] = ()
 
     @classmethod
     def from_case(cls, case: Case) -> "Problem":
@@ -130,7 +128,6 @@ class Problem:
                      else ()),
             realisations=case.realisations,
             statistics=tuple(robust.recorded(objectives)) if case.realisations else (),
-            start_designs=case.start_designs,
         )
 
     # -- design space -----------------------------------------------------------------------
@@ -186,8 +183,7 @@ class Problem:
     def space(self):
         from .optim.space import DesignSpace
 
-        return DesignSpace.of(self.variables,
-                              given=[list(self.reference)] + [list(x) for x in self.start_designs])
+        return DesignSpace.of(self.variables, given=[list(self.reference)])
 
     def optimiser_settings(self):
         """The optimiser settings of a new run of this problem (``optim.settings.Settings``):

@@ -12,8 +12,9 @@ fresh judging case, and judges the chosen designs there):
     nice -n 10 python -m benchmarks.robust.cleanup_study settlement --seeds 1 2 3 \\
         --keep 5 --validation 16 --out /tmp/robust-b80
 
-``--start-nominal`` cleans up the runs of ``robust_study --start-nominal`` (the robust run
-started from the nominal optimum), with that start design among the finalists.
+``--with-nominal`` adds the study's nominal optimum to the finalists; with ``--keep 1`` the
+choice is between the two optima only (docs/robust.md, "Using it": what a user does with
+``lccopt simulate``).
 """
 
 from __future__ import annotations
@@ -34,7 +35,6 @@ from benchmarks.robust.robust_study import (
     judge,
     kept_design,
 )
-from lccopt.config import load_case
 from lccopt.uncertainty import statistics as stats
 
 
@@ -83,14 +83,9 @@ def main() -> None:
     ap.add_argument("--fresh", type=int, default=40)
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--out", type=Path, required=True)
-    ap.add_argument("--start-nominal", action="store_true",
-                    help="the study's robust runs started from the nominal optimum "
-                         "(robust_study --start-nominal): clean those up, their start design "
-                         "among the finalists")
     ap.add_argument("--with-nominal", action="store_true",
-                    help="the nominal optimum among the finalists (of runs not started from it)")
+                    help="the study's nominal optimum among the finalists")
     a = ap.parse_args()
-    robust = "robust-start" if a.start_nominal else "robust"
     what = CASES[a.case]
     obj = what["objective"]
     judged = stats.quantile_name(obj, LEVEL)
@@ -100,16 +95,13 @@ def main() -> None:
     print(f"| seed | nominal | robust (#) | cleaned up (#) | q90 of the {a.keep} finalists "
           f"on {a.validation} validation tracks |\n|---|---:|---:|---:|---|")
     for seed in a.seeds:
-        run = a.out / "runs" / f"{a.case}-{robust}-s{seed}"
+        run = a.out / "runs" / f"{a.case}-robust-s{seed}"
         with h5py.File(run / "results.h5") as f:
             budget = int(f.attrs["budget"])
         final = finalists(run, a.keep)
-        starts = list(load_case(run / "case.yaml").start_designs)
-        if a.with_nominal:
-            starts.append(kept_design(a.out, f"nominal s{seed}"))
-        for k, x in enumerate(starts, 1):
-            if not any(np.array_equal(x, y) for y in final.values()):
-                final[f"start {k}"] = np.asarray(x, float)
+        if a.with_nominal and not any(np.array_equal(kept_design(a.out, f"nominal s{seed}"), y)
+                                      for y in final.values()):
+            final["nominal"] = kept_design(a.out, f"nominal s{seed}")
         variation = VARIATION.format(realisations=a.validation,
                                      seed=a.validation_seed + seed) + what["variation"]
         vpath = a.out / f"{a.case}-validation-s{seed}.yaml"
@@ -123,24 +115,24 @@ def main() -> None:
         # the run's own optimum and the nominal one are judged under the study's names
         # (their kept values reused)
         nominal = kept_design(a.out, f"nominal s{seed}")
-        name = (f"{robust} s{seed}" if chosen == first else
+        name = (f"robust s{seed}" if chosen == first else
                 f"nominal s{seed}" if np.array_equal(final[chosen], nominal) else
-                f"{robust}-cleanup s{seed}")
-        designs = {f"nominal s{seed}": nominal, f"{robust} s{seed}": final[first],
+                f"cleanup s{seed}")
+        designs = {f"nominal s{seed}": nominal, f"robust s{seed}": final[first],
                    name: final[chosen]}
         fresh = judge(fresh_path, designs, a.fresh, a.workers, obj, a.out / "fresh")
         q = {k: stats.quantile(v["tracks"], LEVEL) for k, v in fresh.items()}
         ranked = ranked_right(fresh[f"nominal s{seed}"]["tracks"],
-                              fresh[f"{robust} s{seed}"]["tracks"], (8, 16))
+                              fresh[f"robust s{seed}"]["tracks"], (8, 16))
         summary[seed] = {"finalists": {k: float(v) for k, v in q_val.items()},
                          "chosen": chosen, "chosen_q90": float(q[name]),
                          "fresh_q90": {k: float(v) for k, v in q.items()},
                          "ranked_right": ranked}
         fin = ", ".join(f"{k} {v * scale:.3f}" for k, v in q_val.items())
         print(f"| {seed} | {q[f'nominal s{seed}'] * scale:.3f} | "
-              f"{q[f'{robust} s{seed}'] * scale:.3f} ({first}) | {q[name] * scale:.3f} "
+              f"{q[f'robust s{seed}'] * scale:.3f} ({first}) | {q[name] * scale:.3f} "
               f"({chosen}) | {fin} |", flush=True)
-    tag = ("-start" if a.start_nominal else "") + ("-with-nominal" if a.with_nominal else "")
+    tag = "-with-nominal" if a.with_nominal else ""
     (a.out / f"{a.case}-cleanup{tag}-s{'-'.join(map(str, a.seeds))}.json").write_text(
         json.dumps(summary, indent=1))
     for seed, s in summary.items():

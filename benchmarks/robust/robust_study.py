@@ -57,20 +57,10 @@ LEVEL = 0.9
 
 
 def case_text(name: str, what: dict, objective: str, budget: int, seed: int,
-              variation: str = "", start: str = "") -> str:
+              variation: str = "") -> str:
     return (f"extends: {what['base']}\nname: {name}\n{what['extra']}optimisation:\n"
             f"  objectives: [{objective}]\n  budget: {budget}\n  initial_points: 20\n"
-            f"  seed: {seed}\n  timeout: 600\n  histories: none\n{start}" + variation)
-
-
-def start_design(case, x) -> str:
-    """The lines of optimisation.start_designs holding design x (internal units) of ``case``,
-    every digit kept: pads as bare SI numbers (N/m), lengths in m, counts as they are."""
-    values = [f"{round(xi) * 0.1:.1f} m" if v.internal_unit == "elements" else repr(float(xi))
-              for v, xi in zip(case.variables, x)]
-    return ("  start_designs:\n    - {"
-            + ", ".join(f"{v.name}: {value}" for v, value in zip(case.variables, values))
-            + "}\n")
+            f"  seed: {seed}\n  timeout: 600\n  histories: none\n" + variation)
 
 
 _CASE = None
@@ -164,9 +154,6 @@ def main() -> None:
     ap.add_argument("--statistic", choices=("q90", "mean"), default="q90",
                     help="what the robust run minimises over its realisations: the 90 %% "
                          "quantile (default) or the mean")
-    ap.add_argument("--start-nominal", action="store_true",
-                    help="the robust run starts from the nominal run's optimum "
-                         "(optimisation.start_designs; runs named robust-start)")
     ap.add_argument("--figure", type=Path, default=None,
                     help="where the first seed's spread figure goes (default: --out)")
     a = ap.parse_args()
@@ -179,17 +166,13 @@ def main() -> None:
     judged_obj = stats.quantile_name(obj, LEVEL)
     robust_obj = judged_obj if a.statistic == "q90" else f"mean({obj})"
     robust = "robust" if a.statistic == "q90" else f"robust-{a.statistic}"
-    robust += "-start" if a.start_nominal else ""
     designs, cost, t0 = {}, {}, time.monotonic()
     for seed in a.seeds:
         variation = VARIATION.format(realisations=a.realisations, seed=seed) + what["variation"]
         for kind, objective, var in (("nominal", obj, ""), (robust, robust_obj, variation)):
             name = f"{a.case}-{kind}-s{seed}"
             path = out / f"{name}.yaml"
-            start = (start_design(load_case(out / f"{a.case}-nominal-s{seed}.yaml"),
-                                  designs[f"nominal s{seed}"])
-                     if kind != "nominal" and a.start_nominal else "")
-            path.write_text(case_text(name, what, objective, a.budget, seed, var, start))
+            path.write_text(case_text(name, what, objective, a.budget, seed, var))
             run = out / "runs" / name
             if not run.is_dir():
                 lccopt.optimise(path, workers=a.workers, runs=out / "runs", progress=False)

@@ -31,7 +31,6 @@ from .checks import (
     check_railpad,
     named_design,
     simulation_size,
-    start_designs,
 )
 from .degradation import check_degradation, degradation_spec
 from .profile_files import RowCount, profile_rows
@@ -136,11 +135,6 @@ class Case:
     reference = property(lambda self: self._column("reference"))
     lower = property(lambda self: self._column("lower"))
 
-    @property
-    def start_designs(self) -> tuple[tuple[float, ...], ...]:
-        """optimisation.start_designs in internal units (checked when the case was read),
-        without the reference design and repeats."""
-        return start_designs(self.data, self.variables)
     upper = property(lambda self: self._column("upper"))
     integer = property(lambda self: self._column("integer", bool))
     log = property(lambda self: self._column("log", bool), doc="searched on a log scale")
@@ -316,7 +310,6 @@ def load_case(path: str | Path, overrides=(), text: str | None = None,
                                        f"{dotted(('design', key, k))}")
     check_design_space(data, variables, err)
     check_optimisation(data, err, len(variables))
-    start_designs(data, variables, err)
     rows = RowCount(err)
     at = ("simulation", "irregularity")
     data["simulation"]["irregularity"] = rows.add(

@@ -430,30 +430,6 @@ def spectrum_problem(irregularity: dict, length: float) -> tuple[str, str] | Non
     return None
 
 
-def start_designs(data: dict, variables, err=None) -> tuple[tuple[float, ...], ...]:
-    """``optimisation.start_designs`` as design vectors in internal units, each variable not
-    written at its reference value; a design equal to the reference or to an earlier one is
-    left out (the optimiser evaluates a design once). With ``err``, a name that is not a
-    variable or a value outside its bounds raises it at the value's key."""
-    opt = data.get("optimisation") or {}
-    out: list[tuple[float, ...]] = [tuple(v.reference for v in variables)]
-    for i, design in enumerate(opt.get("start_designs") or ()):
-        at = ("optimisation", "start_designs", i)
-
-        def fail(name, msg, at=at):
-            return (err or (lambda _, m: ValueError(m)))(at + ((name,) if name else ()), msg)
-
-        vector = named_design(design, variables, fail)
-        if vector not in out:
-            out.append(vector)
-    budget = opt.get("budget")
-    if err is not None and budget is not None and len(out) > budget:
-        raise err(("optimisation", "start_designs"),
-                  f"{len(out) - 1} designs and the reference design exceed the budget of "
-                  f"{budget}")
-    return tuple(out[1:])
-
-
 def named_design(design, variables, fail) -> tuple[float, ...]:
     """A design written by its variables' names, a mapping (``{x_r1: 540 MN/m, x_n: 0}``) or
     the text status prints (``x_r1=540 MN/m, x_n=0``), as a vector in internal units; a

@@ -224,11 +224,7 @@ def optimisation_line(case) -> str:
                "\n  asf.worst: 1.5 x the reference design's objectives (the default)")
     items = [*opt["objectives"][:-1], f"{opt['objectives'][-1]}; budget {opt['budget']}",
              f"{opt['initial_points']} initial points; histories: {case.histories}"]
-    starts = "".join(
-        "\n" + "\n".join(wrap_items([v.show(xi) for v, xi in zip(case.variables, x)],
-                                    f"  start design {i}: ", width=WIDTH - 2))
-        for i, x in enumerate(case.start_designs, 1))
-    return "\n".join(wrap_items(items, "optimisation: ", width=WIDTH - 2)) + asf + starts
+    return "\n".join(wrap_items(items, "optimisation: ", width=WIDTH - 2)) + asf
 
 
 def condition_lines(case) -> list[str]:

@@ -112,14 +112,6 @@ class Rows(_Key):
 
 
 @dataclass(frozen=True)
-class Designs(_Key):
-    """A list of designs, each a mapping of design variable names (x_r1, x_n, ...) to values;
-    checked against the case's variables once they are known (lccopt.config.checks)."""
-    doc: str
-    max_items: int = 100
-
-
-@dataclass(frozen=True)
 class StrList(_Key):
     """A list of distinct names from ``choices`` (one name alone is a list of one)."""
     doc: str

@@ -130,8 +130,7 @@ def _rows(kind, path: str) -> list[str]:
             out += [f"| *{path} as {key}:* | | | | | | |"]
             out += _rows(sub, path)
         return out
-    if isinstance(kind, (kinds.Num, kinds.NumList, kinds.Str, kinds.StrList, kinds.Rows,
-                         kinds.Designs)):
+    if isinstance(kind, (kinds.Num, kinds.NumList, kinds.Str, kinds.StrList, kinds.Rows)):
         return [_row(path, kind)]
     raise TypeError(kind)
 

@@ -21,7 +21,6 @@ from ..vti.response import PAPER_OBJECTIVES, REPORTED_ONLY, SETTLEMENT_OBJECTIVE
 from ..vti.specs import ZONE_POINTS
 from ..vti.vehicle import DEFAULT_TYPE, VEHICLE_TYPES
 from .kinds import (
-    Designs,
     Items,
     Named,
     Num,
@@ -312,14 +311,6 @@ _OPTIMISATION = Section({
     "initial_points": Num("initial design size, reference design included. Default: 20 (the "
                           "paper's, for 8 variables), 2 (d + 1) for d > 9 variables, never "
                           "above the budget", integer=True, ge=2, le=10_000, required=False),
-    "start_designs": Designs(
-        "designs the optimiser evaluates first, after the reference design, as part of the "
-        "initial design: each a mapping of variables to values ({x_r1: 540 MN/m, x_s3: 0.3 m, "
-        "x_n: 0}; a bare number is in SI, N/m or m) or the text status prints (\"x_r1=540 "
-        "MN/m, x_s3=0.3 m, x_n=0\"); a variable left out keeps its reference value. For "
-        "instance another run's optimum (a nominal run's, for a robust one: docs/robust.md)",
-        required=False,
-        keep_absent=True),
     "seed": Num("random seed", integer=True, ge=0, default=0, required=False),
     "timeout": Num("per-evaluation timeout", "s", gt=0, default=600.0, required=False),
     "conditions": Str("how the objectives of several traffic conditions combine: worst (max "

@@ -76,8 +76,6 @@ def check(value: Any, kind: Any, path: tuple, lines: dict, file: str,
         return _numbers(value, kind, fail, path)
     if isinstance(kind, kinds.StrList):
         return _names(value, kind, fail)
-    if isinstance(kind, kinds.Designs):
-        return _designs(value, kind, fail, path)
     raise TypeError(kind)
 
 
@@ -215,29 +213,6 @@ def _names(value: Any, kind: kinds.StrList, fail) -> list:
     if len(set(value)) != len(value):
         raise fail("a name is listed twice")
     return list(value)
-
-
-def _designs(value: Any, kind: kinds.Designs, fail, path: tuple) -> list | None:
-    """A list of {variable name: number or quantity text}, or of text as status prints a
-    design (``x_r1=200 MN/m, x_n=4``); the names and values are checked
-    against the case's variables later (lccopt.config.checks.start_designs)."""
-    if value is None:
-        return None
-    if not isinstance(value, list) or not value:
-        raise fail("expected a list of designs, each a mapping like {x_r1: 200 MN/m, x_n: 4}")
-    if len(value) > kind.max_items:
-        raise fail(f"at most {kind.max_items} designs, got {len(value)}")
-    for i, d in enumerate(value):
-        if isinstance(d, str) and d.strip():      # as status prints it: "x_r1=200 MN/m, ..."
-            continue
-        if not isinstance(d, dict) or not d:
-            raise fail(f"expected a mapping of design variables to values, like "
-                       f"{{x_r1: 200 MN/m, x_n: 4}}, got {d!r:.60}", path + (i,))
-        for k, v in d.items():
-            if isinstance(v, bool) or not isinstance(v, (int, float, str)):
-                raise fail(f"expected a number or a number with its unit, got {v!r:.60}",
-                           path + (i, k))
-    return [d if isinstance(d, str) else dict(d) for d in value]
 
 
 def _rows(value: Any, fail) -> ProfileText:

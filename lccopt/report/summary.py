@@ -159,19 +159,9 @@ def _history_section(doc: Doc, run: RunData, bi, n_failed: int, restarts: list,
                     if (run.phase == ph).any()}
     items = ["evaluations "
              "by phase: " + ", ".join(f"{PHASE_STYLE[p][0]} {c}" for p, c in phase_counts.items())]
-    starts = len(run.case.start_designs) if run.case is not None else 0
-    if starts:
-        items.append(f"evaluation #0 is the reference design, #1-#{starts} the case's start "
-                     f"designs (optimisation.start_designs), the rest of the initial design a "
-                     f"Latin hypercube" if starts > 1 else
-                     "evaluation #0 is the reference design, #1 the case's start design "
-                     "(optimisation.start_designs), the rest of the initial design a Latin "
-                     "hypercube")
     if bi is not None:
-        what = (f"{run.phase[bi]}, restart {run.restart[bi]}" if not 1 <= run.ids[bi] <= starts
-                else "a start design")
         items.append(f"best value {fnum(run.value[bi])} at evaluation #{run.ids[bi]} "
-                     f"({what}); the best value was within 1 % "
+                     f"({run.phase[bi]}, restart {run.restart[bi]}); the best value was within 1 % "
                      f"of it from evaluation #{_first_near_best(run)} on")
     if restarts:
         starts = [int(run.ids[run.restart == r].min()) for r in restarts]

@@ -137,25 +137,6 @@ def test_snapshot_plus_replay_equals_full_replay(tmp_path):
         assert again.state_dict() == full.state_dict()
 
 
-def test_start_designs_run_right_after_the_reference_and_replay(tmp_path):
-    case = write_case(tmp_path, "starts", budget=9, initial=4)
-    case.write_text(case.read_text().replace(
-        "  timeout:", "  start_designs:\n    - {x_r1: 540 MN/m, x_s3: 0.3 m}\n"
-                      "    - {x_n: 0, x_l: 6 m}\n  timeout:"))
-    run = optimise(case, workers=2, runs=tmp_path, evaluator=FAKE, progress=False)
-    x = read_table(run)["x"]
-    ref = load_case(case).reference
-    np.testing.assert_array_equal(x[0], ref)
-    np.testing.assert_array_equal(x[1], np.where(np.arange(8) == 0, 540e6,
-                                                 np.where(np.arange(8) == 6, 3, ref)))
-    np.testing.assert_array_equal(x[2], np.where(np.arange(8) == 3, 0,
-                                                 np.where(np.arange(8) == 7, 60, ref)))
-    assert len(x) == 9 and len({tuple(r) for r in x}) == 9     # then the Latin hypercube, ...
-    events, _, _ = read_journal(run / "journal.jsonl")
-    again, _ = restore(Problem.from_case(load_case(run / "case.yaml")), events, None)
-    assert again.state_dict() == RunDir(run).load_state()["strategy"]
-
-
 def test_replay_detects_a_journal_the_optimiser_does_not_reproduce(tmp_path):
     case = write_case(tmp_path, "tamper", budget=8, initial=4)
     run = optimise(case, workers=1, runs=tmp_path, evaluator=FAKE, progress=False)

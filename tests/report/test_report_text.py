@@ -50,27 +50,6 @@ def test_a_best_design_equal_to_the_reference_is_said_to_be_unchanged(tmp_path):
 
 
 @pytest.mark.slow
-def test_a_best_start_design_is_named_as_one(tmp_path):
-    case = write_case(tmp_path, "starts", objectives=("F_max",), budget=6, initial=4)
-    case.write_text(case.read_text().replace(
-        "  timeout:", '  start_designs:\n    - "x_r1=540 MN/m, x_n=0"\n  timeout:'))
-    run = optimise(case, workers=1, runs=tmp_path, evaluator=FAKE, progress=False)
-    journal = run / "journal.jsonl"
-    lines = [json.loads(line) for line in journal.read_text().splitlines()]
-    for ev in lines:   # the start design made the best
-        if ev["event"] == "evaluated" and ev["id"] == 1:
-            ev["value"] = ev["objectives"]["F_max"] = 1.0
-    journal.write_text("".join(json.dumps(ev, separators=(",", ":")) + "\n" for ev in lines))
-    (run / "results.h5").unlink()
-    r = cli_run("report", run)
-    assert r.returncode == 0, r.stderr
-    text = (run / "report" / "report.md").read_text()
-    assert ("evaluation #0 is the reference design, #1 the case's start design "
-            "(optimisation.start_designs)") in text, text
-    assert "at evaluation #1 (a start design)" in text, text
-
-
-@pytest.mark.slow
 def test_the_summary_names_every_variable_on_a_bound_and_every_objective_made_worse(tmp_path):
     """A best design with a pad on its upper bound (a bound the case chose: widen it), no
     strengthened sleeper and a Type II strip over the whole ERS (fixed limits), that is better
