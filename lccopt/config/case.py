@@ -29,7 +29,6 @@ from .checks import (
     check_optimisation,
     check_profile,
     check_railpad,
-    named_design,
     simulation_size,
 )
 from .degradation import check_degradation, degradation_spec
@@ -45,6 +44,7 @@ from .reading import (
 )
 from .schema import SAFE_NAME, SCHEMA, check
 from .uncertainty import check_uncertainty, draw
+from .units import split as split_quantity
 from .variables import Variable, read_lengths
 from .variables import variables as design_variables
 from .zones import check_design_space, derive_strip_bounds, resolve_zone
@@ -134,7 +134,6 @@ class Case:
     # the variables' reference design, bounds and kinds, in internal units
     reference = property(lambda self: self._column("reference"))
     lower = property(lambda self: self._column("lower"))
-
     upper = property(lambda self: self._column("upper"))
     integer = property(lambda self: self._column("integer", bool))
     log = property(lambda self: self._column("log", bool), doc="searched on a log scale")
@@ -392,12 +391,38 @@ def parse_design(text: str, case: Case) -> np.ndarray:
     prints a design; a variable left out at its reference, a bare number in SI) into a checked
     design vector in internal units (raises ValueError)."""
     if "=" in text:
-        return np.array(named_design(text, case.variables, lambda _, msg: ValueError(msg)))
+        return _named_design(text, case.variables)
     try:
         x = [float(t) for t in text.replace(" ", "").split(",") if t]
     except ValueError:
         raise ValueError(f"expected comma-separated numbers, got {text!r}") from None
     return from_user(case, x)
+
+
+def _named_design(text: str, variables) -> np.ndarray:
+    """``x_r1=540 MN/m, x_n=0`` (a design as status prints it; a variable left out at its
+    reference, a bare number in SI: N/m, m) as the checked internal design vector."""
+    by_name = {v.name: v for v in variables}
+    x = {v.name: v.reference for v in variables}
+    for item in text.replace("\n", " ").split(","):
+        if not item.strip():
+            continue
+        name, eq, value = (t.strip() for t in item.partition("="))
+        if not eq or not name or not value:
+            raise ValueError(f"expected name=value pairs, like 'x_r1=540 MN/m, x_n=0', got "
+                             f"{item.strip()!r:.40}")
+        v = by_name.get(name)
+        if v is None:
+            raise ValueError(f"{name} is not a design variable of this case (its variables: "
+                             f"{', '.join(by_name)})")
+        try:
+            x[name] = v.from_quantity(value)
+        except ValueError as exc:
+            bare = split_quantity(value)      # a pad in MN/m without its unit reads as N/m
+            hint = (f" (a bare number is in {v.internal_unit}: write {bare[0]:g} {v.kind.unit}?)"
+                    if bare and not bare[1] and v.kind.unit not in ("", "m") else "")
+            raise ValueError(f"{exc}{hint}") from None
+    return np.array([x[v.name] for v in variables])
 
 
 def from_user(case: Case, design) -> np.ndarray:

@@ -16,7 +16,6 @@ from ..vti.vehicle import vehicle_length, vehicle_type
 from .build import spectrum_profile, track_length, vehicle_spec
 from .profiles import MAX_DIP, cover_problem, profile_array
 from .schema import DEFAULT_INITIAL_POINTS
-from .units import split as split_quantity
 from .zones import zone_end_x
 
 STEPS_PER_CONTACT_PERIOD = 5  # Newmark (average acceleration) shortens nothing, but lengthens the
@@ -429,44 +428,3 @@ def spectrum_problem(irregularity: dict, length: float) -> tuple[str, str] | Non
                                f"(m whole) of the {length:g} m track: widen it")
     return None
 
-
-def named_design(design, variables, fail) -> tuple[float, ...]:
-    """A design written by its variables' names, a mapping (``{x_r1: 540 MN/m, x_n: 0}``) or
-    the text status prints (``x_r1=540 MN/m, x_n=0``), as a vector in internal units; a
-    variable left out keeps its reference value, a bare number is in SI (N/m, m).
-    ``fail(name, message)`` gives the exception for a bad name or value (name None: the text
-    as a whole)."""
-    if isinstance(design, str):
-        design = _design_text(design, lambda msg: fail(None, msg))
-    by_name = {v.name: v for v in variables}
-    x = {v.name: v.reference for v in variables}
-    for name, value in design.items():
-        v = by_name.get(name)
-        if v is None:
-            raise fail(name, f"{name} is not a design variable of this case (its variables: "
-                             f"{', '.join(by_name)})")
-        try:
-            x[name] = v.from_case(value)
-        except ValueError as exc:
-            number = value if not isinstance(value, str) else split_quantity(value)
-            bare = isinstance(number, (int, float)) or (number is not None and not number[1])
-            hint = ""
-            if bare and v.kind.unit not in ("", "m"):
-                shown = number if isinstance(number, (int, float)) else number[0]
-                hint = f" (a bare number is in {v.internal_unit}: write {shown:g} {v.kind.unit}?)"
-            raise fail(name, f"{exc}{hint}") from None
-    return tuple(x[v.name] for v in variables)
-
-
-def _design_text(text: str, fail) -> dict:
-    """``x_r1=539.6 MN/m, x_n=0`` (a design as status and report print it) as a mapping."""
-    out = {}
-    for item in text.replace("\n", " ").split(","):
-        name, eq, value = item.partition("=")
-        if not item.strip():
-            continue
-        if not eq or not name.strip() or not value.strip():
-            raise fail(f"expected name=value pairs, like 'x_r1=540 MN/m, x_n=0', got "
-                       f"{item.strip()!r:.40}")
-        out[name.strip()] = value.strip()
-    return out

@@ -139,17 +139,16 @@ class Variable:
             raise ValueError(f"{self.name} = {value:g}{u} must be a whole number")
         return min(max(q, self.lower), self.upper)
 
-    def from_case(self, value) -> float:
-        """A value as a case file writes it, a number in SI (N/m, m; a count as it is) or a
+    def from_quantity(self, text: str) -> float:
+        """A value written as a quantity, a number in SI (N/m, m; a count as it is) or a
         number with its unit (``540 MN/m``, ``0.3 m``), as the checked internal value
         (ValueError)."""
         si = {"N/m": "N/m", "elements": "m"}.get(self.internal_unit, "-")
-        if isinstance(value, str):
-            quantity = split_quantity(value)
-            if quantity is None:
-                raise ValueError(f"expected a number or a number with its unit, got {value!r}")
-            number, unit = quantity
-            value = to_si(number, unit, si) if unit else number    # UnitError is a ValueError
+        quantity = split_quantity(text)
+        if quantity is None:
+            raise ValueError(f"expected a number or a number with its unit, got {text!r}")
+        number, unit = quantity
+        value = to_si(number, unit, si) if unit else number     # UnitError is a ValueError
         return self.from_user(value / accepted(si).get(self.kind.unit, 1.0),
                               internal=value if self.internal_unit == si else None)
 
