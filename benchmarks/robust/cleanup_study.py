@@ -99,9 +99,9 @@ def main() -> None:
         with h5py.File(run / "results.h5") as f:
             budget = int(f.attrs["budget"])
         final = finalists(run, a.keep)
-        if a.with_nominal and not any(np.array_equal(kept_design(a.out, f"nominal s{seed}"), y)
-                                      for y in final.values()):
-            final["nominal"] = kept_design(a.out, f"nominal s{seed}")
+        nominal = kept_design(a.out, f"nominal s{seed}")
+        if a.with_nominal and not any(np.array_equal(nominal, y) for y in final.values()):
+            final["nominal"] = nominal
         variation = VARIATION.format(realisations=a.validation,
                                      seed=a.validation_seed + seed) + what["variation"]
         vpath = a.out / f"{a.case}-validation-s{seed}.yaml"
@@ -114,7 +114,6 @@ def main() -> None:
         first = next(iter(final))
         # the run's own optimum and the nominal one are judged under the study's names
         # (their kept values reused)
-        nominal = kept_design(a.out, f"nominal s{seed}")
         name = (f"robust s{seed}" if chosen == first else
                 f"nominal s{seed}" if np.array_equal(final[chosen], nominal) else
                 f"cleanup s{seed}")
