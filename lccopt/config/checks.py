@@ -427,4 +427,3 @@ def spectrum_problem(irregularity: dict, length: float) -> tuple[str, str] | Non
         return "wavelengths", (f"the band [{lo:g}, {hi:g}] m holds no wavelength {length:g} m / m "
                                f"(m whole) of the {length:g} m track: widen it")
     return None
-

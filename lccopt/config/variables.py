@@ -115,16 +115,18 @@ class Variable:
         unit = self.kind.unit
         return f"{self.name}={self.to_user(value):.6g}" + (f" {unit}" if unit else "")
 
-    def from_user(self, value: float, internal: float | None = None) -> float:
+    def from_user(self, value: float) -> float:
         """A value in the user's unit (MN/m, m, a count) as the internal value, checked
         against the bounds (ValueError naming the variable; a value that reads as the old
-        internal unit says so). ``internal``: the same value already in the internal unit,
-        kept to the last digit (a pad written in N/m)."""
+        internal unit says so)."""
+        value = float(value)
+        return self._checked(value / self.scale if np.isfinite(value) else np.nan, value)
+
+    def _checked(self, q: float, value: float) -> float:
+        """Internal value q (``value`` in the user's unit, for messages) rounded to whole
+        elements and checked against the bounds."""
         unit = self.kind.unit
         u = f" {unit}" if unit else ""
-        value = float(value)
-        q = (float(internal) if internal is not None else
-             value / self.scale if np.isfinite(value) else np.nan)
         if self.kind.length and np.isfinite(q):
             if abs(q - round(q)) > 1e-6:
                 raise ValueError(f"{self.name} = {value:g}{u} is not a multiple of "
@@ -149,8 +151,9 @@ class Variable:
             raise ValueError(f"expected a number or a number with its unit, got {text!r}")
         number, unit = quantity
         value = to_si(number, unit, si) if unit else number     # UnitError is a ValueError
-        return self.from_user(value / accepted(si).get(self.kind.unit, 1.0),
-                              internal=value if self.internal_unit == si else None)
+        user = value / accepted(si).get(self.kind.unit, 1.0)
+        # a pad's SI value is its internal one, kept to the last digit (not via MN/m and back)
+        return self._checked(value if self.internal_unit == si else user / self.scale, user)
 
     def _old_hint(self, value: float) -> str:
         """`` (if that is in N/m, write 214 MN/m)`` when the value, read in the internal unit,
