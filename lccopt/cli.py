@@ -142,6 +142,11 @@ def simulate(
              "the strip x_l in m (0.1 m steps); e.g. 214,155,50,5,0.6,0.7,0.3,0; "
              "or by name as status prints it: \"x_r1=214 MN/m, x_n=5\" (the others "
              "at the reference) (default: the case's reference design)"),
+    against: Optional[str] = typer.Option(
+        None,
+        help="a case with uncertainty: a second design (in either form of --design), "
+             "simulated on the same tracks; prints each statistic's difference with a 95 % "
+             "interval and whether the design is clearly lower"),
     out: Optional[Path] = typer.Option(
         None, help="output directory (default: runs/<case name>-simulate)"),
     no_plots: bool = typer.Option(False, "--no-plots", help="skip the PNG plots"),
@@ -152,7 +157,7 @@ def simulate(
     """Simulate one design: print F_rms, F_max (kN), E_rms, E_max (J); write HDF5 and plots."""
     from .commands.simulate import run_simulate
 
-    run_simulate(case, design, out, not no_plots, force, set_ or ())
+    run_simulate(case, design, out, not no_plots, force, set_ or (), against)
 
 
 @app.command()

@@ -146,11 +146,12 @@ def merge_condition_files(dest, parts, names, weights, objectives: dict,
 
 def write_condition_evaluations(dest, evaluations, x, design_names, names, weights,
                                 objectives: dict, attrs: dict, durable: bool = True,
-                                realisations=()) -> Path:
+                                realisations=(), against=None) -> Path:
     """Write the evaluations of one design under every condition (in order; one evaluation
     and no names for a case without conditions) as one file (``durable``: as
     ``write_evaluation``); ``realisations``: (objectives, first condition's evaluation) of
-    each realisation, in order."""
+    each realisation, in order; ``against``: (x, objectives) of a second design on the same
+    tracks, kept as group ``against`` (its design and objectives, no histories)."""
     def fill(f):
         _write_design(f, x, design_names)
         first = evaluations[0]
@@ -164,6 +165,10 @@ def write_condition_evaluations(dest, evaluations, x, design_names, names, weigh
                          Evaluation(obj, ev.histories, ev.info))
         if realisations:
             f.attrs["realisations"] = len(realisations)
+        if against is not None:
+            g = f.create_group("against")
+            _write_design(g, against[0], design_names)
+            _write_objectives(g.create_group("objectives"), against[1])
 
     return write_h5(dest, fill, durable)
 

@@ -53,6 +53,56 @@ def test_simulate_shows_the_reference_design_on_every_track(run_cli, tmp_path):
     assert {k: evs[2].objectives[k] for k in here} == here
 
 
+def test_simulate_against_a_second_design_on_the_same_tracks(run_cli, tmp_path):
+    """--against: the other design's statistics are those it has simulated alone (the same
+    tracks), each difference comes with its interval and verdict, the file keeps both, and
+    a design against itself is 'not clearly different' by exactly 0."""
+    design, other = "x_r1=300 MN/m, x_n=0", "x_r1=540 MN/m"
+    r = run_cli("simulate", CONFIGS / "robust.yaml", "--out", tmp_path / "pair", "--no-plots",
+                "--design", design, "--against", other, *CHEAP)
+    assert r.returncode == 0, r.stderr
+    alone = run_cli("simulate", CONFIGS / "robust.yaml", "--out", tmp_path / "alone",
+                    "--no-plots", "--design", other, *CHEAP)
+    assert alone.returncode == 0, alone.stderr
+    text = r.stdout.split("the other design ", 1)[1].split("this design minus", 1)[0]
+    stats_of = {line[:16].strip(): line[16:].split() for line in text.splitlines()}
+    alone_of = {line[:16].strip(): line[16:].split() for line in alone.stdout.splitlines()}
+    for row in ("mean", "90% quantile", "lowest", "highest"):
+        assert stats_of[row] == alone_of[row], row
+    lines = r.stdout.splitlines()
+    at = lines.index("F_max [kN]")
+    mean, q90 = lines[at + 1].split(), lines[at + 2].split()
+    assert mean[0] == "mean" and q90[:2] == ["90%", "quantile"]
+    assert " ".join(q90[-3:]).endswith(("clearly lower", "clearly higher", "not clearly "
+                                        "different"))
+    block = r.stdout.split("the other design ", 1)[1].split("histories: ")[0]
+    assert max(len(line) for line in block.splitlines()) <= 80
+    with h5py.File(tmp_path / "pair" / "simulation.h5") as f, \
+            h5py.File(tmp_path / "alone" / "simulation.h5") as g:
+        assert list(f["against/design"][()]) == list(g["design"][()])
+        assert dict(f["against/objectives"].attrs) == dict(g["objectives"].attrs)
+        assert list(f["design"][()]) != list(g["design"][()])
+    r = run_cli("simulate", CONFIGS / "robust.yaml", "--out", tmp_path / "same", "--no-plots",
+                "--design", other, "--against", other, *CHEAP)
+    assert r.returncode == 0, r.stderr
+    diffs = [line.split() for line in r.stdout.splitlines()
+             if line.startswith("  mean ") or line.startswith("  90% quantile ")]
+    assert diffs and all(d[-3:] == ["not", "clearly", "different"] for d in diffs)
+    assert all(float(d[-7 if d[0] == "mean" else -6]) == 0.0 for d in diffs)
+
+
+@pytest.mark.parametrize("case, args, expected", [
+    ("reference.yaml", ["--against", "x_n=3"], "has no uncertainty: section"),
+    ("robust.yaml", ["--against", "x_q=3"], "--against: "),
+    ("robust.yaml", ["--against", "1,2"], "--against: "),
+])
+def test_simulate_against_refuses_in_one_line(run_cli, tmp_path, case, args, expected):
+    r = run_cli("simulate", CONFIGS / case, "--out", tmp_path / "s", *args)
+    assert r.returncode == 2, (r.stdout, r.stderr)
+    assert expected in r.stderr and len(r.stderr.strip().splitlines()) == 1, r.stderr
+    assert not (tmp_path / "s").exists()
+
+
 def test_optimise_status_resume_and_report(run_cli, tmp_path):
     runs = tmp_path / "runs"
     r = run_cli("optimise", CONFIGS / "robust.yaml", "--runs", runs, "--workers", "2", *CHEAP,

@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 import time
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 import typer
@@ -22,6 +23,7 @@ from ..config.describe import condition_lines, vehicle_line, zone_line
 from ..outdir import Output
 from ..store import write_evaluation
 from ..terminal import WIDTH, wrap_items, wrap_message
+from ..uncertainty import statistics as stats
 from ..vti.response import (
     OBJECTIVE_DOC,
     PAPER_OBJECTIVES,
@@ -44,7 +46,7 @@ def _echo_setting(case, case_path: Path, x) -> None:
 
 
 def run_simulate(case_path: Path, design: str | None, out: Path | None, plots: bool,
-                 force: bool = False, overrides=()) -> Evaluation:
+                 force: bool = False, overrides=(), against: str | None = None) -> Evaluation:
     from ..errors import UsageError
 
     case = load_case(case_path, overrides)
@@ -52,6 +54,17 @@ def run_simulate(case_path: Path, design: str | None, out: Path | None, plots: b
         x = case.reference if design is None else parse_design(design, case)
     except ValueError as exc:
         raise UsageError(f"--design: {exc}") from None
+    other = None
+    if against is not None:
+        if not case.realisations:
+            raise UsageError(f"--against compares two designs on the realisations of the "
+                             f"track; {case_path} has no uncertainty: section (or 0 "
+                             f"realisations), and on one track the difference is just "
+                             f"that of two simulations")
+        try:
+            other = parse_design(against, case)
+        except ValueError as exc:
+            raise UsageError(f"--against: {exc}") from None
     out = Path(out or Path("runs") / f"{case.name}-simulate")
     files, folders = _outputs(case, plots)
     evaluate = _simulator()
@@ -59,7 +72,8 @@ def run_simulate(case_path: Path, design: str | None, out: Path | None, plots: b
     # are moved into place only once all are written (lccopt.outdir)
     with Output.into(out, files, folders, force, "simulate") as output:
         if case.realisations:
-            ev = _simulate_realisations(case, case_path, x, output.root, plots, evaluate)
+            ev = _simulate_realisations(case, case_path, x, output.root, plots, evaluate,
+                                        other)
         elif case.degradation is not None:
             ev = _simulate_settlement(case, case_path, x, output.root, plots, evaluate)
         elif case.conditions:
@@ -252,39 +266,87 @@ def _simulate_settlement(case, case_path: Path, x, out: Path, plots: bool, evalu
 
 
 def _simulate_realisations(case, case_path: Path, x, out: Path, plots: bool,
-                           evaluate) -> Evaluation:
+                           evaluate, other=None) -> Evaluation:
     """A case with uncertainty: the design on the track as drawn and on each realisation
     (each under every traffic condition, combined as the optimiser would), one line per
     track, the statistics over the realisations, one file with every track and the spread
-    figure."""
+    figure. ``other``: a second design on the same tracks, its statistics and each
+    statistic's difference with its interval (kept in the file under ``against``)."""
     from ..config.uncertainty import uncertainty_lines
     from ..engine.executors import local_processes
     from ..fanout import call_in_processes
     from ..problem import Problem
-    from ..report.data import BEST_COLOR
+    from ..report.data import BEST_COLOR, REF_COLOR
     from ..report.robust import fig_spread, spread_of
     from ..store import write_condition_evaluations
-    from ..uncertainty import statistics as stats
 
     problem = Problem.from_case(case) if _optimisable(case) else None
     keys = _spread_keys(case)
     _echo_setting(case, case_path, x)
     typer.echo("\n".join(line[2:] for line in uncertainty_lines(case, budget=False)))
+    conditions = list(range(len(case.conditions))) or [-1]
+    tracks = [-1, *range(case.realisations)]
+    designs = [x] if other is None else [x, other]
+    # the tracks side by side, one process per core (each its own process; the same numbers)
+    tasks = [(evaluate, case, d, r, conditions) for d in designs for r in tracks]
+    processes = local_processes(len(tasks))
     head = "".join(f"{k[:13]:>14}" for k in keys)
     units = "".join(f"{'[' + (objective_display(k)[1] or '-') + ']':>14}" for k in keys)
     typer.echo(f"{'track':<16}{head}{'time':>7}")
     typer.echo(f"{'':<16}{units}")
+    typer.echo(f"simulating {len(tracks)} tracks"
+               + (" for each of the two designs" if other is not None else "")
+               + f" in {processes} process{'es' if processes > 1 else ''}...", err=True)
+    simulated = call_in_processes(_track, tasks, processes)
+    this = _on_tracks(case, x, tracks, simulated[:len(tracks)], keys, echo=True)
+    levels = sorted({stats.parse(k)[2] for k in (problem.objectives if problem else ())
+                     if stats.parse(k) and stats.parse(k)[0] == "quantile"}) or [0.9]
+    n = case.realisations
+    _echo_statistics(this.objectives, keys, levels, n)
+    if other is not None:
+        that = _on_tracks(case, other, tracks, simulated[len(tracks):], keys, echo=False)
+        typer.echo("\n".join(wrap_items(design_items(case, other), "the other design ")))
+        _echo_statistics(that.objectives, keys, levels, n)
+        _echo_differences(this.objectives, that.objectives, keys, levels, n)
+    p = out / "simulation.h5"
+    write_condition_evaluations((p.folder, p.name), this.drawn, x, case.names, this.names,
+                                this.weights, this.objectives,
+                                {"case": case.resolved, **machine.describe()},
+                                realisations=this.realisations,
+                                against=None if other is None else (other, that.objectives))
+    _said(out, [p], "histories")
+    if plots:
+        from ..report.simulation import simulation_figures
+
+        label = ("the reference design" if np.array_equal(x, case.reference)
+                 else "this design")
+        spreads = [spread_of(label, this.objectives, n, BEST_COLOR)]
+        title = f"'{case.name}': the design on {n} realisations of the track"
+        if other is not None:
+            spreads.append(spread_of("the other design", that.objectives, n, REF_COLOR))
+            title = f"'{case.name}': two designs on the same {n} realisations of the track"
+        paths = [fig_spread(spreads, keys, out, title)]
+        paths += simulation_figures(this.drawn[0], case.name, out)
+        _said(out, paths)
+    return Evaluation(this.objectives, this.drawn[0].histories, this.drawn[0].info)
+
+
+class _OnTracks(NamedTuple):
+    """One design on the drawn track and each realisation."""
+    objectives: dict        # the drawn track's, and each realisation's as ``F_max#r``
+    drawn: list             # the drawn track's evaluation under each condition
+    realisations: list      # (combined objectives, first condition's evaluation) of each
+    names: list
+    weights: list
+
+
+def _on_tracks(case, x, tracks, simulated, keys, echo: bool) -> _OnTracks:
+    """A design's simulations on ``tracks`` (-1 the drawing) gathered, checked finite and,
+    with ``echo``, printed one line per track."""
     names = [c.name for c in case.conditions]
     weights = [c.weight for c in case.conditions]
     conditions = list(range(len(case.conditions))) or [-1]
-    on_track, first, drawn_evs = [], [], []
-    tracks = [-1, *range(case.realisations)]
-    # the tracks side by side, one process per core (each its own process; the same numbers)
-    processes = local_processes(len(tracks))
-    typer.echo(f"simulating {len(tracks)} tracks in {processes} process"
-               f"{'es' if processes > 1 else ''}...", err=True)
-    simulated = call_in_processes(_track, [(evaluate, case, x, r, conditions) for r in tracks],
-                                  processes)
+    drawn, realisations = [], []
     for r, (evs, seconds) in zip(tracks, simulated):
         for c, ev in zip(conditions, evs):
             where = (f"{names[c]}, " if c >= 0 else "") + (f"realisation {r}" if r >= 0 else
@@ -292,22 +354,21 @@ def _simulate_realisations(case, case_path: Path, x, out: Path, plots: bool,
             _check_finite(ev.objectives, case, x, where)
         combined = (combine_tracks(evs, names, weights, case.condition_mode) if names
                     else dict(evs[0].objectives))
-        label = "as drawn" if r < 0 else f"realisation {r}"
-        vals = "".join(f"{combined[k] * objective_display(k)[0]:14.5g}" for k in keys)
-        typer.echo(f"{label:<16}{vals}{seconds:6.2f}s")
+        if echo:
+            label = "as drawn" if r < 0 else f"realisation {r}"
+            vals = "".join(f"{combined[k] * objective_display(k)[0]:14.5g}" for k in keys)
+            typer.echo(f"{label:<16}{vals}{seconds:6.2f}s")
         if r < 0:
-            drawn_evs = evs
+            drawn, on_drawing = evs, combined
         else:
-            on_track.append(combined)
-            first.append(evs[0])
-    n = case.realisations
-    realised = {stats.realisation_key(k, r): v for r, o in enumerate(on_track)
+            realisations.append((combined, evs[0]))
+    realised = {stats.realisation_key(k, r): v for r, (o, _) in enumerate(realisations)
                 for k, v in o.items() if "@" not in k}
-    combined = (combine_tracks(drawn_evs, names, weights, case.condition_mode) if names
-                else dict(drawn_evs[0].objectives))
-    objectives = {**combined, **realised}
-    levels = sorted({stats.parse(k)[2] for k in (problem.objectives if problem else ())
-                     if stats.parse(k) and stats.parse(k)[0] == "quantile"}) or [0.9]
+    return _OnTracks({**on_drawing, **realised}, drawn, realisations, names, weights)
+
+
+def _echo_statistics(objectives: dict, keys, levels, n: int) -> None:
+    """The mean, the quantiles, the lowest and the highest value over the realisations."""
     rows = [("mean", lambda v: stats.mean(v))]
     rows += [(f"{q:.0%} quantile", lambda v, q=q: stats.quantile(v, q)) for q in levels]
     rows += [("lowest", np.min), ("highest", np.max)]
@@ -315,23 +376,24 @@ def _simulate_realisations(case, case_path: Path, x, out: Path, plots: bool,
         vals = "".join(f"{fn(stats.values(objectives, k, n)) * objective_display(k)[0]:14.5g}"
                        for k in keys)
         typer.echo(f"{label:<16}{vals}")
-    p = out / "simulation.h5"
-    write_condition_evaluations((p.folder, p.name), drawn_evs, x, case.names, names,
-                                weights, objectives,
-                                {"case": case.resolved, **machine.describe()},
-                                realisations=list(zip(on_track, first)))
-    _said(out, [p], "histories")
-    if plots:
-        from ..report.simulation import simulation_figures
 
-        label = ("the reference design" if np.array_equal(x, case.reference)
-                 else "this design")
-        spread = spread_of(label, objectives, n, BEST_COLOR)
-        paths = [fig_spread([spread], keys, out, f"'{case.name}': the design on {n} "
-                                                 f"realisations of the track")]
-        paths += simulation_figures(drawn_evs[0], case.name, out)
-        _said(out, paths)
-    return Evaluation(objectives, drawn_evs[0].histories, drawn_evs[0].info)
+
+def _echo_differences(this: dict, that: dict, keys, levels, n: int) -> None:
+    """Each statistic of the design minus the other's, on the same realisations, with its
+    paired-bootstrap interval and what the interval says."""
+    typer.echo(wrap_message(
+        f"this design minus the other on the same {n} realisations, with a "
+        f"{stats.CONFIDENCE:.0%} interval (paired bootstrap over the realisations):"))
+    for k in keys:
+        scale, unit = objective_display(k)
+        typer.echo(f"{k} [{unit or '-'}]")
+        a, b = stats.values(this, k, n), stats.values(that, k, n)
+        for label, level in [("mean", None), *((f"{q:.0%} quantile", q) for q in levels)]:
+            d, low, high = stats.paired_difference(a, b, level)
+            verdict = ("clearly lower" if high < 0 else "clearly higher" if low > 0
+                       else "not clearly different")
+            interval = f"{low * scale:+.3g} to {high * scale:+.3g}"
+            typer.echo(f"  {label:<14}{d * scale:+10.4g}  {interval:<22} {verdict}")
 
 
 def _track(evaluate, case, x, r: int, conditions: list[int]) -> tuple[list, float]:
