@@ -82,9 +82,10 @@ def test_simulate_against_a_second_design_on_the_same_tracks(run_cli, tmp_path):
         assert list(f["against/design"][()]) == list(g["design"][()])
         assert dict(f["against/objectives"].attrs) == dict(g["objectives"].attrs)
         assert list(f["design"][()]) != list(g["design"][()])
-    r = run_cli("simulate", CONFIGS / "robust.yaml", "--out", tmp_path / "same", "--no-plots",
+    r = run_cli("simulate", CONFIGS / "robust.yaml", "--out", tmp_path / "same",
                 "--design", other, "--against", other, *CHEAP)
     assert r.returncode == 0, r.stderr
+    assert (tmp_path / "same" / "robust-spread.png").stat().st_size > 10_000
     diffs = [line.split() for line in r.stdout.splitlines()
              if line.startswith("  mean ") or line.startswith("  90% quantile ")]
     assert diffs and all(d[-3:] == ["not", "clearly", "different"] for d in diffs)

@@ -276,8 +276,8 @@ def _simulate_realisations(case, case_path: Path, x, out: Path, plots: bool,
     from ..engine.executors import local_processes
     from ..fanout import call_in_processes
     from ..problem import Problem
-    from ..report.data import BEST_COLOR, REF_COLOR
-    from ..report.robust import fig_spread, spread_of
+    from ..report.data import BEST_COLOR
+    from ..report.robust import NOMINAL_COLOR, fig_spread, spread_of
     from ..store import write_condition_evaluations
 
     problem = Problem.from_case(case) if _optimisable(case) else None
@@ -322,10 +322,11 @@ def _simulate_realisations(case, case_path: Path, x, out: Path, plots: bool,
                  else "this design")
         spreads = [spread_of(label, this.objectives, n, BEST_COLOR)]
         title = f"'{case.name}': the design on {n} realisations of the track"
-        if other is not None:
-            spreads.append(spread_of("the other design", that.objectives, n, REF_COLOR))
+        if other is not None:     # compared with the other: it stands first
+            spreads.insert(0, spread_of("the other design", that.objectives, n,
+                                        NOMINAL_COLOR))
             title = f"'{case.name}': two designs on the same {n} realisations of the track"
-        paths = [fig_spread(spreads, keys, out, title)]
+        paths = [fig_spread(spreads, keys, out, title, first="the other design")]
         paths += simulation_figures(this.drawn[0], case.name, out)
         _said(out, paths)
     return Evaluation(this.objectives, this.drawn[0].histories, this.drawn[0].info)

@@ -6,9 +6,10 @@ with the track as drawn marked.
 band between the 10 % and 90 % quantiles, the mean, and the drawing's value (a diamond). The
 realisations are the same tracks for every design (common random numbers), so a thin line
 joins each track's values from one design to the next: solid where it falls, dotted where it
-does not; under each design's name, on how many tracks it beats the reference (the first
-design) and the design left of it. A track engineer reads at a glance how wide the spread is
-against the design's gain, and on how many of the tracks the design wins.
+does not; under each design's name, on how many tracks it beats the first design (the
+reference, or the design it is compared with) and the design left of it. A track engineer
+reads at a glance how wide the spread is against the design's gain, and on how many of the
+tracks the design wins.
 """
 
 from __future__ import annotations
@@ -52,9 +53,9 @@ def wins(design: Spread, reference: Spread, key: str) -> tuple[int, int]:
 
 
 def fig_spread(designs: list[Spread], keys: list[str], out: Path, title: str,
-               name: str = "robust-spread.png") -> Path:
-    """The spread figure (module docstring) of ``designs`` (the first is the one the others
-    are compared with) for objectives ``keys``."""
+               name: str = "robust-spread.png", first: str = "the reference") -> Path:
+    """The spread figure (module docstring) of ``designs`` (the first, called ``first`` under
+    the others, is the one they are compared with) for objectives ``keys``."""
     plt = pyplot()
     keys = [k for k in keys if all(k in d.tracks for d in designs)]
     n_cols = len(designs)
@@ -89,7 +90,7 @@ def fig_spread(designs: list[Spread], keys: list[str], out: Path, title: str,
         labels = [designs[0].label]
         for j, d in enumerate(designs[1:], 1):
             w, m = wins(d, ref, key)
-            text = f"{d.label}\nbeats the reference\non {w} of {m} tracks"
+            text = f"{d.label}\nbeats {first}\non {w} of {m} tracks"
             if j > 1:
                 w2, m2 = wins(d, designs[j - 1], key)
                 text += f";\nthe design left of it\non {w2} of {m2}"
