@@ -108,15 +108,21 @@ class Output:
 
     # -- making ---------------------------------------------------------------------------------
     @classmethod
-    def into(cls, out: Path, files, folders, force: bool, command: str) -> "Output":
-        """Files for a folder the user names (``--out``): ``files`` and ``folders``, the names
-        the command may write there (refused if there, unless ``force``)."""
+    def into(cls, out: Path, files, folders, force: bool, command: str,
+             named: bool = True) -> "Output":
+        """Files for a folder the user names (``--out``; not ``named``: the command's default
+        folder, which must not be a link): ``files`` and ``folders``, the names the command
+        may write there (refused if there, unless ``force``)."""
         out = Path(out)
         made = not os.path.lexists(out)
         try:
-            target = Folder.open(out, create=True)
+            target = Folder.open(out, create=True, follow=named)
         except UnsafeFile as exc:
-            raise UsageError(f"--out {out}: {exc.strerror}") from None
+            if named:
+                raise UsageError(f"--out {out}: {exc.strerror}") from None
+            raise UsageError(f"{out}: {exc.strerror}, and lccopt never writes through a "
+                             f"link it did not make (remove it, or name a folder with "
+                             f"--out)") from None
         except FileExistsError:
             raise UsageError(f"--out {out} is a file, not a folder") from None
         except OSError as exc:

@@ -65,12 +65,13 @@ def run_simulate(case_path: Path, design: str | None, out: Path | None, plots: b
             other = parse_design(against, case)
         except ValueError as exc:
             raise UsageError(f"--against: {exc}") from None
+    named = out is not None
     out = Path(out or Path("runs") / f"{case.name}-simulate")
     files, folders = _outputs(case, plots)
     evaluate = _simulator()
     # the folder checked, locked and a staging folder made before the simulation; the files
     # are moved into place only once all are written (lccopt.outdir)
-    with Output.into(out, files, folders, force, "simulate") as output:
+    with Output.into(out, files, folders, force, "simulate", named) as output:
         if case.realisations:
             ev = _simulate_realisations(case, case_path, x, output.root, plots, evaluate,
                                         other)

@@ -267,6 +267,23 @@ def test_report_out_never_replaces_a_users_files_without_force(tmp_path, finishe
     assert "symbolic link" in line, line
 
 
+def test_simulate_never_writes_through_a_link_planted_at_its_default_folder(tmp_path):
+    """runs/<case>-simulate is lccopt's folder when no --out is named: a link there is
+    refused (exit 2, nothing reaches its target); a link the user names as --out is theirs."""
+    target = tmp_path / "elsewhere"
+    target.mkdir()
+    (tmp_path / "runs").mkdir()
+    (tmp_path / "runs" / "reference-simulate").symlink_to(target)
+    case = REPO / "configs" / "reference.yaml"
+    line = _error_line(cli_run("simulate", case, "--no-plots", cwd=tmp_path, env=ENV))
+    assert "runs/reference-simulate" in line and "symbolic link" in line, line
+    assert "--out" in line and list(target.iterdir()) == []
+    r = cli_run("simulate", case, "--no-plots", "--out", tmp_path / "runs" /
+                "reference-simulate", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert [p.name for p in target.iterdir()] == ["simulation.h5"]
+
+
 # ------------------------------------------------------------------------ closed pipes
 
 def _into_closed_pipe(args, env=None, cwd=None) -> int:
