@@ -77,6 +77,7 @@ def test_simulate_against_a_second_design_on_the_same_tracks(run_cli, tmp_path):
                                         "different"))
     block = r.stdout.split("the other design ", 1)[1].split("histories: ")[0]
     assert max(len(line) for line in block.splitlines()) <= 80
+    assert "note: 3 realisations make these intervals too narrow" in r.stderr
     with h5py.File(tmp_path / "pair" / "simulation.h5") as f, \
             h5py.File(tmp_path / "alone" / "simulation.h5") as g:
         assert list(f["against/design"][()]) == list(g["design"][()])
