@@ -127,6 +127,7 @@ def test_optimise_status_resume_and_report(run_cli, tmp_path):
     report = (run / "report" / "report.md").read_text()
     assert "## Over the realisations of the track" in report
     assert "beats the reference on" in report
+    assert "--against \"<the nominal optimum>\"" in report
     # what varied, as check words it, without the cost lines
     assert "pad_stiffness: uniform, cov 0.1, independent. On each track" in report
     assert (run / "report" / "robust-spread.png").stat().st_size > 10_000
