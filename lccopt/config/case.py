@@ -404,6 +404,7 @@ def _named_design(text: str, variables) -> np.ndarray:
     reference, a bare number in SI: N/m, m) as the checked internal design vector."""
     by_name = {v.name: v for v in variables}
     x = {v.name: v.reference for v in variables}
+    given = set()
     for item in text.replace("\n", " ").split(","):
         if not item.strip():
             continue
@@ -415,6 +416,9 @@ def _named_design(text: str, variables) -> np.ndarray:
         if v is None:
             raise ValueError(f"{name} is not a design variable of this case (its variables: "
                              f"{', '.join(by_name)})")
+        if name in given:      # which of the two was meant cannot be guessed
+            raise ValueError(f"{name} is given twice")
+        given.add(name)
         try:
             x[name] = v.from_quantity(value)
         except ValueError as exc:

@@ -42,6 +42,8 @@ def test_a_pad_in_n_per_m_is_kept_to_the_last_digit():
     ("x_n=2 m", "takes a plain number"),
     ("x_s1=0.75 m", "x_s1 = 0.75 m is not a multiple of 0.1 m"),
     ("x_n=many", "expected a number or a number with its unit, got 'many'"),
+    ("x_n=3, x_n=4", "x_n is given twice"),
+    ("x_n=1," * 50, "x_n is given twice"),
     ("x_r1 540 MN/m, x_n=0", "expected name=value pairs, like 'x_r1=540 MN/m, x_n=0', got "
                              "'x_r1 540 MN/m'"),
 ])
