@@ -310,8 +310,9 @@ def _simulate_realisations(case, case_path: Path, x, out: Path, plots: bool,
         _echo_statistics(that.objectives, keys, levels, n)
         _echo_differences(this.objectives, that.objectives, keys, levels, n)
     p = out / "simulation.h5"
-    write_condition_evaluations((p.folder, p.name), this.drawn, x, case.names, this.names,
-                                this.weights, this.objectives,
+    write_condition_evaluations((p.folder, p.name), this.drawn, x, case.names,
+                                [c.name for c in case.conditions],
+                                [c.weight for c in case.conditions], this.objectives,
                                 {"case": case.resolved, **machine.describe()},
                                 realisations=this.realisations,
                                 against=None if other is None else (other, that.objectives))
@@ -338,8 +339,6 @@ class _OnTracks(NamedTuple):
     objectives: dict        # the drawn track's, and each realisation's as ``F_max#r``
     drawn: list             # the drawn track's evaluation under each condition
     realisations: list      # (combined objectives, first condition's evaluation) of each
-    names: list
-    weights: list
 
 
 def _on_tracks(case, x, tracks, simulated, keys, echo: bool) -> _OnTracks:
@@ -366,7 +365,7 @@ def _on_tracks(case, x, tracks, simulated, keys, echo: bool) -> _OnTracks:
             realisations.append((combined, evs[0]))
     realised = {stats.realisation_key(k, r): v for r, (o, _) in enumerate(realisations)
                 for k, v in o.items() if "@" not in k}
-    return _OnTracks({**on_drawing, **realised}, drawn, realisations, names, weights)
+    return _OnTracks({**on_drawing, **realised}, drawn, realisations)
 
 
 def _echo_statistics(objectives: dict, keys, levels, n: int) -> None:
