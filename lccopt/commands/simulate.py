@@ -404,8 +404,8 @@ def _echo_differences(this: dict, that: dict, keys, levels, n: int) -> None:
     if n < FEW_FOR_AN_INTERVAL:
         typer.echo(wrap_message(
             f"note: {n} realisations make these intervals too narrow: of two equal designs "
-            f"one is called clearly lower in about 5 % of comparisons with 8 realisations "
-            f"and 12 % with 3, against the 2.5 % a 95 % interval promises (16 or more: "
+            f"one is called clearly lower in about 5% of comparisons with 8 realisations "
+            f"and 12% with 3, against the 2.5% a 95% interval promises (16 or more: "
             f"--set uncertainty.realisations=16; docs/robust.md)"), err=True)
 
 
