@@ -78,6 +78,9 @@ def test_simulate_against_a_second_design_on_the_same_tracks(run_cli, tmp_path):
     block = r.stdout.split("the other design ", 1)[1].split("histories: ")[0]
     assert max(len(line) for line in block.splitlines()) <= 80
     assert "note: 3 realisations make these intervals too narrow" in r.stderr
+    again = run_cli("simulate", CONFIGS / "robust.yaml", "--out", tmp_path / "again",
+                    "--no-plots", "--design", design, "--against", other, *CHEAP)
+    assert again.stdout.split("the other design ", 1)[1].split("histories: ")[0] == block
     with h5py.File(tmp_path / "pair" / "simulation.h5") as f, \
             h5py.File(tmp_path / "alone" / "simulation.h5") as g:
         assert list(f["against/design"][()]) == list(g["design"][()])
