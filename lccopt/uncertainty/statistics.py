@@ -114,8 +114,9 @@ def p_worse(v, reference) -> float:
     return float(np.count_nonzero(~(v < ref))) / v.size
 
 
-# Resamples of the paired bootstrap: the interval's ends move by well under 1 % of its width
-# from 2000 on; a fixed generator makes the same tracks give the same interval.
+# Resamples of the paired bootstrap (the study's choices were judged with 2000): against
+# 100000, the ends of its nine paper intervals moved by at most 6 % of their width, none
+# across 0. A fixed generator makes the same tracks give the same interval.
 RESAMPLES = 2000
 CONFIDENCE = 0.95
 
@@ -128,7 +129,8 @@ def paired_difference(v, other, level: float | None,
     resampled in pairs so that what the tracks share cancels (Efron & Tibshirani, "An
     introduction to the bootstrap", 1993, ch. 13). An interval wholly below 0 says ``v``'s
     design is clearly the lower on such tracks; the chance that it says so of two designs
-    equally good is about (1 - confidence) / 2."""
+    equally good is about (1 - confidence) / 2 with 16 values, more with fewer
+    (benchmarks/robust/interval_calibration.py)."""
     a, b = np.asarray(v, dtype=float), np.asarray(other, dtype=float)
     if a.shape != b.shape or a.ndim != 1 or not a.size:
         raise ValueError("two designs' values on the same realisations are needed")
