@@ -236,6 +236,7 @@ def main() -> None:
                       {obj: values[f"nominal s{s}"]["tracks"]}, NOMINAL_COLOR),
                Spread(f"{robust}\noptimum (s{s})", {obj: values[f"{robust} s{s}"]["drawn"]},
                       {obj: values[f"{robust} s{s}"]["tracks"]}, BEST_COLOR)]
+    (a.figure or out).mkdir(parents=True, exist_ok=True)   # a --figure folder not made yet
     fig = fig_spread(spreads, [obj], a.figure or out,
                      f"{a.case}: {obj} on {a.fresh} fresh realisations of the track",
                      name=f"robust-study-{a.case}{tag}.png")
