@@ -346,12 +346,11 @@ def _on_tracks(case, x, tracks, simulated, keys, echo: bool) -> _OnTracks:
     with ``echo``, printed one line per track."""
     names = [c.name for c in case.conditions]
     weights = [c.weight for c in case.conditions]
-    conditions = list(range(len(case.conditions))) or [-1]
     drawn, realisations = [], []
     for r, (evs, seconds) in zip(tracks, simulated):
-        for c, ev in zip(conditions, evs):
-            where = (f"{names[c]}, " if c >= 0 else "") + (f"realisation {r}" if r >= 0 else
-                                                          "the drawn track")
+        for i, ev in enumerate(evs):     # one per condition (one for a case without)
+            where = (f"{names[i]}, " if names else "") + (f"realisation {r}" if r >= 0 else
+                                                         "the drawn track")
             _check_finite(ev.objectives, case, x, where)
         combined = (combine_tracks(evs, names, weights, case.condition_mode) if names
                     else dict(evs[0].objectives))
