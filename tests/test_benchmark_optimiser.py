@@ -114,3 +114,65 @@ def test_paper_others_hands_the_log_scaled_pads_over_as_logarithms():
     assert abs(float(p(ref)) - 7557.26) < 0.01                # the reference design's F_max
     corner = np.r_[p.space.lb[:3], ref[3:]]   # every pad at 50 MN/m: exp(ln 50e6) < 50e6
     assert np.isfinite(float(p(corner)))
+
+
+def test_criterion_noise_counts_cells_and_their_chances(tmp_path):
+    """criterion_noise on runs where lccopt is below pySOT on every seed of one family and
+    above on every seed of the other: P 1.00 and 0.00, 2 of 4 cells, a count of exactly 2 in
+    every draw; a variant's lccopt rows are not the default's and are left out."""
+    out = tmp_path / "runs.csv"
+    with open(out, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["problem", "method", "seed", "evaluations", "evaluated", "seconds",
+                    "commit", "settings", "best_200", "best_400"])
+        for s in range(10):
+            w.writerow(["a", "lccopt", s, 400, 400, 1, "x", "default", 1 + s, 0.5 + s])
+            w.writerow(["a", "pysot", s, 400, 400, 1, "", "default", 20 + s, 20 + s])
+            w.writerow(["b", "lccopt", s, 400, 400, 1, "x", "default", 50 + s, 50 + s])
+            w.writerow(["b", "pysot", s, 400, 400, 1, "", "default", 1 + s, 1 + s])
+    r = subprocess.run([sys.executable, "-m", "benchmarks.optimiser.criterion_noise", str(out),
+                        "--seeds", "0-9", "--draw", "5", "--resamples", "200"],
+                       capture_output=True, text=True, timeout=120, cwd=ROOT)
+    assert r.returncode == 0, r.stderr
+    rows = [line.split(" | ") for line in r.stdout.splitlines() if line.startswith("| a |")
+            or line.startswith("| b |")]
+    assert [(row[0], row[1], row[-1]) for row in rows] == [
+        ("| a", "200", "1.00 |"), ("| a", "400", "1.00 |"),
+        ("| b", "200", "0.00 |"), ("| b", "400", "0.00 |")]
+    assert "cells at or below pySOT on all 10 seeds: 2 of 4" in r.stdout
+    assert "median 2, 5-95 % 2-2" in r.stdout
+    variant = tmp_path / "variant.csv"
+    variant.write_text(out.read_text().replace(",x,default,", ",x,refine,"))
+    r = subprocess.run([sys.executable, "-m", "benchmarks.optimiser.criterion_noise",
+                        str(variant), "--seeds", "0-9"],
+                       capture_output=True, text=True, timeout=120, cwd=ROOT)
+    assert r.returncode != 0 and "no cell has a default lccopt" in r.stderr
+
+
+def test_stalls_counts_which_kinds_of_point_improved_on_their_phase():
+    """proposal_kinds: an improvement is judged against the best of the point's own phase so
+    far (the step rule's tolerance); a local point keeps or leaves that best's integers."""
+    import numpy as np
+
+    from benchmarks.optimiser.stalls import proposal_kinds
+    from lccopt.optim.space import DesignSpace
+
+    space = DesignSpace(["u", "k"], [0.0, 0.0], [1.0, 5.0], [False, True])
+
+    def rec(i, kind, restart, x, value):
+        return {"id": i, "phase": kind, "restart": restart, "status": "ok",
+                "x": np.array(x, dtype=float), "value": value}
+
+    records = [rec(0, "initial", 0, [0.1, 1], 10.0), rec(1, "initial", 0, [0.2, 2], 8.0),
+               rec(2, "local", 0, [0.3, 2], 7.0),       # own integers, improves
+               rec(3, "local", 0, [0.3, 4], 7.0),       # other integers, no better than 7
+               rec(4, "adaptive", 0, [0.4, 2], 7.0 - 7e-4),  # below 7 within the tolerance
+               rec(5, "initial", 1, [0.9, 5], 20.0),    # a new phase: its own best
+               rec(6, "local", 1, [0.8, 3], 19.0)]      # other than phase 1's best: improves
+    c = proposal_kinds(records, space, first=10)
+    assert (c["n initial"], c["won initial"]) == (3, 1)
+    assert (c["n local"], c["won local"]) == (3, 2)
+    assert (c["n local own"], c["won local own"]) == (1, 1)
+    assert (c["n local other"], c["won local other"]) == (2, 1)
+    assert (c["n adaptive"], c["won adaptive"]) == (1, 0)
+    assert proposal_kinds(records, space, first=3)["n local"] == 1

@@ -1,7 +1,7 @@
 """Where a run's best was found and what the run did after it: why a seed stalls.
 
     python -m benchmarks.optimiser.stalls --problem fresh5-ackley --seeds 300-307 [--budget 400]
-                                [--variant NAME]
+                                [--variant NAME] [--setting local_weights=all] [--first 200]
     python -m benchmarks.optimiser.stalls RUN [RUN ...]  # lccopt run directories (journal.jsonl)
 
 Per run: the best value and the proposal that found it; each phase of the search (restart
@@ -10,7 +10,11 @@ whether that beat the phases before it); and after the run's last improvement (b
 rule's 1e-3 tolerance): how many proposals, of which kinds (DYCORS "adaptive", "local" search,
 "initial" designs, "random"), how many distinct integer assignments they tried, and how far
 (unit box) they stayed from the best point. For a test function, also how many of the best
-point's integers differ from the optimum's.
+point's integers differ from the optimum's. Then, over the first ``--first`` proposals, which
+kinds of point were proposed and how many improved on the best of the phase so far, the local
+search's points split by whether they keep that best point's integer assignment (summed over
+the runs at the end). ``--setting NAME=VALUE`` runs a test function with one of the
+optimiser's settings changed (lccopt.optim.settings).
 """
 
 from __future__ import annotations
@@ -31,15 +35,16 @@ ROOT = Path(__file__).resolve().parents[2]
 from benchmarks.optimiser import variants  # noqa: E402
 from benchmarks.paper.paper_seeds import seeds_arg  # noqa: E402
 from benchmarks.support import problems  # noqa: E402
+from lccopt.optim.settings import Settings  # noqa: E402
 from lccopt.optim.strategy import Strategy  # noqa: E402
 
 
-def from_problem(name: str, seed: int, budget: int, variant: str):
+def from_problem(name: str, seed: int, budget: int, variant: str, settings: dict | None = None):
     """(records, space, test function) of an ask/tell run as benchmarks/optimiser/optimiser.py runs
-    it."""
+    it (``settings``: optimiser settings changed)."""
     p = problems.get(name, seed)
     s = Strategy(p.space, budget=budget, n_initial=20, seed=seed,
-                 **variants.strategy_kwargs(variant))
+                 **variants.strategy_kwargs(variant), **(settings or {}))
     while not s.done:
         props = s.ask(1)
         if not props:
@@ -105,6 +110,35 @@ def analyse(records: list[dict], space, p=None) -> dict:
     return out
 
 
+def proposal_kinds(records: list[dict], space, first: int) -> Counter:
+    """Over the first ``first`` records: per kind the proposals ("n <kind>") and those that
+    improved on the best of their phase so far by the step rule's tolerance ("won <kind>");
+    the local search's points also as "local own" / "local other" (the phase best's integer
+    assignment kept or not)."""
+    out = Counter()
+    ints = space.int_mask
+    best: dict[int, dict] = {}  # per phase: its best told record so far
+    for r in records[:first]:
+        b = best.get(r["restart"])
+        kinds = [r["phase"]]
+        if r["phase"] == "local" and b is not None:
+            kinds.append("local own" if np.all(r["x"][ints] == b["x"][ints]) else "local other")
+        for k in kinds:
+            out[f"n {k}"] += 1
+            if r["status"] == "ok" and b is not None and \
+                    r["value"] < b["value"] - 1e-3 * abs(b["value"]):
+                out[f"won {k}"] += 1
+        if r["status"] == "ok" and (b is None or r["value"] < b["value"]):
+            best[r["restart"]] = r
+    return out
+
+
+def show_kinds(label: str, c: Counter) -> None:
+    kinds = ("initial", "adaptive", "local", "local own", "local other", "random")
+    print(f"    {label}: " + ", ".join(f"{k} {c[f'n {k}']} (improved {c[f'won {k}']})"
+                                        for k in kinds if c[f"n {k}"]))
+
+
 def show(label: str, a: dict) -> None:
     ph = " ".join(f"[{q['k']}:{q['start']}+{q['n']}{'d' if q['design'] else ''}"
                   f"{'*' if q['better'] else ''}]" for q in a["phases"])
@@ -126,14 +160,39 @@ def main(argv=None) -> None:
     ap.add_argument("--seeds", default="300-307")
     ap.add_argument("--budget", type=int, default=400)
     ap.add_argument("--variant", default="default")
+    ap.add_argument("--setting", action="append", default=[], metavar="NAME=VALUE",
+                    help="an optimiser setting changed (test functions; repeatable)")
+    ap.add_argument("--first", type=int, default=None,
+                    help="proposals counted by kind (default: all)")
     args = ap.parse_args(argv)
+    settings = {}
+    for item in args.setting:
+        name, sep, value = item.partition("=")
+        if not sep:
+            ap.error(f"--setting {item!r}: expected NAME=VALUE")
+        settings[name] = {"true": True, "false": False}.get(value.lower(), value)
+    try:
+        Settings.default().replace(**settings)
+    except (TypeError, ValueError) as exc:
+        ap.error(f"--setting: {exc}")
+    first = args.first or 10 ** 9
+    total = Counter()
     if args.problem:
         for seed in seeds_arg(args.seeds):
-            recs, space, p = from_problem(args.problem, seed, args.budget, args.variant)
+            recs, space, p = from_problem(args.problem, seed, args.budget, args.variant,
+                                          settings)
             show(f"{args.problem} seed {seed}", analyse(recs, space, p))
+            kinds = proposal_kinds(recs, space, first)
+            show_kinds(f"first {min(first, len(recs))} by kind", kinds)
+            total += kinds
     for run in args.runs:
         recs, space, _ = from_run(run)
         show(str(run), analyse(recs, space))
+        kinds = proposal_kinds(recs, space, first)
+        show_kinds(f"first {min(first, len(recs))} by kind", kinds)
+        total += kinds
+    if total:
+        show_kinds("all runs", total)
 
 
 if __name__ == "__main__":
