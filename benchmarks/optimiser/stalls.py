@@ -7,7 +7,7 @@
 Per run: the best value and the proposal that found it; each phase of the search (restart
 index, how it started: a design, from a point, bound probes; its proposals; its best and
 whether that beat the phases before it); and after the run's last improvement (by the step
-rule's 1e-3 tolerance): how many proposals, of which kinds (DYCORS "adaptive", "local" search,
+rule's IMPROVEMENT_TOL): how many proposals, of which kinds (DYCORS "adaptive", "local" search,
 "initial" designs, "random"), how many distinct integer assignments they tried, and how far
 (unit box) they stayed from the best point. For a test function, also how many of the best
 point's integers differ from the optimum's. Then, over the first ``--first`` proposals, which
@@ -35,7 +35,7 @@ ROOT = Path(__file__).resolve().parents[2]
 from benchmarks.optimiser import variants  # noqa: E402
 from benchmarks.paper.paper_seeds import seeds_arg  # noqa: E402
 from benchmarks.support import problems  # noqa: E402
-from lccopt.optim.settings import Settings  # noqa: E402
+from lccopt.optim.settings import IMPROVEMENT_TOL, Settings  # noqa: E402
 from lccopt.optim.strategy import Strategy  # noqa: E402
 
 
@@ -77,10 +77,10 @@ def from_run(run: Path):
 def analyse(records: list[dict], space, p=None) -> dict:
     ok = [r for r in records if r["status"] == "ok"]
     best = min(ok, key=lambda r: (r["value"], r["id"]))
-    # the last improvement by the step rule's tolerance (1e-3 relative)
+    # the last improvement by the step rule's tolerance (relative)
     last_imp, f = 0, np.inf
     for r in ok:
-        if r["value"] < f - 1e-3 * abs(f) if np.isfinite(f) else True:
+        if r["value"] < f - IMPROVEMENT_TOL * abs(f) if np.isfinite(f) else True:
             last_imp, f = r["id"], r["value"]
     phases = []
     for k in sorted({r["restart"] for r in records}):
@@ -126,7 +126,7 @@ def proposal_kinds(records: list[dict], space, first: int) -> Counter:
         for k in kinds:
             out[f"n {k}"] += 1
             if r["status"] == "ok" and b is not None and \
-                    r["value"] < b["value"] - 1e-3 * abs(b["value"]):
+                    r["value"] < b["value"] - IMPROVEMENT_TOL * abs(b["value"]):
                 out[f"won {k}"] += 1
         if r["status"] == "ok" and (b is None or r["value"] < b["value"]):
             best[r["restart"]] = r
