@@ -15,8 +15,9 @@ from .worker import DEFAULT_EVALUATOR
 UNRECORDED_DEFAULTS = 12
 
 # optimiser settings added after runs recorded theirs, at the value that makes the proposals
-# of a run that does not name them (switches: every variable searched as one range)
-ADDED_SETTINGS = {"switches": False}
+# of a run that does not name them (switches: every variable searched as one range;
+# shaped_steps: every DYCORS step a coordinate step)
+ADDED_SETTINGS = {"switches": False, "shaped_steps": False}
 
 # the simulator under the name older runs recorded in run.json
 RENAMED_EVALUATORS = {"lccopt.vti.simulate:evaluate": DEFAULT_EVALUATOR}

@@ -76,20 +76,26 @@ class CandidateRequest:
 
 
 class Dycors:
-    """The default candidate generator: DYCORS perturbations of the best point, and the local
-    search's points at the weights of ``settings.local_weights`` (first attempt only)."""
+    """The default candidate generator: DYCORS perturbations of the best point (half of them
+    shaped steps with ``settings.shaped_steps``), and the local search's points at the weights
+    of ``settings.local_weights`` (first attempt only)."""
 
     def __init__(self, settings: Settings):
         self.perturbation = settings.perturbation
         self.local_weights = settings.local_weights
+        self.shaped = settings.shaped_steps
 
     def __call__(self, req: CandidateRequest) -> list[tuple[np.ndarray, str]]:
         """[(steps (n_perturb(d), d), "adaptive"), (local points, "local")]: each if any."""
         out = []
         if req.best is not None:
-            out.append((perturb(req.space, req.rng, req.best, n_perturb(req.space.dim),
-                                req.sigma, req.probability, req.movable, self.perturbation),
-                        "adaptive"))
+            X = perturb(req.space, req.rng, req.best, n_perturb(req.space.dim), req.sigma,
+                        req.probability, req.movable, self.perturbation)
+            if self.shaped:
+                shaped = shaped_steps(req.space, req.rng, req.ranked, len(X) // 2, req.sigma,
+                                      req.probability, req.movable)
+                X[:len(shaped)] = shaped
+            out.append((X, "adaptive"))
         if req.attempt == 0 and (self.local_weights == "all" or req.weight == max(WEIGHTS)):
             points = req.local()
             if points is not None and len(points):
@@ -142,6 +148,43 @@ def perturb(space: DesignSpace, rng: np.random.Generator, best: np.ndarray, m: i
         X = np.where(X < lb, 2 * lb - X, X)  # reflect back into the box
         X = np.where(X > ub, 2 * ub - X, X)
     return space.snap(space.from_search(X))
+
+
+def shaped_steps(space: DesignSpace, rng: np.random.Generator, ranked: np.ndarray, m: int,
+                 sigma: float, probability: float, movable: np.ndarray) -> np.ndarray:
+    """``m`` steps from the phase's best point drawn from N(0, sigma^2 C) in the unit box.
+
+    C is the second moment of the steps from the best point (``ranked[0]``) to the next best
+    mu = min(n - 1, 2d) points in the movable coordinates: CMA-ES's rank-mu estimate of where
+    the good points lie (Hansen 2016, "The CMA Evolution Strategy: A Tutorial"). On a valley
+    (Zakharov's s = sum i z_i / 2 near 0, Rosenbrock's parabola) it moves the coordinates
+    together, which coordinate steps late in a run (about one coordinate each) cannot. C is
+    scaled to the DYCORS steps' expected squared length (movable count times
+    ``probability``, in units of sigma^2): the same step length, the shape learned. The
+    steps are clipped to the box and snapped (integers rounded).
+
+    Returns
+    -------
+    ndarray (k, d)
+        k = m steps, or none (k = 0) with fewer than d + 1 ranked points or fewer than two
+        movable variables (nothing to learn a shape from).
+    """
+    mov = np.flatnonzero(movable)
+    if len(ranked) < space.dim + 1 or len(mov) < 2 or m < 1:
+        return np.empty((0, space.dim))
+    U = space.to_unit(ranked)
+    mu = min(len(U) - 1, 2 * space.dim)
+    Y = (U[1:mu + 1] - U[0])[:, mov]
+    C = Y.T @ Y / mu
+    trace = np.trace(C)
+    if not (np.isfinite(trace) and trace > 0):
+        return np.empty((0, space.dim))
+    C *= len(mov) * probability / trace
+    w, V = np.linalg.eigh(C)
+    root = V * np.sqrt(np.clip(w, 0.0, None))
+    steps = np.repeat(U[:1], m, axis=0)
+    steps[:, mov] += sigma * rng.standard_normal((m, len(mov))) @ root.T
+    return space.snap(space.from_unit(np.clip(steps, 0.0, 1.0)))
 
 
 def truncated_normal(rng: np.random.Generator, a: np.ndarray, b: np.ndarray, shape) -> np.ndarray:

@@ -53,6 +53,7 @@ _CHOICES = {
     "restart_from": ("endgame", "fresh"),
     "subspace_start": ("endgame", "stalled"),
     "switches": (True, False),
+    "shaped_steps": (True, False),
 }
 
 
@@ -87,6 +88,10 @@ class Settings:
         A variable whose 0 leaves a component out (``DesignSpace.switch``: the Type II strip)
         is searched as off or on, each half of its search range; False: as one range, as
         runs recorded before this setting were.
+    shaped_steps : bool
+        Half of each proposal's DYCORS steps are drawn with the shape of the steps from the
+        phase's best point to its next best points (``candidates.shaped_steps``), the other
+        half as coordinate steps; False: all coordinate steps.
     """
 
     composite: bool = False
@@ -97,6 +102,7 @@ class Settings:
     restart_from: str = "endgame"
     subspace_start: str = "endgame"
     switches: bool = True
+    shaped_steps: bool = True
 
     def __post_init__(self) -> None:
         for f in fields(self):
@@ -140,4 +146,4 @@ class Settings:
 _SCALAR = Settings()
 _COMPOSITE = Settings(composite=True, perturbation="reflect", probability_schedule="restart",
                       local_weights="all", restart_keeps_points=False, restart_from="fresh",
-                      subspace_start="stalled")
+                      subspace_start="stalled", shaped_steps=False)

@@ -135,7 +135,7 @@ def test_the_journal_records_the_resolved_optimiser_settings(tmp_path, objective
     expected = Settings.default(composite=surrogate != "scalar").to_dict()
     assert first["optimiser"] == expected and set(expected) == {
         "composite", "perturbation", "probability_schedule", "local_weights",
-        "restart_keeps_points", "restart_from", "subspace_start", "switches"}
+        "restart_keeps_points", "restart_from", "subspace_start", "switches", "shaped_steps"}
     assert "auto" not in first["optimiser"].values()
 
 
@@ -172,7 +172,7 @@ def test_a_journal_that_says_optimiser_12_resumes_with_the_default_settings():
         assert prefix[0]["optimiser"] == 12
         pb = Problem.from_case(load_case(GOLDEN / name / "case.yaml", resolved=True))
         assert recorded_settings(pb, prefix[0]) == Settings.default(
-            composite=composite).replace(switches=False)
+            composite=composite).replace(switches=False, shaped_steps=False)
 
 
 def test_recorded_settings_without_a_later_setting_take_its_earlier_value():
@@ -185,6 +185,18 @@ def test_recorded_settings_without_a_later_setting_take_its_earlier_value():
     today = Settings.default().to_dict()
     assert recorded_settings(pb, {"optimiser": today}) == Settings.default()
     assert Settings.default().switches and Settings.default(composite=True).switches
+
+
+def test_recorded_settings_without_shaped_steps_take_coordinate_steps():
+    """A run that recorded its settings before `shaped_steps` existed drew every DYCORS step
+    as a coordinate step: it resumes so, scalar or composite."""
+    pb = Problem.from_case(load_case(GOLDEN / "scalar-F_max" / "case.yaml", resolved=True))
+    for composite in (False, True):
+        older = Settings.default(composite=composite).to_dict()
+        del older["shaped_steps"]
+        assert recorded_settings(pb, {"optimiser": older}) == Settings.default(
+            composite=composite).replace(shaped_steps=False)
+    assert Settings.default().shaped_steps and not Settings.default(composite=True).shaped_steps
 
 
 @pytest.mark.parametrize("changes,what", [

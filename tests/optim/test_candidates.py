@@ -10,6 +10,7 @@ from lccopt.optim.candidates import (
     bound_probes,
     perturb,
     perturb_probability,
+    shaped_steps,
 )
 from lccopt.optim.sampling import to_space
 from lccopt.optim.settings import Settings
@@ -83,6 +84,64 @@ def test_the_perturbation_probability_shrinks_over_the_whole_run():
     assert perturb_probability("restart", 8, 150, 20, 220, 100, 9) == pytest.approx(
         1 - np.log(10) / np.log(100))
     assert perturb_probability("restart", 8, 219, 20, 220, 1, 0) == 0.0
+
+
+SPACE4 = DesignSpace(["a", "b", "c", "n"], [0.0, 0.0, 0.0, 0], [1.0, 2.0, 1.0, 40],
+                     [False, False, False, True])
+
+
+def test_shaped_steps_follow_the_line_the_good_points_lie_on():
+    """The best points on a line through the best one (in the unit box): every step lies on
+    that line, a held variable never moves, and the mean squared step is the DYCORS steps'
+    (movable count x probability x sigma^2; here 3 x 0.5 x 0.01^2), with no clipping."""
+    best = np.array([0.5, 1.0, 0.5, 20.0])
+    v = np.array([0.6, 0.0, -0.8])                     # unit-box direction in a, b, c
+    t = np.array([0.0, 0.05, -0.03, 0.1, -0.08, 0.02, 0.04, -0.06])
+    U = SPACE4.to_unit(best) + np.outer(t, np.r_[v, 0.0])
+    ranked = SPACE4.from_unit(U)
+    held = np.array([True, True, True, False])
+    X = shaped_steps(SPACE4, np.random.default_rng(5), ranked, 20000, 0.01, 0.5, held)
+    assert X.shape == (20000, 4) and np.all(X[:, 3] == 20.0)
+    S = SPACE4.to_unit(X)[:, :3] - SPACE4.to_unit(best)[:3]
+    assert np.abs(np.cross(S, v)).max() < 1e-8        # along v (steps ~1e-2), not across
+    assert np.mean((S ** 2).sum(axis=1)) == pytest.approx(3 * 0.5 * 0.01 ** 2, rel=0.03)
+
+
+def test_shaped_steps_round_integers_stay_in_the_box_and_need_a_shape():
+    """Integers rounded and every step a valid point; fewer than d + 1 ranked points (no
+    shape to learn) or one movable variable: no steps."""
+    rng = np.random.default_rng(6)
+    ranked = to_space(SPACE4, rng.random((12, 4)))
+    X = shaped_steps(SPACE4, rng, ranked, 5000, 0.5, 1.0, np.ones(4, bool))
+    assert len(X) == 5000 and np.all((X >= SPACE4.lb) & (X <= SPACE4.ub))
+    assert np.all(X[:, 3] == np.rint(X[:, 3])) and len(np.unique(X[:, 3])) > 10
+    assert len(shaped_steps(SPACE4, rng, ranked[:4], 10, 0.5, 1.0, np.ones(4, bool))) == 0
+    one = np.array([True, False, False, False])
+    assert len(shaped_steps(SPACE4, rng, ranked, 10, 0.5, 1.0, one)) == 0
+
+
+def test_half_the_scalar_steps_are_shaped_and_none_of_the_composite():
+    """The scalar surrogate's candidates: the first half shaped steps, the rest DYCORS's own
+    draws; the composite's: all coordinate steps (the same draws as ``perturb``)."""
+    sp = problems.paper_size("zakharov").space
+    rng = np.random.default_rng(7)
+    ranked = to_space(sp, rng.random((30, sp.dim)))
+    free = sp.ub > sp.lb
+    for composite in (False, True):
+        req = CandidateRequest(sp, np.random.default_rng(8), ranked[0], 0.1, 0.3, free,
+                               0.5, 0, lambda: None, ranked)
+        (X, kind), = Dycors(Settings.default(composite))(req)
+        st = Settings.default(composite)
+        plain = perturb(sp, np.random.default_rng(8), ranked[0], len(X), 0.1, 0.3, free,
+                        st.perturbation)
+        half = len(X) // 2
+        assert kind == "adaptive" and np.array_equal(X[half:], plain[half:])
+        if composite:
+            assert np.array_equal(X, plain)
+        else:  # a shaped step moves every continuous coordinate, a coordinate step ~30 %
+            cont = ~sp.int_mask
+            assert np.mean(X[:half, cont] != ranked[0, cont]) > 0.99
+            assert np.mean(plain[:half, cont] != ranked[0, cont]) < 0.5
 
 
 def test_bound_probes_are_the_best_point_with_one_integer_on_a_bound():

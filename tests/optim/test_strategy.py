@@ -276,15 +276,15 @@ def test_is_taken_matches_pairwise_comparison(name):
 def test_duplicate_radius_lets_a_sharp_minimum_be_refined(monkeypatch):
     """The duplicate radius (settings.DIST_TOL, 1e-4 of the unit box): Schoen's function is
     -1000 + ~1e5 r^2 near its optimum, so a radius ten times larger stops the refinement
-    ~0.06 above f*; 1e-4 lets it get within 1e-3."""
+    0.03-0.04 above f* in 200 evaluations; 1e-4 lets it get within 1e-5."""
     p = problems.get("schoen6_int")
     for seed in (0, 1):
-        now = run_serial(Strategy(p.space, budget=120, seed=seed), p)
+        now = run_serial(Strategy(p.space, budget=200, seed=seed), p)
         assert now.best[1] - p.f_opt < 1e-3, (seed, now.best[1])
     with monkeypatch.context() as m:
         m.setattr(context, "DIST_TOL", 1e-3)
         for seed in (0, 1):
-            wide = run_serial(Strategy(p.space, budget=120, seed=seed), p)
+            wide = run_serial(Strategy(p.space, budget=200, seed=seed), p)
             assert wide.best[1] - p.f_opt > 1e-2, (seed, wide.best[1])
 
 
