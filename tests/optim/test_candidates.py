@@ -130,10 +130,10 @@ def test_half_the_scalar_steps_are_shaped_and_none_of_the_composite():
     for composite in (False, True):
         req = CandidateRequest(sp, np.random.default_rng(8), ranked[0], 0.1, 0.3, free,
                                0.5, 0, lambda: None, ranked)
-        (X, kind), = Dycors(Settings.default(composite))(req)
-        st = Settings.default(composite)
+        settings = Settings.default(composite)
+        (X, kind), = Dycors(settings)(req)
         plain = perturb(sp, np.random.default_rng(8), ranked[0], len(X), 0.1, 0.3, free,
-                        st.perturbation)
+                        settings.perturbation)
         half = len(X) // 2
         assert kind == "adaptive" and np.array_equal(X[half:], plain[half:])
         if composite:
